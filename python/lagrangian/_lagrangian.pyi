@@ -93,6 +93,7 @@ class NativeModel:
         atol: float = 1e-9,
         t_eval: Optional[_FloatArray] = None,
         max_steps: Optional[int] = None,
+        every: Optional[int] = None,
     ) -> Tuple[_FloatArray, _FloatArray, _FloatArray, _FloatArray, Dict[str, Any]]: ...
     def equilibrium(
         self,

@@ -497,6 +497,7 @@ class Model:
         atol: float = 1e-9,
         t_eval: Optional[ArrayLike] = None,
         max_steps: Optional[int] = None,
+        output_every: Optional[int] = None,
     ) -> Solution:
         """Integrate the equations of motion from (q0, qd0) at ``t0`` to ``t_end``.
 
@@ -524,6 +525,9 @@ class Model:
             span), from the method's dense output; by default every step is kept.
         max_steps : int, optional
             Step budget (default one million).
+        output_every : int, optional
+            Keep the initial state, every k-th step and the final state (for long runs whose
+            every step would not fit in memory); not together with ``t_eval``.
 
         Returns
         -------
@@ -563,6 +567,14 @@ class Model:
             if max_steps < 1:
                 raise ValueError(f"max_steps = {max_steps}: at least one step is needed")
             kwargs["max_steps"] = int(max_steps)
+        if output_every is not None:
+            if isinstance(output_every, bool) or not isinstance(output_every, numbers.Integral):
+                raise TypeError(f"output_every must be an integer, got {output_every!r}")
+            if output_every < 1:
+                raise ValueError(f"output_every = {output_every}: keep every k-th step, k ≥ 1")
+            if t_eval is not None:
+                raise ValueError("give t_eval or output_every, not both")
+            kwargs["every"] = int(output_every)
         t, q, qd, energy, stats = self._native.simulate(
             q0v, qd0v, _real("t_end", t_end), **kwargs
         )

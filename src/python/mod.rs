@@ -231,7 +231,7 @@ impl PyModel {
 
     /// Integrate from (q0, qd0) at t0 to t_end; returns (t, q, qd, energy, stats).
     #[pyo3(signature = (q0, qd0, t_end, t0=0.0, method="auto", dt=None, rtol=1e-6, atol=1e-9,
-                        t_eval=None, max_steps=None))]
+                        t_eval=None, max_steps=None, every=None))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -246,6 +246,7 @@ impl PyModel {
         atol: f64,
         t_eval: Option<PyReadonlyArray1<'py, f64>>,
         max_steps: Option<usize>,
+        every: Option<usize>,
     ) -> PyResult<Bound<'py, PyTuple>> {
         let n = self.model.dof();
         check_vector("q0", &q0, n)?;
@@ -298,8 +299,22 @@ impl PyModel {
             }
             options.max_steps = max_steps;
         }
-        if let Some(times) = t_eval {
-            options.output = Output::Times(times.as_array().iter().copied().collect());
+        match (t_eval, every) {
+            (Some(_), Some(_)) => {
+                return Err(PyValueError::new_err(
+                    "give t_eval or output_every, not both",
+                ));
+            }
+            (Some(times), None) => {
+                options.output = Output::Times(times.as_array().iter().copied().collect());
+            }
+            (None, Some(0)) => {
+                return Err(PyValueError::new_err(
+                    "output_every = 0: keep every k-th step with k ≥ 1",
+                ));
+            }
+            (None, Some(k)) => options.output = Output::Every(k),
+            (None, None) => {}
         }
         let model = self.model.clone();
         let pending: Mutex<Option<PyErr>> = Mutex::new(None);
