@@ -105,6 +105,31 @@ pub enum Error {
         steps: usize,
     },
 
+    /// A fixed step beyond the stability limit of an explicit method: a mode of the linearised
+    /// equations at the start would grow by `growth` per step instead of oscillating or decaying.
+    #[error(
+        "dt = {dt:e} is beyond the stability limit of {method}: the equations linearised at \
+         t = {t} have a mode with |λ| = {mode:.3e} (time scale {:.3e}) that this step would amplify \
+         {growth:.3} times per step; take dt ≤ {limit:.3e}, or an implicit method that is \
+         stable at any step (radau5 for stiff springs and heavy damping, gauss4 or midpoint for \
+         conservative systems)",
+        1.0 / mode
+    )]
+    UnstableStep {
+        /// The explicit method.
+        method: &'static str,
+        /// The step asked for.
+        dt: f64,
+        /// Time of the linearisation (the start of the run).
+        t: f64,
+        /// |λ| of the fastest offending mode.
+        mode: f64,
+        /// Spectral radius of the method's one-step propagator on that mode at `dt`.
+        growth: f64,
+        /// The largest stable step for that mode.
+        limit: f64,
+    },
+
     /// The Newton iteration of an implicit step did not converge, even after the step was
     /// halved as often as allowed.
     #[error(

@@ -451,6 +451,10 @@ impl Integrator for Gauss {
         false
     }
 
+    fn explicit(&self) -> bool {
+        false
+    }
+
     fn integrate<S: Dynamics + ?Sized>(&self, run: &mut Run<'_, S>) -> Result<()> {
         let dt = run.options.dt.ok_or_else(|| Error::InvalidInput {
             what: "dt",

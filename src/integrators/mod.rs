@@ -29,8 +29,11 @@
 //!
 //! Failure is typed and early: [`Error::StepSizeTooSmall`], [`Error::TooManySteps`],
 //! [`Error::NonFinite`] with the time it appeared, [`Error::Stiffness`] when Hairer's test
-//! finds that an explicit adaptive method is limited by stability rather than accuracy, and
-//! [`Error::NewtonFailure`] when an implicit step cannot be solved.
+//! finds that an explicit adaptive method is limited by stability rather than accuracy,
+//! [`Error::UnstableStep`] before a fixed-step explicit run whose `dt` lies outside the method's
+//! stability region for a mode of the system linearised at the start (a stiff spring under RK4
+//! or Störmer–Verlet: refused with the largest stable `dt`, never a silently exploding answer),
+//! and [`Error::NewtonFailure`] when an implicit step cannot be solved.
 //!
 //! A new method is one file implementing the crate's internal `Integrator` trait and one line in
 //! its registry (`src/integrators/mod.rs`).
@@ -55,6 +58,7 @@ mod options;
 mod radau;
 mod runge_kutta;
 mod solution;
+mod stability;
 mod symplectic;
 mod tableau;
 mod variational;
@@ -81,6 +85,10 @@ pub(crate) trait Integrator {
 
     /// Whether the step size is controlled by an error estimate when no `dt` is given.
     fn adaptive(&self) -> bool;
+
+    /// Whether a step is explicit: then a fixed `dt` has a stability limit, checked before the
+    /// run (see [`stability`]).
+    fn explicit(&self) -> bool;
 
     /// `Err(why)` when the method cannot integrate this system from this state; every system
     /// fits by default.
@@ -186,22 +194,28 @@ registry! {
 
 struct Info;
 impl Visit for Info {
-    type Out = (usize, bool);
-    fn visit<I: Integrator>(self, i: I) -> (usize, bool) {
-        (i.order(), i.adaptive())
+    type Out = (usize, bool, bool);
+    fn visit<I: Integrator>(self, i: I) -> (usize, bool, bool) {
+        (i.order(), i.adaptive(), i.explicit())
     }
 }
 
 impl Method {
     /// Order of convergence; `None` for [`Method::Auto`].
     pub fn order(self) -> Option<usize> {
-        self.visit(Info).map(|(order, _)| order)
+        self.visit(Info).map(|(order, _, _)| order)
     }
 
     /// Whether the method controls its step size when no fixed `dt` is given; `None` for
     /// [`Method::Auto`].
     pub fn is_adaptive(self) -> Option<bool> {
-        self.visit(Info).map(|(_, adaptive)| adaptive)
+        self.visit(Info).map(|(_, adaptive, _)| adaptive)
+    }
+
+    /// Whether the method is explicit (its fixed steps have a stability limit); `None` for
+    /// [`Method::Auto`].
+    pub fn is_explicit(self) -> Option<bool> {
+        self.visit(Info).map(|(_, _, explicit)| explicit)
     }
 
     /// The methods that can integrate `system` from this state: every method except the
@@ -443,8 +457,9 @@ fn choose<S: Dynamics + ?Sized>(
 /// [`Error::DimensionMismatch`] and [`Error::NonFinite`] for a bad initial state,
 /// [`Error::InvalidInput`] for a bad span or option, [`Error::UnsupportedMethod`] when the
 /// method cannot serve the system, and the failures of the run itself:
-/// [`Error::StepSizeTooSmall`], [`Error::TooManySteps`], [`Error::NonFinite`] (with the time),
-/// [`Error::Stiffness`], [`Error::NewtonFailure`], and whatever the equations of motion report
+/// [`Error::UnstableStep`] when a fixed `dt` is beyond an explicit method's stability limit for a
+/// mode of the system linearised at the start, [`Error::StepSizeTooSmall`],
+/// [`Error::TooManySteps`], [`Error::NonFinite`] (with the time), [`Error::Stiffness`], [`Error::NewtonFailure`], and whatever the equations of motion report
 /// ([`Error::SingularMassMatrix`]).
 pub fn solve<S: Dynamics + ?Sized>(
     system: &S,
@@ -454,7 +469,7 @@ pub fn solve<S: Dynamics + ?Sized>(
     method: Method,
     options: &Options,
 ) -> Result<Solution> {
-    solve_inner(system, q0, qd0, span, method, options, None)
+    solve_inner(system, q0, qd0, span, method, options, None, true)
 }
 
 /// [`solve`] with an interrupt check: `interrupt(t)` is called at every evaluation of the
@@ -469,9 +484,19 @@ pub fn solve_with_interrupt<S: Dynamics + ?Sized>(
     options: &Options,
     interrupt: &dyn Fn(f64) -> bool,
 ) -> Result<Solution> {
-    solve_inner(system, q0, qd0, span, method, options, Some(interrupt))
+    solve_inner(
+        system,
+        q0,
+        qd0,
+        span,
+        method,
+        options,
+        Some(interrupt),
+        true,
+    )
 }
 
+#[allow(clippy::too_many_arguments)]
 fn solve_inner<S: Dynamics + ?Sized>(
     system: &S,
     q0: &[f64],
@@ -480,6 +505,7 @@ fn solve_inner<S: Dynamics + ?Sized>(
     method: Method,
     options: &Options,
     interrupt: Option<&dyn Fn(f64) -> bool>,
+    check_stability: bool,
 ) -> Result<Solution> {
     let (t0, t_end) = span;
     let n = system.dof();
@@ -527,6 +553,9 @@ fn solve_inner<S: Dynamics + ?Sized>(
                 method.name()
             ),
         });
+    }
+    if let (Some(dt), Some(true), true) = (options.dt, method.is_explicit(), check_stability) {
+        stability::check(system, t0, q0, qd0, dt, method)?;
     }
     let mut y0 = q0.to_vec();
     y0.extend_from_slice(qd0);

@@ -711,6 +711,10 @@ impl Integrator for Radau {
         true
     }
 
+    fn explicit(&self) -> bool {
+        false
+    }
+
     fn integrate<S: Dynamics + ?Sized>(&self, run: &mut Run<'_, S>) -> Result<()> {
         let mut stepper = Stepper::new(run);
         match run.options.dt {
@@ -768,6 +772,24 @@ pub(crate) fn estimate_stiffness<S: Dynamics + ?Sized>(
     qd0: &[f64],
     span: f64,
 ) -> Option<StiffnessEstimate> {
+    let eig = jacobian_spectrum(system, t0, q0, qd0)?;
+    let fastest = eig.iter().fold(0.0_f64, |m, l| m.max(l.norm()));
+    let resolved = eig
+        .iter()
+        .filter(|l| l.im.abs() > l.re.abs() || l.re > 0.0)
+        .fold(1.0 / span.abs(), |m, l| m.max(l.norm()));
+    Some(StiffnessEstimate { fastest, resolved })
+}
+
+/// The eigenvalues of the AD Jacobian J = ∂(q̇, q̈)/∂(q, q̇) of the first-order system at
+/// (t₀, q₀, q̇₀): 2n dual evaluations of the accelerations and one Schur decomposition. `None`
+/// for more than 64 coordinates or when the Jacobian cannot be formed.
+pub(crate) fn jacobian_spectrum<S: Dynamics + ?Sized>(
+    system: &S,
+    t0: f64,
+    q0: &[f64],
+    qd0: &[f64],
+) -> Option<Vec<Complex<f64>>> {
     let n = q0.len();
     if n > STIFFNESS_MAX_DOF {
         return None;
@@ -788,14 +810,13 @@ pub(crate) fn estimate_stiffness<S: Dynamics + ?Sized>(
     if !j.iter().all(|x| x.is_finite()) {
         return None;
     }
-    let schur = j.try_schur(1e-14, 10_000)?;
-    let eig = schur.complex_eigenvalues();
-    let fastest = eig.iter().fold(0.0_f64, |m, l| m.max(l.norm()));
-    let resolved = eig
-        .iter()
-        .filter(|l| l.im.abs() > l.re.abs() || l.re > 0.0)
-        .fold(1.0 / span.abs(), |m, l| m.max(l.norm()));
-    Some(StiffnessEstimate { fastest, resolved })
+    Some(
+        j.try_schur(1e-14, 10_000)?
+            .complex_eigenvalues()
+            .iter()
+            .copied()
+            .collect(),
+    )
 }
 
 #[cfg(test)]

@@ -459,6 +459,10 @@ impl Integrator for ExplicitRk {
         self.tableau.error.is_some()
     }
 
+    fn explicit(&self) -> bool {
+        true
+    }
+
     fn fits<S: Dynamics + ?Sized>(
         &self,
         _system: &S,

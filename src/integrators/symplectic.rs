@@ -248,6 +248,10 @@ impl Integrator for Splitting {
         false
     }
 
+    fn explicit(&self) -> bool {
+        true
+    }
+
     fn fits<S: Dynamics + ?Sized>(
         &self,
         system: &S,

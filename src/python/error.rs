@@ -72,7 +72,7 @@ impl From<Error> for PyErr {
                  at the model near this t for a singularity"
             )),
             Error::TooManySteps { .. } => TooManyStepsError::new_err(msg),
-            Error::Stiffness { .. } => StiffnessError::new_err(msg),
+            Error::Stiffness { .. } | Error::UnstableStep { .. } => StiffnessError::new_err(msg),
             Error::NoConvergence { .. } | Error::NewtonFailure { .. } => {
                 ConvergenceError::new_err(msg)
             }
