@@ -55,6 +55,7 @@ from ._lagrangian import (
 )
 from ._model import Equilibrium, Model, Solution, methods
 from ._sympy import from_sympy
+from ._workprec import WorkPrecision, work_precision
 
 __all__ = [
     "Coordinate",
@@ -67,6 +68,7 @@ __all__ = [
     "Parameter",
     "SingularMassMatrixError",
     "Solution",
+    "WorkPrecision",
     "StepSizeError",
     "StiffnessError",
     "TooManyStepsError",
@@ -87,4 +89,5 @@ __all__ = [
     "t",
     "tan",
     "tanh",
+    "work_precision",
 ]

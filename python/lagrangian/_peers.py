@@ -1,0 +1,492 @@
+"""Peers for the comparison report: hand-written NumPy right-hand sides and a SciPy runner.
+
+Every scene of :mod:`lagrangian.scenes` that moves (the statics scenes do not) has here the
+first-order right-hand side a SciPy user would write by hand: the state is y = (q, q̇), and
+``f(t, y)`` returns dy/dt = (q̇, q̈) with q̈ from the closed-form equations of motion (the
+``closed_form_accelerations`` of ``src/scenes/*.rs``), or from ``numpy.linalg.solve`` of the mass
+matrix for the N-link pendulum. They are written the way a careful user writes them: small
+systems unpack ``y.tolist()`` into Python floats and use :mod:`math` (about twice as fast as
+NumPy scalars), the chain is vectorised. Nothing here uses the Rust engine, so the runs measure
+SciPy plus a Python right-hand side.
+
+:func:`run_scipy` integrates such a right-hand side with ``scipy.integrate.solve_ivp`` and keeps
+only the final state, for the error-versus-cost comparison with ``Model.simulate``.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+import statistics
+import time
+from dataclasses import dataclass
+from typing import Any, Callable, Dict, List, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+from ._model import _real
+
+__all__ = [
+    "NUMPY_SCENES",
+    "SCIPY_METHODS",
+    "PeerRun",
+    "numpy_rhs",
+    "run_scipy",
+    "scipy_available",
+]
+
+FloatArray = npt.NDArray[np.float64]
+Rhs = Callable[[float, FloatArray], FloatArray]
+StateLike = Union[Sequence[float], FloatArray]
+
+SCIPY_METHODS: Tuple[str, ...] = ("RK45", "DOP853", "Radau", "LSODA")
+"""The ``solve_ivp`` methods :func:`run_scipy` accepts: two explicit Runge–Kutta pairs, an
+implicit Runge–Kutta method and the stiffness-switching LSODA."""
+
+
+# -- parameter checks --------------------------------------------------------------------------
+
+
+def _positive(what: str, value: object) -> float:
+    """``value`` as a float that is finite and > 0 (masses, lengths, radii), else ValueError."""
+    x = _real(what, value)
+    if not x > 0.0:
+        raise ValueError(f"{what} = {x} must be positive (it enters the mass matrix)")
+    return x
+
+
+def _non_negative(what: str, value: object) -> float:
+    x = _real(what, value)
+    if not x >= 0.0:
+        raise ValueError(f"{what} = {x} must not be negative")
+    return x
+
+
+# -- the right-hand sides ----------------------------------------------------------------------
+# Each builder takes exactly the keyword parameters of the `lg.scenes` function of the same name
+# (same names, same defaults), checks them once and returns f(t, y).
+
+
+def _simple_pendulum(*, m: float, l: float, g: float) -> Rhs:  # noqa: E741
+    _positive("m", m)
+    w2 = _real("g", g) / _positive("l", l)
+
+    def f(t: float, y: FloatArray) -> FloatArray:
+        th, w = y.tolist()
+        return np.array([w, -w2 * math.sin(th)])
+
+    return f
+
+
+def _double_pendulum(*, m1: float, m2: float, l1: float, l2: float, g: float) -> Rhs:
+    m1, m2 = _positive("m1", m1), _positive("m2", m2)
+    l1, l2, g = _positive("l1", l1), _positive("l2", l2), _real("g", g)
+    a = (m1 + m2) * l1 * l1
+    d = m2 * l2 * l2
+    k = m2 * l1 * l2
+    g1 = (m1 + m2) * g * l1
+    g2 = m2 * g * l2
+
+    def f(t: float, y: FloatArray) -> FloatArray:
+        th1, th2, w1, w2 = y.tolist()
+        s, c = math.sin(th1 - th2), math.cos(th1 - th2)
+        # M = [[a, b], [b, d]] q̈ = [e, h], solved by Cramer's rule.
+        b = k * c
+        e = -k * s * w2 * w2 - g1 * math.sin(th1)
+        h = k * s * w1 * w1 - g2 * math.sin(th2)
+        det = a * d - b * b
+        return np.array([w1, w2, (e * d - b * h) / det, (a * h - b * e) / det])
+
+    return f
+
+
+def _n_pendulum(*, masses: Sequence[float], lengths: Sequence[float], g: float) -> Rhs:
+    ms = np.array([_positive("masses", x) for x in masses], dtype=np.float64)
+    ls = np.array([_positive("lengths", x) for x in lengths], dtype=np.float64)
+    if ms.size == 0 or ms.size != ls.size:
+        raise ValueError(
+            f"n_pendulum needs one length per mass (at least one): got {ms.size} masses and "
+            f"{ls.size} lengths"
+        )
+    g = _real("g", g)
+    n = ms.size
+    # μ_ik = Σ_{j ≥ max(i, k)} m_j: the mass below the lower of links i and k.
+    tail = np.cumsum(ms[::-1])[::-1]
+    idx = np.arange(n)
+    mu_ll = tail[np.maximum.outer(idx, idx)] * np.outer(ls, ls)
+    grav = tail * g * ls
+
+    def f(t: float, y: FloatArray) -> FloatArray:
+        th, w = y[:n], y[n:]
+        d = th[:, None] - th[None, :]
+        mass = mu_ll * np.cos(d)
+        rhs = -(mu_ll * np.sin(d)) @ (w * w) - grav * np.sin(th)
+        return np.concatenate([w, np.linalg.solve(mass, rhs)])
+
+    return f
+
+
+def _forced_two_mass(
+    *,
+    m1: float,
+    m2: float,
+    k1: float,
+    k2: float,
+    f1: float = 0.0,
+    f2: float = 0.0,
+    omega: float = 0.0,
+) -> Rhs:
+    m1, m2 = _positive("m1", m1), _positive("m2", m2)
+    k1, k2 = _real("k1", k1), _real("k2", k2)
+    f1, f2, omega = _real("f1", f1), _real("f2", f2), _real("omega", omega)
+
+    def f(t: float, y: FloatArray) -> FloatArray:
+        x1, x2, v1, v2 = y.tolist()
+        c = math.cos(omega * t)
+        stretch = x2 - x1
+        return np.array(
+            [v1, v2, (f1 * c - k1 * x1 + k2 * stretch) / m1, (f2 * c - k2 * stretch) / m2]
+        )
+
+    return f
+
+
+def _rolling_cylinder(*, m: float, j: float, r: float, g: float, alpha: float) -> Rhs:
+    m, j, r = _positive("m", m), _non_negative("j", j), _positive("r", r)
+    acc = _real("g", g) * math.sin(_real("alpha", alpha)) / (1.0 + j / (m * r * r))
+
+    def f(t: float, y: FloatArray) -> FloatArray:
+        return np.array([y[1], acc])
+
+    return f
+
+
+def _ball_in_sphere(*, m: float, j: float, r1: float, r2: float, g: float) -> Rhs:
+    m, j = _positive("m", m), _non_negative("j", j)
+    r1, r2, g = _real("r1", r1), _positive("r2", r2), _real("g", g)
+    if not r1 > r2:
+        raise ValueError(f"r1 = {r1} must exceed r2 = {r2} (the ball is inside the sphere)")
+    arm = r1 - r2
+    w2 = m * g * arm / ((m + j / (r2 * r2)) * arm * arm)
+
+    def f(t: float, y: FloatArray) -> FloatArray:
+        th, w = y.tolist()
+        return np.array([w, -w2 * math.sin(th)])
+
+    return f
+
+
+def _damped_oscillator(*, m: float, k: float, c: float) -> Rhs:
+    m = _positive("m", m)
+    k, c = _real("k", k), _real("c", c)
+
+    def f(t: float, y: FloatArray) -> FloatArray:
+        x, v = y.tolist()
+        return np.array([v, -(c * v + k * x) / m])
+
+    return f
+
+
+def _kepler(*, m: float, mu: float) -> Rhs:
+    _positive("m", m)
+    mu = _real("mu", mu)
+
+    def f(t: float, y: FloatArray) -> FloatArray:
+        x, z, vx, vz = y.tolist()
+        r2 = x * x + z * z
+        s = -mu / (r2 * math.sqrt(r2))
+        return np.array([vx, vz, s * x, s * z])
+
+    return f
+
+
+def _elastic_pendulum(*, m: float, k: float, l0: float, g: float, c: float = 0.0) -> Rhs:
+    m = _positive("m", m)
+    k, l0, g, c = _real("k", k), _real("l0", l0), _real("g", g), _real("c", c)
+
+    def f(t: float, y: FloatArray) -> FloatArray:
+        r, th, rd, thd = y.tolist()
+        s, co = math.sin(th), math.cos(th)
+        return np.array(
+            [
+                rd,
+                thd,
+                r * thd * thd - (k / m) * (r - l0) + g * co - (c / m) * rd,
+                -(2.0 * rd * thd + g * s) / r,
+            ]
+        )
+
+    return f
+
+
+def _henon_heiles() -> Rhs:
+    def f(t: float, y: FloatArray) -> FloatArray:
+        x, z, vx, vz = y.tolist()
+        return np.array([vx, vz, -x - 2.0 * x * z, -z - x * x + z * z])
+
+    return f
+
+
+def _driven_pendulum(*, m: float, l: float, g: float, a: float, omega: float) -> Rhs:  # noqa: E741
+    _positive("m", m)
+    l = _positive("l", l)  # noqa: E741
+    g, a, omega = _real("g", g), _real("a", a), _real("omega", omega)
+    aw2 = a * omega * omega
+
+    def f(t: float, y: FloatArray) -> FloatArray:
+        th, w = y.tolist()
+        # The pivot's acceleration ÿ_p = −a ω² cos ω t adds to gravity.
+        return np.array([w, -(g - aw2 * math.cos(omega * t)) / l * math.sin(th)])
+
+    return f
+
+
+def _charged_particle(*, m: float, e: float, b: float, ex: float = 0.0, ey: float = 0.0) -> Rhs:
+    m = _positive("m", m)
+    e, b, ex, ey = _real("e", e), _real("b", b), _real("ex", ex), _real("ey", ey)
+    s = e / m
+
+    def f(t: float, y: FloatArray) -> FloatArray:
+        _, _, vx, vy = y.tolist()
+        return np.array([vx, vy, s * (b * vy + ex), s * (-b * vx + ey)])
+
+    return f
+
+
+_BUILDERS: Dict[str, Callable[..., Rhs]] = {
+    "simple_pendulum": _simple_pendulum,
+    "double_pendulum": _double_pendulum,
+    "n_pendulum": _n_pendulum,
+    "forced_two_mass": _forced_two_mass,
+    "rolling_cylinder": _rolling_cylinder,
+    "ball_in_sphere": _ball_in_sphere,
+    "damped_oscillator": _damped_oscillator,
+    "kepler": _kepler,
+    "elastic_pendulum": _elastic_pendulum,
+    "henon_heiles": _henon_heiles,
+    "driven_pendulum": _driven_pendulum,
+    "charged_particle": _charged_particle,
+}
+
+NUMPY_SCENES: Tuple[str, ...] = tuple(_BUILDERS)
+"""The scenes :func:`numpy_rhs` knows: every dynamic scene of :mod:`lagrangian.scenes`."""
+
+
+def numpy_rhs(scene: str, **params: Any) -> Rhs:
+    """The hand-written first-order right-hand side of a scene, for ``scipy.integrate``.
+
+    Parameters
+    ----------
+    scene : str
+        One of :data:`NUMPY_SCENES`, named as in :mod:`lagrangian.scenes`.
+    **params
+        Exactly the keyword parameters of the ``lagrangian.scenes`` function of that name, with
+        the same defaults (``n_pendulum`` takes the sequences ``masses`` and ``lengths``).
+
+    Returns
+    -------
+    callable
+        ``f(t, y)`` with y = (q, q̇) of length 2·dof, returning dy/dt = (q̇, q̈) as a new float
+        array. q̈ is the scene's closed form (``numpy.linalg.solve`` of the mass matrix for
+        ``n_pendulum``), so it agrees with ``lg.scenes.<scene>(**params).accelerations`` to
+        rounding.
+
+    Raises
+    ------
+    ValueError
+        For an unknown scene, a missing or unknown parameter, a non-finite value, or a mass,
+        length or radius that is not positive (which would leave the mass matrix singular).
+    TypeError
+        For a parameter that is not a real number.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> f = numpy_rhs("damped_oscillator", m=2.0, k=8.0, c=0.4)
+    >>> f(0.0, np.array([1.0, 0.5])).tolist()
+    [0.5, -4.1]
+    """
+    builder = _BUILDERS.get(scene)
+    if builder is None:
+        raise ValueError(
+            f"numpy_rhs has no scene {scene!r}; the scenes are {', '.join(NUMPY_SCENES)}"
+        )
+    signature = inspect.signature(builder).parameters
+    required = [k for k, p in signature.items() if p.default is inspect.Parameter.empty]
+    missing = [k for k in required if k not in params]
+    extra = sorted(k for k in params if k not in signature)
+    if missing or extra:
+        problems: List[str] = []
+        if missing:
+            problems.append(f"is missing {', '.join(missing)}")
+        if extra:
+            problems.append(f"does not take {', '.join(extra)}")
+        takes = ", ".join(signature) or "no parameters"
+        raise ValueError(f"numpy_rhs({scene!r}) {' and '.join(problems)} (it takes {takes})")
+    return builder(**params)
+
+
+# -- SciPy -------------------------------------------------------------------------------------
+
+
+def scipy_available() -> bool:
+    """Whether ``scipy.integrate`` can be imported (SciPy is an optional dependency)."""
+    try:
+        import scipy.integrate  # type: ignore[import-untyped]  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+@dataclass(frozen=True)
+class PeerRun:
+    """One ``scipy.integrate.solve_ivp`` run to a final time, from :func:`run_scipy`.
+
+    Attributes
+    ----------
+    method : str
+        The ``solve_ivp`` method.
+    rtol, atol : float
+        The tolerances it was given.
+    t : float
+        The time reached: ``t_end`` on success, earlier when the solver gave up.
+    q, qd : numpy.ndarray
+        The state at ``t``.
+    seconds : float
+        The median wall time of the repeated ``solve_ivp`` calls (the right-hand side's Python
+        cost included; building it and checking the arguments excluded).
+    nfev, njev : int
+        Right-hand-side and Jacobian evaluations of one run (finite-difference Jacobians of
+        Radau and LSODA count in ``nfev`` too, as SciPy reports them).
+    steps : int
+        Accepted steps, ``len(sol.t) - 1``: no ``t_eval`` is passed, so ``sol.t`` holds the
+        initial time and every accepted step.
+    success : bool
+        ``solve_ivp``'s ``success``.
+    message : str
+        ``solve_ivp``'s ``message``.
+    """
+
+    method: str
+    rtol: float
+    atol: float
+    t: float
+    q: FloatArray
+    qd: FloatArray
+    seconds: float
+    nfev: int
+    njev: int
+    steps: int
+    success: bool
+    message: str
+
+
+def _state(what: str, value: object) -> FloatArray:
+    arr = np.array(value, dtype=np.float64, ndmin=1)
+    if arr.ndim != 1:
+        raise ValueError(f"{what} must be a flat sequence of numbers, got shape {arr.shape}")
+    bad = np.flatnonzero(~np.isfinite(arr))
+    if bad.size:
+        raise ValueError(f"{what}[{bad[0]}] = {arr[bad[0]]} is not finite")
+    return arr
+
+
+def run_scipy(
+    rhs: Rhs,
+    q0: StateLike,
+    qd0: StateLike,
+    t_end: float,
+    method: str,
+    rtol: float,
+    atol: float,
+    t0: float = 0.0,
+    repeats: int = 1,
+) -> PeerRun:
+    """Integrate y = (q, q̇) from ``t0`` to ``t_end`` with ``scipy.integrate.solve_ivp``.
+
+    Only the final state is kept: no ``t_eval``, no dense output, the last column of ``sol.y``.
+    The run is repeated ``repeats`` times and the median wall time reported; the counts and the
+    state come from the last run (``solve_ivp`` is deterministic, so all runs agree).
+
+    Parameters
+    ----------
+    rhs : callable
+        ``f(t, y) -> dy/dt``, e.g. from :func:`numpy_rhs`.
+    q0, qd0 : sequence of float
+        Initial coordinates and velocities, of equal length.
+    t_end : float
+        Final time.
+    method : str
+        One of :data:`SCIPY_METHODS`.
+    rtol, atol : float
+        ``solve_ivp``'s tolerances (positive).
+    t0 : float, optional
+        Initial time.
+    repeats : int, optional
+        Number of timed runs (at least 1).
+
+    Returns
+    -------
+    PeerRun
+        The final state, median time and counts. A solve that fails (``success`` False, e.g.
+        the step size underflowed) is returned as such, with the state where it stopped.
+
+    Raises
+    ------
+    ImportError
+        If SciPy is not installed.
+    ValueError
+        For an unknown method, q0 and qd0 of different lengths, non-finite values,
+        non-positive tolerances or ``repeats`` < 1.
+
+    Examples
+    --------
+    >>> run = run_scipy(numpy_rhs("damped_oscillator", m=1.0, k=1.0, c=0.0), [1.0], [0.0],
+    ...                 t_end=math.pi, method="DOP853", rtol=1e-10, atol=1e-12)
+    >>> run.success, round(float(run.q[0]), 8)
+    (True, -1.0)
+    """
+    try:
+        from scipy.integrate import solve_ivp
+    except ImportError as e:
+        raise ImportError(
+            f"run_scipy needs SciPy, which is not installed ({e}); pip install scipy"
+        ) from e
+    if method not in SCIPY_METHODS:
+        raise ValueError(f"method {method!r} is not one of {', '.join(SCIPY_METHODS)}")
+    q = _state("q0", q0)
+    qd = _state("qd0", qd0)
+    if q.size == 0 or q.size != qd.size:
+        raise ValueError(
+            f"q0 and qd0 need the same, non-zero length: got {q.size} and {qd.size}"
+        )
+    t0, t_end = _real("t0", t0), _real("t_end", t_end)
+    rtol, atol = _real("rtol", rtol), _real("atol", atol)
+    if not (rtol > 0.0 and atol > 0.0):
+        raise ValueError(f"rtol = {rtol} and atol = {atol} must be positive")
+    if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
+        raise ValueError(f"repeats = {repeats!r} must be an integer ≥ 1")
+    n = q.size
+    y0 = np.concatenate([q, qd])
+    times: List[float] = []
+    sol: Any = None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        sol = solve_ivp(rhs, (t0, t_end), y0, method=method, rtol=rtol, atol=atol)
+        times.append(time.perf_counter() - start)
+    y_end = np.array(sol.y[:, -1], dtype=np.float64)
+    return PeerRun(
+        method=method,
+        rtol=rtol,
+        atol=atol,
+        t=float(sol.t[-1]),
+        q=y_end[:n],
+        qd=y_end[n:],
+        seconds=statistics.median(times),
+        nfev=int(sol.nfev),
+        njev=int(sol.njev),
+        steps=len(sol.t) - 1,
+        success=bool(sol.success),
+        message=str(sol.message),
+    )

@@ -1,0 +1,449 @@
+"""Work–precision: the error each method reaches against the time it takes, on one model.
+
+A method is worth what it costs for the error it delivers. :func:`work_precision` runs methods
+across tolerances (adaptive ones) or step sizes (fixed-step ones), measures the final-state error
+against a reference and the wall time, and returns the rows with a log–log plot.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import statistics
+import time
+from dataclasses import asdict, dataclass
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _lagrangian
+from ._model import Model, Solution, _real, _vector
+
+__all__ = ["Reference", "Row", "WorkPrecision", "work_precision", "state_error"]
+
+FloatArray = npt.NDArray[np.float64]
+ExactSolution = Callable[[float], Tuple[Any, Any]]
+ReferenceLike = Union[None, ExactSolution, Tuple[Sequence[float], Sequence[float]]]
+
+# Keep only the initial and the final state of a timed run.
+_FINAL_ONLY = 1 << 62
+# Samples of the energy along a run (the maximum of |E − E0| is taken over them).
+_ENERGY_SAMPLES = 20_000
+# How the error of a method that cannot integrate the system begins.
+_UNSUPPORTED = "cannot integrate this system"
+# The two computed references: different high-order methods at tight tolerances.
+_REFERENCE_RUNS = (("dop853", 1e-13), ("radau5", 1e-12))
+
+
+def state_error(q: FloatArray, qd: FloatArray, q_ref: FloatArray, qd_ref: FloatArray) -> float:
+    """The relative distance ‖x − x_ref‖₂ / ‖x_ref‖₂ of the states x = (q, q̇) (absolute when
+    the reference state is zero)."""
+    diff = math.hypot(float(np.linalg.norm(q - q_ref)), float(np.linalg.norm(qd - qd_ref)))
+    size = math.hypot(float(np.linalg.norm(q_ref)), float(np.linalg.norm(qd_ref)))
+    return diff / size if size > 0.0 else diff
+
+
+@dataclass(frozen=True)
+class Reference:
+    """The state the errors are measured against.
+
+    Attributes
+    ----------
+    q, qd : numpy.ndarray
+        Reference coordinates and velocities at ``t_end``.
+    kind : str
+        ``"exact"`` (given by the caller) or ``"computed"``.
+    description : str
+        How it was obtained.
+    agreement : float or None
+        For computed references: the relative distance between the two reference runs (the
+        smallest error the rows can resolve); ``None`` for an exact reference or when only one
+        reference run succeeded.
+    alternate : tuple of (method, q, qd) or None
+        The second reference run, used for the rows of the first reference's own method.
+    """
+
+    q: FloatArray
+    qd: FloatArray
+    kind: str
+    description: str
+    agreement: Optional[float] = None
+    method: Optional[str] = None
+    alternate: Optional[Tuple[str, FloatArray, FloatArray]] = None
+
+    def against(self, method: str) -> Tuple[FloatArray, FloatArray]:
+        """The reference state for rows of ``method``: never a run of that same method."""
+        if self.method == method and self.alternate is not None:
+            return self.alternate[1], self.alternate[2]
+        return self.q, self.qd
+
+
+@dataclass(frozen=True)
+class Row:
+    """One run of a method at one tolerance or step size.
+
+    Attributes
+    ----------
+    method : str
+        The method's name.
+    tolerance : float or None
+        rtol = atol of an adaptive run.
+    dt : float or None
+        The step of a fixed-step run.
+    error : float or None
+        Relative final-state error (see :func:`state_error`); ``None`` when the run failed.
+    energy_error : float or None
+        max |E − E0| over the run, when the model conserves its energy function.
+    seconds : float or None
+        Median wall time of the repeats.
+    steps, rhs_evaluations : int
+        Accepted steps and right-hand-side evaluations.
+    failure : str or None
+        The typed error of a failed run (``"StiffnessError: …"``).
+    """
+
+    method: str
+    tolerance: Optional[float]
+    dt: Optional[float]
+    error: Optional[float]
+    energy_error: Optional[float]
+    seconds: Optional[float]
+    steps: int
+    rhs_evaluations: int
+    failure: Optional[str] = None
+
+    @property
+    def setting(self) -> str:
+        """``"tol=1e-08"`` or ``"dt=0.001"``."""
+        return f"tol={self.tolerance:.0e}" if self.tolerance is not None else f"dt={self.dt:.3g}"
+
+
+class WorkPrecision:
+    """The rows of :func:`work_precision` with the reference they were measured against."""
+
+    def __init__(self, rows: List[Row], reference: Reference, title: str = "") -> None:
+        self.rows = rows
+        self.reference = reference
+        self.title = title
+
+    def __repr__(self) -> str:
+        return f"WorkPrecision({self.title!r}, rows={len(self.rows)}, methods={self.methods})"
+
+    @property
+    def methods(self) -> List[str]:
+        """The methods in the order they ran."""
+        return list(dict.fromkeys(r.method for r in self.rows))
+
+    def by_method(self, method: str) -> List[Row]:
+        """The rows of one method, in the order they ran."""
+        return [r for r in self.rows if r.method == method]
+
+    def table(self) -> str:
+        """A Markdown table of the rows."""
+        head = "| method | setting | error | energy error | time | steps | RHS evals |"
+        lines = [head, "|---|---|---|---|---|---|---|"]
+        for r in self.rows:
+            if r.failure is not None:
+                lines.append(f"| {r.method} | {r.setting} | failed: {r.failure} | | | | |")
+                continue
+            energy = "" if r.energy_error is None else f"{r.energy_error:.2e}"
+            lines.append(
+                f"| {r.method} | {r.setting} | {r.error:.2e} | {energy} | "
+                f"{_format_seconds(r.seconds)} | {r.steps} | {r.rhs_evaluations} |"
+            )
+        return "\n".join(lines)
+
+    def to_dict(self) -> Dict[str, Any]:
+        """Plain data (JSON-ready): title, reference description and agreement, rows."""
+        ref = self.reference
+        return {
+            "title": self.title,
+            "reference": {
+                "kind": ref.kind,
+                "description": ref.description,
+                "agreement": ref.agreement,
+                "q": ref.q.tolist(),
+                "qd": ref.qd.tolist(),
+            },
+            "rows": [asdict(r) for r in self.rows],
+        }
+
+    def to_json(self, **kwargs: Any) -> str:
+        """:meth:`to_dict` as JSON."""
+        return json.dumps(self.to_dict(), **kwargs)
+
+    def plot(self, path: Optional[str] = None, *, ax: Any = None, peers: Any = None) -> Any:
+        """Log error against log wall time, one line per method (matplotlib).
+
+        ``peers`` may be another :class:`WorkPrecision` (SciPy runs, say), drawn dashed. With
+        ``path`` the figure is also saved. Returns the figure.
+        """
+        plt = _pyplot()
+        if ax is None:
+            fig, ax = plt.subplots(figsize=(6.4, 4.8), constrained_layout=True)
+        else:
+            fig = ax.figure
+        for source, style in ((self, "-"), (peers, "--")):
+            if source is None:
+                continue
+            for method in source.methods:
+                done = [r for r in source.by_method(method) if r.failure is None and r.error]
+                if done:
+                    ax.loglog(
+                        [r.seconds for r in done], [r.error for r in done], style, marker="o",
+                        markersize=4, label=method,
+                    )
+        agreement = self.reference.agreement
+        if agreement:
+            ax.axhline(agreement, color="grey", linewidth=0.8, linestyle=":")
+            ax.annotate("reference agreement", (0.02, agreement), xycoords=("axes fraction", "data"),
+                        fontsize=7, color="grey", va="bottom")
+        ax.set_xlabel("wall time [s]")
+        ax.set_ylabel("relative final-state error")
+        if self.title:
+            ax.set_title(self.title)
+        ax.grid(True, which="major", alpha=0.3)
+        ax.legend(fontsize=7, ncol=2)
+        if path is not None:
+            fig.savefig(path, dpi=110)
+        return fig
+
+
+def _pyplot() -> Any:
+    """matplotlib.pyplot, or an ImportError that says how to get it."""
+    try:
+        import matplotlib
+
+        if matplotlib.get_backend().lower() not in ("agg",) and not _interactive():
+            matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise ImportError(
+            "plots need matplotlib: pip install lagrangian[plot] (or pip install matplotlib)"
+        ) from None
+    return plt
+
+
+def _interactive() -> bool:
+    import sys
+
+    return hasattr(sys, "ps1") or "IPython" in sys.modules
+
+
+def _format_seconds(s: Optional[float]) -> str:
+    if s is None:
+        return ""
+    if s >= 1.0:
+        return f"{s:.2f} s"
+    if s >= 1e-3:
+        return f"{s * 1e3:.2f} ms"
+    return f"{s * 1e6:.0f} µs"
+
+
+def _failure(e: Exception) -> str:
+    return f"{type(e).__name__}: {e}"
+
+
+def _final(sol: Solution) -> Tuple[FloatArray, FloatArray]:
+    return np.asarray(sol.q[-1]), np.asarray(sol.qd[-1])
+
+
+def _computed_reference(
+    model: Model, q0: FloatArray, qd0: FloatArray, t0: float, t_end: float, max_steps: int
+) -> Reference:
+    runs: List[Tuple[str, FloatArray, FloatArray]] = []
+    notes: List[str] = []
+    for method, tol in _REFERENCE_RUNS:
+        try:
+            sol = model.simulate(
+                q0, qd0, t_end, t0=t0, method=method, rtol=tol, atol=tol,
+                output_every=_FINAL_ONLY, max_steps=max_steps,
+            )
+        except (_lagrangian.LagrangianError, ValueError) as e:
+            notes.append(f"{method} at tol {tol:.0e} failed ({_failure(e)})")
+            continue
+        q, qd = _final(sol)
+        runs.append((method, q, qd))
+        notes.append(f"{method} at rtol = atol = {tol:.0e} ({sol.stats['accepted_steps']} steps)")
+    if not runs:
+        raise _lagrangian.ConvergenceError(
+            "no reference could be computed: " + "; ".join(notes)
+            + " — pass reference=(q_end, qd_end) or an exact solution"
+        )
+    (method, q, qd) = runs[0]
+    agreement = None
+    alternate = None
+    if len(runs) > 1:
+        alternate = runs[1]
+        agreement = state_error(alternate[1], alternate[2], q, qd)
+    return Reference(
+        q=q, qd=qd, kind="computed", description="; ".join(notes), agreement=agreement,
+        method=method, alternate=alternate,
+    )
+
+
+def _given_reference(reference: ReferenceLike, n: int, t_end: float) -> Reference:
+    if callable(reference):
+        q, qd = reference(t_end)
+        how = "exact solution evaluated at t_end"
+    else:
+        try:
+            q, qd = reference  # type: ignore[misc]
+        except (TypeError, ValueError):
+            raise ValueError(
+                "reference must be None, a callable t -> (q, qd) or a pair (q_end, qd_end)"
+            ) from None
+        how = "given final state"
+    return Reference(
+        q=_vector("reference q", q, n), qd=_vector("reference qd", qd, n), kind="exact",
+        description=how,
+    )
+
+
+def work_precision(
+    model: Model,
+    q0: Sequence[float],
+    qd0: Sequence[float],
+    t_end: float,
+    methods: Optional[Sequence[str]] = None,
+    tolerances: Sequence[float] = (1e-4, 1e-6, 1e-8, 1e-10),
+    dts: Sequence[float] = (),
+    reference: ReferenceLike = None,
+    repeats: int = 3,
+    *,
+    t0: float = 0.0,
+    max_steps: int = 10_000_000,
+    title: str = "",
+) -> WorkPrecision:
+    """Run each method across tolerances (adaptive methods, rtol = atol) or step sizes
+    (fixed-step methods) and measure error against wall time.
+
+    >>> import lagrangian as lg
+    >>> osc = lg.scenes.damped_oscillator(m=1.0, k=1.0, c=0.0)
+    >>> import math
+    >>> wp = lg.work_precision(osc, [1.0], [0.0], 6.0, methods=["dop853", "rk4"],
+    ...                        tolerances=[1e-6, 1e-9], dts=[0.1, 0.01], repeats=1,
+    ...                        reference=lambda t: ([math.cos(t)], [-math.sin(t)]))
+    >>> [r.setting for r in wp.rows]
+    ['tol=1e-06', 'tol=1e-09', 'dt=0.1', 'dt=0.01']
+    >>> wp.by_method("rk4")[1].error < wp.by_method("rk4")[0].error
+    True
+
+    Parameters
+    ----------
+    model : Model
+        The system.
+    q0, qd0 : array_like
+        Initial state at ``t0``.
+    t_end : float
+        The final time; the error is measured on the state there.
+    methods : sequence of str, optional
+        Method names (:func:`lagrangian.methods`); by default every method except ``"auto"``.
+        Methods that cannot integrate the model (explicit symplectic methods on a non-separable
+        one, for instance) get a failed row saying why.
+    tolerances : sequence of float
+        rtol = atol values for the adaptive methods.
+    dts : sequence of float
+        Step sizes for the fixed-step methods (a fixed-step method with no ``dts`` is an error).
+    reference : callable, pair or None
+        The exact solution ``t -> (q, qd)`` or the exact final state ``(q_end, qd_end)``.
+        Without it, DOP853 at 1e-13 and Radau IIA at 1e-12 are run; their agreement is reported
+        as ``reference.agreement`` and rows of DOP853 are measured against the Radau run.
+    repeats : int
+        Timed runs per row; the median wall time is reported.
+    t0 : float
+        Start time.
+    max_steps : int
+        Step budget of every run.
+    title : str
+        A name for tables and plots.
+
+    Returns
+    -------
+    WorkPrecision
+
+    Raises
+    ------
+    ValueError
+        For bad input (unknown methods, empty or non-positive tolerances or steps, a fixed-step
+        method without ``dts``, wrong state lengths).
+    """
+    n = model.dof
+    q0v = _vector("q0", q0, n)
+    qd0v = _vector("qd0", qd0, n)
+    t0f, t_endf = _real("t0", t0), _real("t_end", t_end)
+    if t_endf == t0f:
+        raise ValueError(f"t_end = t0 = {t0f}: the time span is empty")
+    if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
+        raise ValueError(f"repeats = {repeats!r}: give a positive integer")
+    names = list(methods) if methods is not None else [m for m in _lagrangian.methods() if m != "auto"]
+    if not names:
+        raise ValueError("methods is empty")
+    tols = [_real("tolerance", x) for x in tolerances]
+    steps = [_real("dt", x) for x in dts]
+    for what, values in (("tolerances", tols), ("dts", steps)):
+        bad = [x for x in values if not x > 0.0]
+        if bad:
+            raise ValueError(f"{what} must be > 0, got {bad[0]}")
+    plan: List[Tuple[str, Optional[float], Optional[float]]] = []
+    for name in names:
+        canonical, adaptive, _order = _lagrangian.method_info(name)
+        if adaptive is None:
+            raise ValueError("'auto' picks a method per run; list the methods to compare")
+        if adaptive:
+            if not tols:
+                raise ValueError(f"{canonical} is adaptive: give tolerances")
+            plan += [(canonical, tol, None) for tol in tols]
+        else:
+            if not steps:
+                raise ValueError(f"{canonical} takes fixed steps: give dts")
+            plan += [(canonical, None, dt) for dt in steps]
+
+    ref = (
+        _computed_reference(model, q0v, qd0v, t0f, t_endf, max_steps)
+        if reference is None
+        else _given_reference(reference, n, t_endf)
+    )
+    structure = model.structure
+    conserved = bool(structure["conservative"]) and not bool(structure["time_dependent"])
+    span_sign = 1.0 if t_endf > t0f else -1.0
+    rows: List[Row] = []
+    unsupported = set()
+    for method, tol, dt in plan:
+        if method in unsupported:
+            continue
+        kwargs: Dict[str, Any] = {"t0": t0f, "method": method, "max_steps": max_steps}
+        if tol is not None:
+            kwargs.update(rtol=tol, atol=tol)
+        else:
+            kwargs["dt"] = span_sign * float(dt)  # type: ignore[arg-type]
+        try:
+            times: List[float] = []
+            sol = None
+            for _ in range(repeats):
+                start = time.perf_counter()
+                sol = model.simulate(q0v, qd0v, t_endf, output_every=_FINAL_ONLY, **kwargs)
+                times.append(time.perf_counter() - start)
+            assert sol is not None
+            q, qd = _final(sol)
+            q_ref, qd_ref = ref.against(method)
+            energy_error = None
+            if conserved:
+                every = max(1, int(sol.stats["accepted_steps"]) // _ENERGY_SAMPLES)
+                trace = model.simulate(q0v, qd0v, t_endf, output_every=every, **kwargs)
+                energy_error = float(np.max(np.abs(trace.energy - trace.energy[0])))
+            rows.append(
+                Row(
+                    method=method, tolerance=tol, dt=dt, error=state_error(q, qd, q_ref, qd_ref),
+                    energy_error=energy_error, seconds=statistics.median(times),
+                    steps=int(sol.stats["accepted_steps"]),
+                    rhs_evaluations=int(sol.stats["rhs_evaluations"]),
+                )
+            )
+        except (_lagrangian.LagrangianError, ValueError) as e:
+            if _UNSUPPORTED in str(e):
+                # One row says it; the other settings would fail the same way.
+                unsupported.add(method)
+            rows.append(Row(method, tol, dt, None, None, None, 0, 0, _failure(e)))
+    return WorkPrecision(rows, ref, title)
