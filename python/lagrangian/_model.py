@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 from dataclasses import dataclass
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -13,10 +14,16 @@ import numpy.typing as npt
 from . import _lagrangian
 from ._expr import Coordinate, Expr, ExprLike, Node, deserialize, serialize
 
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from matplotlib.figure import Figure  # type: ignore[import-not-found, unused-ignore]
+
 __all__ = ["Model", "Solution", "Equilibrium", "methods"]
 
 FloatArray = npt.NDArray[np.float64]
 ArrayLike = Union[Sequence[float], FloatArray]
+PathLike = Union[str, "os.PathLike[str]"]
 
 
 def methods() -> List[str]:
@@ -47,15 +54,18 @@ class Solution:
         The method that ran (and why, for ``"auto"``) and the work it took: accepted and
         rejected steps, right-hand-side and Jacobian evaluations, factorizations, Newton
         failures.
+    names : tuple of str, optional
+        The coordinate names (from the model), used to label plots.
     """
 
-    __slots__ = ("t", "q", "qd", "energy", "stats")
+    __slots__ = ("t", "q", "qd", "energy", "stats", "names")
 
     t: FloatArray
     q: FloatArray
     qd: FloatArray
     energy: FloatArray
     stats: Dict[str, Any]
+    names: Optional[Tuple[str, ...]]
 
     def __init__(
         self,
@@ -64,8 +74,10 @@ class Solution:
         qd: FloatArray,
         energy: FloatArray,
         stats: Dict[str, Any],
+        names: Optional[Sequence[str]] = None,
     ) -> None:
         self.t, self.q, self.qd, self.energy, self.stats = t, q, qd, energy, stats
+        self.names = None if names is None else tuple(str(n) for n in names)
 
     def __len__(self) -> int:
         return int(self.t.shape[0])
@@ -76,6 +88,40 @@ class Solution:
             f"Solution(points={len(self)}, t={span}, method={self.stats['method']!r}, "
             f"steps={self.stats['accepted_steps']})"
         )
+
+    def plot(
+        self, path: Optional[PathLike] = None, *, title: Optional[str] = None
+    ) -> "Figure":
+        """A figure of the trajectory: the coordinates q, the velocities q̇ and the energy h
+        against t, in three stacked panels. The energy panel also shows the drift |h − h₀| on a
+        logarithmic right-hand axis, its maximum in the legend.
+
+        Needs matplotlib (``pip install lagrangian[plot]``); the figure is a
+        :class:`matplotlib.figure.Figure` not registered with ``pyplot``, so nothing is shown
+        unless asked for (a notebook displays it).
+
+        Parameters
+        ----------
+        path : str or path-like, optional
+            Also save the figure there; the suffix (``.png``, ``.svg``, ``.pdf``) picks the
+            format.
+        title : str, optional
+            A title above the panels.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+
+        Raises
+        ------
+        ValueError
+            For an empty solution or a path with another suffix.
+        ImportError
+            Without matplotlib.
+        """
+        from ._plot import plot_solution
+
+        return plot_solution(self, path, title=title)
 
 
 @dataclass(frozen=True)
@@ -409,9 +455,138 @@ class Model:
         return self._forces
 
     @property
-    def positions(self) -> Optional[Tuple[Tuple[Expr, ...], ...]]:
-        """The particles' positions (particle route), or ``None``."""
+    def position_expressions(self) -> Optional[Tuple[Tuple[Expr, ...], ...]]:
+        """The particles' position expressions (particle route), or ``None``; evaluate them with
+        :meth:`positions`."""
         return self._positions
+
+    @property
+    def has_positions(self) -> bool:
+        """Whether the model has particles to draw: the particle route, or a scene whose
+        bodies have positions (every scene but ``forced_two_mass``, ``damped_oscillator`` and
+        ``two_springs``)."""
+        return bool(self._native.has_positions)
+
+    def positions(self, t: Union[float, ArrayLike], q: ArrayLike) -> FloatArray:
+        """The particles' positions r_j(t, q), evaluated in Rust.
+
+        For a scene they are the bodies of its Rust ``Particles`` implementation: pendulum bobs
+        top to bottom; for ``rolling_cylinder`` and ``ball_in_sphere`` the body's centre and two
+        opposite points of its rim, which turn with it (the rolling constraint).
+
+        >>> import lagrangian as lg
+        >>> pend = lg.scenes.simple_pendulum(m=1.0, l=2.0, g=9.81)
+        >>> pend.positions(0.0, [0.0]).tolist()
+        [[0.0, -2.0]]
+
+        Parameters
+        ----------
+        t : float or array_like, shape (n,)
+            A time, or n times.
+        q : array_like, shape (dof,) or (n, dof)
+            The coordinates at that time (at each of those times).
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (particles, dim), or (n, particles, dim) for n states.
+
+        Raises
+        ------
+        ValueError
+            For a model without positions (stated by its energies), wrong shapes, non-finite
+            values.
+        """
+        if not self.has_positions:
+            if self._scene is not None:
+                raise ValueError(
+                    f"the scene {self._scene} has no particle positions: it cannot be drawn"
+                )
+            raise ValueError(
+                "this model has no positions: it is stated by its energies (kinetic=…); state it "
+                "by positions=… and masses=… (the particle route) to draw it"
+            )
+        n = self.dof
+        times = np.asarray(t, dtype=np.float64)
+        if times.ndim == 0:
+            at = np.array([_real("t", t)])
+            one = self._native.positions(at, _vector("q", q, n).reshape(1, n))
+            return np.asarray(one[0], dtype=np.float64)
+        if times.ndim != 1:
+            raise ValueError(f"t must be a number or one-dimensional, got shape {times.shape}")
+        states = np.ascontiguousarray(np.asarray(q, dtype=np.float64))
+        if states.shape != (times.shape[0], n):
+            raise ValueError(
+                f"q has shape {states.shape} but {times.shape[0]} times need "
+                f"({times.shape[0]}, {n})"
+            )
+        return np.asarray(self._native.positions(np.ascontiguousarray(times), states))
+
+    def animate(
+        self,
+        sol: "Solution",
+        path: PathLike,
+        *,
+        fps: float = 30,
+        max_frames: int = 300,
+        trail: bool = True,
+        chain: Optional[bool] = None,
+    ) -> "Path":
+        """Write a movie of the solution ``sol`` of this model: a GIF (pillow) or an MP4
+        (ffmpeg), by the suffix of ``path``.
+
+        The solution is resampled to at most ``max_frames`` frames evenly spaced in t (linear
+        interpolation of q), the axes have equal aspect and fixed limits that hold the whole
+        trajectory. Pendulum chains are drawn as rods from the pivot through the bobs, rolling
+        bodies as circles with a diameter that shows their rotation, the rest as points; trails
+        follow the particles (the last bob of a chain, the centre of a rolling body). An adaptive
+        method's own steps may be few and far apart: for a smooth movie, simulate with
+        ``t_eval=numpy.linspace(t0, t_end, max_frames)``. Needs matplotlib
+        (``pip install lagrangian[plot]``).
+
+        Parameters
+        ----------
+        sol : Solution
+            A trajectory of this model, from :meth:`simulate`.
+        path : str or path-like
+            Where to write; ``.gif`` or ``.mp4``.
+        fps : float
+            Frames per second of the movie.
+        max_frames : int
+            At most this many frames (fewer if ``sol`` has fewer points).
+        trail : bool
+            Draw the particles' paths so far.
+        chain : bool, optional
+            Draw the particles as a chain of rods from the origin in their order (for a pendulum
+            stated on the particle route); by default only the pendulum scenes are.
+
+        Returns
+        -------
+        pathlib.Path
+            ``path``.
+
+        Raises
+        ------
+        ValueError
+            For a model without positions, an empty or non-finite solution, a solution with
+            another number of coordinates, a suffix other than ``.gif``/``.mp4``, ``fps`` ≤ 0,
+            ``max_frames`` < 1.
+        RuntimeError
+            For ``.mp4`` without ffmpeg.
+        ImportError
+            Without matplotlib.
+        """
+        from . import _plot
+
+        drawing: Optional[_plot.Drawing] = None
+        if chain is None and self._scene is not None:
+            from . import scenes
+
+            drawing = scenes._drawing(self._scene, self._parameters)
+        return _plot.animate(
+            self, sol, path, fps=fps, max_frames=max_frames, trail=trail, drawing=drawing,
+            chain=bool(chain),
+        )
 
     @property
     def masses(self) -> Optional[Tuple[Expr, ...]]:
@@ -578,7 +753,9 @@ class Model:
         t, q, qd, energy, stats = self._native.simulate(
             q0v, qd0v, _real("t_end", t_end), **kwargs
         )
-        return Solution(t, q, qd, energy, dict(stats))
+        return Solution(
+            t, q, qd, energy, dict(stats), names=[c.name for c in self._coordinates]
+        )
 
     def equilibrium(
         self,

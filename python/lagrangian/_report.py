@@ -19,8 +19,8 @@ import numpy as np
 
 from . import _lagrangian
 from ._cases import Scene, report_scenes
-from ._model import Model
-from ._workprec import Reference, Row, WorkPrecision, state_error, work_precision
+from ._model import Model, Solution
+from ._workprec import _UNSUPPORTED, Reference, Row, WorkPrecision, state_error, work_precision
 
 __all__ = ["Settings", "run_report", "equal_error_ratios", "long_run_energy"]
 
@@ -125,6 +125,15 @@ def equal_error_ratios(ours: WorkPrecision, theirs: WorkPrecision,
 # -- long runs -------------------------------------------------------------------------------
 
 
+def _relative_energy_error(model: Model, sol: Solution) -> float:
+    """max |E − E0| relative to the size of the energy terms, max(|E|, |L|) over the run, so
+    round-off in the large terms of an accelerating body is not read as drift."""
+    drift = float(np.max(np.abs(sol.energy - sol.energy[0])))
+    size = max(float(np.max(np.abs(sol.energy))), max(
+        abs(model.lagrangian(t, q, qd)) for t, q, qd in zip(sol.t, sol.q, sol.qd)))
+    return drift / size if size > 0 else drift
+
+
 def long_run_energy(model: Model, q0: Sequence[float], qd0: Sequence[float], dt: float,
                     steps: int, short: int, methods: Sequence[str]) -> List[Dict[str, Any]]:
     """max |E − E0| over the first ``short`` steps and over all ``steps`` steps of size ``dt``,
@@ -136,27 +145,22 @@ def long_run_energy(model: Model, q0: Sequence[float], qd0: Sequence[float], dt:
     for method in methods:
         adaptive = bool(_lagrangian.method_info(method)[1])
         kwargs: Dict[str, Any] = dict(method=method, max_steps=50 * steps)
-        if adaptive:
-            kwargs.update(rtol=1e-10, atol=1e-10, output_every=1)
-        else:
-            kwargs.update(dt=dt, output_every=max(1, steps // samples))
-        start = time.perf_counter()
+        kwargs.update(dict(rtol=1e-10, atol=1e-10) if adaptive else dict(dt=dt))
         try:
-            sol = model.simulate(q0, qd0, span, **kwargs)
+            # Every step of the short window, then ~10⁴ samples of the whole run (the step count
+            # of an adaptive run is estimated from the window).
+            probe = model.simulate(q0, qd0, short * dt, **kwargs)
+            every = max(1, int(probe.stats["accepted_steps"]) * (steps // short) // samples)
+            start = time.perf_counter()
+            sol = model.simulate(q0, qd0, span, output_every=every, **kwargs)
+            seconds = time.perf_counter() - start
         except (_lagrangian.LagrangianError, ValueError) as e:
-            if "cannot integrate this system" in str(e):
+            if _UNSUPPORTED in str(e):
                 continue
             out.append({"method": method, "failure": f"{type(e).__name__}: {e}"})
             continue
-        seconds = time.perf_counter() - start
-        drift = np.abs(sol.energy - sol.energy[0])
-        # The size of the energy terms, max(|h|, |L|) ≥ max(|T|, |U|) − …: errors are relative to
-        # it, so round-off in large terms of an accelerating body is not read as drift.
-        size = np.maximum(np.abs(sol.energy), np.abs(
-            [model.lagrangian(t, q, qd) for t, q, qd in zip(sol.t, sol.q, sol.qd)]))
-        early = sol.t <= sol.t[0] + short * dt * (1 + 1e-12)
-        short_error = float(drift[early].max()) / max(float(size[early].max()), 1e-300)
-        long_error = float(drift.max()) / max(float(size.max()), 1e-300)
+        short_error = _relative_energy_error(model, probe)
+        long_error = max(short_error, _relative_energy_error(model, sol))
         out.append({
             "method": method, "steps": int(sol.stats["accepted_steps"]), "seconds": seconds,
             "short": short_error, "long": long_error,
@@ -215,7 +219,6 @@ def run_report(out: Path, *, quick: bool = False, scenes: Optional[Sequence[str]
             entry["peers"] = theirs.to_dict()
             entry["equal_error"] = equal_error_ratios(wp, theirs)
         wp.plot(str(out / f"{scene.key}.png"), peers=theirs)
-        _close_figures()
         md += [f"## {scene.title}", "", f"![work–precision]({scene.key}.png)", "",
                f"Reference: {wp.reference.kind} — {wp.reference.description}"
                + (f"; agreement of the two reference runs {wp.reference.agreement:.1e}"
@@ -276,7 +279,7 @@ def _table_without_unsupported(wp: WorkPrecision) -> str:
     rows: List[Row] = []
     seen = set()
     for r in wp.rows:
-        if r.failure and "cannot integrate this system" in r.failure:
+        if r.failure and _UNSUPPORTED in r.failure:
             if r.method not in seen:
                 seen.add(r.method)
             continue
@@ -293,9 +296,3 @@ def _json_default(x: Any) -> Any:
     if isinstance(x, (np.floating, np.integer)):
         return x.item()
     raise TypeError(f"not JSON serialisable: {type(x).__name__}")
-
-
-def _close_figures() -> None:
-    import matplotlib.pyplot as plt
-
-    plt.close("all")

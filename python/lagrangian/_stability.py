@@ -26,13 +26,12 @@ import numpy as np
 from . import _lagrangian, scenes
 from ._cases import kepler_exact, kepler_periapsis, oscillator_exact
 from ._model import Model
-from ._workprec import Reference, _computed_reference, state_error
+from ._workprec import _FINAL_ONLY, _UNSUPPORTED, Reference, _computed_reference, state_error
 
 __all__ = ["Case", "Outcome", "StabilityMatrix", "stability_cases", "run_stability"]
 
 Progress = Callable[[str], None]
 Exact = Callable[[float], Tuple[Any, Any]]
-_FINAL_ONLY = 1 << 62
 
 
 @dataclass(frozen=True)
@@ -341,7 +340,7 @@ def run_case(case: Case, methods: Sequence[str], reference: Optional[Reference],
         try:
             sol = model.simulate(case.q0, case.qd0, case.t_end, **kwargs)
         except (_lagrangian.LagrangianError, ValueError) as e:
-            if "cannot integrate this system" in str(e):
+            if _UNSUPPORTED in str(e):
                 out.append(Outcome(case.key, method, "n/a", detail=f"{type(e).__name__}: {e}"))
             else:
                 out.append(Outcome(case.key, method, "error", detail=f"{type(e).__name__}: {e}"))

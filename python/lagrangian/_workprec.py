@@ -174,14 +174,21 @@ class WorkPrecision:
         return json.dumps(self.to_dict(), **kwargs)
 
     def plot(self, path: Optional[str] = None, *, ax: Any = None, peers: Any = None) -> Any:
-        """Log error against log wall time, one line per method (matplotlib).
+        """Log error against log wall time, one line per method (matplotlib, ``pip install
+        lagrangian[plot]``).
 
         ``peers`` may be another :class:`WorkPrecision` (SciPy runs, say), drawn dashed. With
-        ``path`` the figure is also saved. Returns the figure.
+        ``path`` the figure is also saved. Returns the :class:`matplotlib.figure.Figure` (not
+        registered with ``pyplot``; a notebook displays it).
         """
-        plt = _pyplot()
+        from ._plot import _require_matplotlib
+
+        _require_matplotlib()
+        from matplotlib.figure import Figure
+
         if ax is None:
-            fig, ax = plt.subplots(figsize=(6.4, 4.8), constrained_layout=True)
+            fig = Figure(figsize=(6.4, 4.8), layout="constrained")
+            ax = fig.add_subplot()
         else:
             fig = ax.figure
         for source, style in ((self, "-"), (peers, "--")):
@@ -209,26 +216,6 @@ class WorkPrecision:
             fig.savefig(path, dpi=110)
         return fig
 
-
-def _pyplot() -> Any:
-    """matplotlib.pyplot, or an ImportError that says how to get it."""
-    try:
-        import matplotlib
-
-        if matplotlib.get_backend().lower() not in ("agg",) and not _interactive():
-            matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise ImportError(
-            "plots need matplotlib: pip install lagrangian[plot] (or pip install matplotlib)"
-        ) from None
-    return plt
-
-
-def _interactive() -> bool:
-    import sys
-
-    return hasattr(sys, "ps1") or "IPython" in sys.modules
 
 
 def _format_seconds(s: Optional[float]) -> str:

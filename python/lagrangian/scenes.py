@@ -12,10 +12,14 @@ documentation; ``model.coordinates`` gives them for loads in ``equilibrium``.
 
 from __future__ import annotations
 
-from typing import Any, Dict, Sequence
+import math
+from typing import Any, Dict, Mapping, Optional, Sequence
+
+import numpy as np
 
 from . import _lagrangian
 from ._model import Model, _real
+from ._plot import Drawing, FloatArray
 
 __all__ = [
     "simple_pendulum",
@@ -160,3 +164,45 @@ def two_springs(m1: float, m2: float, k1: float, k2: float, f1: float, f2: float
     """Seed §3.2 example 5: two masses on two springs with loads ``f1``, ``f2``; coordinates
     ``x1``, ``x2``."""
     return _make("two_springs", ["x1", "x2"], m1=m1, m2=m2, k1=k1, k2=k2, f1=f1, f2=f2)
+
+
+# -- drawing hooks (Model.animate) -----------------------------------------------------------
+
+
+def _drawing(name: str, p: Mapping[str, Any]) -> Optional[Drawing]:
+    """How to draw the scene ``name`` with parameters ``p``, in the particle order of its Rust
+    ``Particles`` implementation; ``None`` draws points with trails."""
+    if name in ("simple_pendulum", "elastic_pendulum"):
+        return Drawing.chain(1)
+    if name == "double_pendulum":
+        return Drawing.chain(2)
+    if name == "n_pendulum":
+        return Drawing.chain(len(p["masses"]))
+    if name == "driven_pendulum":
+        a, omega = float(p["a"]), float(p["omega"])
+
+        def pivot(t: FloatArray) -> FloatArray:
+            # The pivot at (0, a cos ω t), as in the Rust scene.
+            return np.stack([np.zeros_like(t), a * np.cos(omega * t)], axis=1)
+
+        return Drawing.chain(1, pivot=pivot)
+    if name == "rolling_cylinder":
+        # The slope is the line through −r n, n = (sin α, cos α), along (cos α, −sin α).
+        r, alpha = float(p["r"]), float(p["alpha"])
+        sa, ca = math.sin(alpha), math.cos(alpha)
+        return Drawing(bodies=((0, 1, 2),), lines=((-r * sa, -r * ca, ca, -sa),), trail=(0,))
+    if name == "ball_in_sphere":
+        return Drawing(
+            bodies=((0, 1, 2),), circles=((0.0, 0.0, float(p["r1"])),), marks=((0.0, 0.0),),
+            trail=(0,),
+        )
+    if name == "kepler":
+        return Drawing(marks=((0.0, 0.0),))
+    if name == "lever":
+        return Drawing(rods=((-1, 0), (-1, 1)), marks=((0.0, 0.0),))
+    if name == "rhombus_link":
+        return Drawing(rods=((0, 1), (1, 2), (2, 3), (3, 0)))
+    if name == "differential_pulley":
+        r1, r2 = float(p["r1"]), float(p["r2"])
+        return Drawing(circles=((0.0, 0.0, r1), (0.0, 0.0, r2)), marks=((0.0, 0.0),))
+    return None

@@ -18,8 +18,8 @@ use crate::integrators::{Method, Options, Output, solve_with_interrupt};
 use crate::{Dynamics, Error, Stability, StaticsOptions, equilibrium};
 use error::panic_error;
 use model::{AnyModel, Compiled, RawNode, Spec, WithLoads};
-use numpy::ndarray::Array2;
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
+use numpy::ndarray::{Array2, Array3};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
@@ -226,6 +226,51 @@ impl PyModel {
         guard(|| {
             self.check_state(t, &q, &qd)?;
             Ok(self.model.lagrangian_at(t, &q, &qd)?)
+        })
+    }
+
+    /// Whether the model has particles to draw (the particle route, or a scene with positions).
+    #[getter]
+    fn has_positions(&self) -> bool {
+        self.model.has_positions()
+    }
+
+    /// The particles' positions at the states (t_i, q_i): shape (states, particles, dim), or
+    /// `None` for a model stated by its energies only.
+    fn positions<'py>(
+        &self,
+        py: Python<'py>,
+        t: PyReadonlyArray1<'py, f64>,
+        q: PyReadonlyArray2<'py, f64>,
+    ) -> PyResult<Option<Bound<'py, PyArray3<f64>>>> {
+        guard(|| {
+            let n = self.model.dof();
+            let t = t.as_array().iter().copied().collect::<Vec<f64>>();
+            let q = q.as_array();
+            if q.nrows() != t.len() || q.ncols() != n {
+                return Err(PyValueError::new_err(format!(
+                    "q has shape ({}, {}) but needs ({}, {n}): one row of {n} coordinates per time",
+                    q.nrows(),
+                    q.ncols(),
+                    t.len()
+                )));
+            }
+            let q = q.iter().copied().collect::<Vec<f64>>();
+            check_vector("t", &t, t.len())?;
+            if let Some(k) = q.iter().position(|x| !x.is_finite()) {
+                return Err(PyValueError::new_err(format!(
+                    "q[{}, {}] = {} is not finite",
+                    k / n,
+                    k % n,
+                    q[k]
+                )));
+            }
+            let Some((count, dim, r)) = self.model.positions(&t, &q) else {
+                return Ok(None);
+            };
+            let r = Array3::from_shape_vec((t.len(), count, dim), r)
+                .map_err(|e| PyValueError::new_err(e.to_string()))?;
+            Ok(Some(r.into_pyarray(py)))
         })
     }
 

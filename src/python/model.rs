@@ -8,7 +8,7 @@ use crate::scenes::{
     RadialDamping, RhombusLink, RollingCylinder, SimplePendulum, SpringRhombus, TwoSprings,
 };
 use crate::tape::{Binary, EnergyModel, Function, Graph, Inputs, Node, Tape, TapeParticles, Unary};
-use crate::{Dynamics, Error, ParticleSystem, Result, Scalar, Structure, System};
+use crate::{Dynamics, Error, ParticleSystem, Particles, Result, Scalar, Structure, System};
 use std::sync::Arc;
 
 /// A model stated in Python by particle positions and masses (the particle route).
@@ -112,6 +112,56 @@ impl Dynamics for AnyModel {
     #[inline]
     fn lagrangian<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
         each!(self, s => s.lagrangian(t, q, qd))
+    }
+}
+
+/// Positions of `p` at `rows` states (t_i, q_i), `q` row after row: (count, dim, flat values).
+fn positions_of<P: Particles>(p: &P, t: &[f64], q: &[f64]) -> (usize, usize, Vec<f64>) {
+    let (n, width) = (p.dof(), p.coordinates_len());
+    let mut r = vec![0.0; t.len() * width];
+    for (i, (&ti, out)) in t.iter().zip(r.chunks_exact_mut(width)).enumerate() {
+        p.positions(ti, &q[i * n..(i + 1) * n], out);
+    }
+    (p.count(), p.dim(), r)
+}
+
+impl AnyModel {
+    /// The particles' positions at the states (t_i, q_i) (`q` row after row) as (count, dim,
+    /// values), or `None` for a system stated by its energies only.
+    pub(crate) fn positions(&self, t: &[f64], q: &[f64]) -> Option<(usize, usize, Vec<f64>)> {
+        Some(match self {
+            AnyModel::Particles(s) => positions_of(&s.particles, t, q),
+            AnyModel::SimplePendulum(s) => positions_of(&s.kinetic, t, q),
+            AnyModel::DoublePendulum(s) => positions_of(&s.kinetic, t, q),
+            AnyModel::NPendulum(s) => positions_of(&s.kinetic, t, q),
+            AnyModel::RollingCylinder(s) => positions_of(&s.kinetic, t, q),
+            AnyModel::BallInSphere(s) => positions_of(&s.kinetic, t, q),
+            AnyModel::Kepler(s) => positions_of(&s.kinetic, t, q),
+            AnyModel::ElasticPendulum(s) => positions_of(&s.kinetic, t, q),
+            AnyModel::DampedElasticPendulum(s) => positions_of(&s.kinetic, t, q),
+            AnyModel::HenonHeiles(s) => positions_of(&s.kinetic, t, q),
+            AnyModel::DrivenPendulum(s) => positions_of(&s.kinetic, t, q),
+            AnyModel::ChargedParticle(s) => positions_of(&s.kinetic, t, q),
+            AnyModel::Lever(s) => positions_of(&s.particles, t, q),
+            AnyModel::DifferentialPulley(s) => positions_of(&s.particles, t, q),
+            AnyModel::RhombusLink(s) => positions_of(&s.particles, t, q),
+            AnyModel::SpringRhombus(s) => positions_of(&s.particles, t, q),
+            AnyModel::Energy(_)
+            | AnyModel::ForcedTwoMass(_)
+            | AnyModel::DampedOscillator(_)
+            | AnyModel::TwoSprings(_) => return None,
+        })
+    }
+
+    /// Whether [`positions`](Self::positions) has anything to report.
+    pub(crate) fn has_positions(&self) -> bool {
+        !matches!(
+            self,
+            AnyModel::Energy(_)
+                | AnyModel::ForcedTwoMass(_)
+                | AnyModel::DampedOscillator(_)
+                | AnyModel::TwoSprings(_)
+        )
     }
 }
 

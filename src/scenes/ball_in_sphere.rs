@@ -1,7 +1,7 @@
 //! A ball rolling inside a hollow sphere, in a vertical plane (seed Fig. 8, eq. 49–53).
 
 use crate::error::{Error, Result};
-use crate::{KineticEnergy, Potential, Scalar, System};
+use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
 use std::f64::consts::PI;
 
 /// A ball of mass m, moment of inertia J and radius r₂ rolling without slipping on the inside of
@@ -34,6 +34,13 @@ impl BallInSphere {
     /// The energy-route system.
     pub fn system(self) -> System<Self, Self> {
         System::new(1, self).with_potential(self)
+    }
+
+    /// The particle route, in gravity along −y: the ball as m − J/r₂² at its centre and J/(2r₂²)
+    /// at each of two opposite points of its rim (same mass, centroid and moment of inertia, so
+    /// the same T; see the [`Particles`] impl). The rim points show the ball's own rotation θ₂.
+    pub fn particles(self) -> ParticleSystem<Self> {
+        ParticleSystem::new(self).with_gravity([0.0, -self.g, 0.0])
     }
 
     /// The mass matrix (a 1 × 1 inertia) of eq. 52: (m + J/r₂²)(r₁ − r₂)².
@@ -115,6 +122,44 @@ pub fn elliptic_k(k: f64) -> Result<f64> {
     Ok(PI / (a + b))
 }
 
+/// Three points in the vertical plane, the sphere's centre at the origin: the ball's centre
+/// c = (r₁ − r₂)(sin θ₁, −cos θ₁), then the rim points c ± r₂ (sin ψ, cos ψ) with
+/// ψ = (r₁ − r₂) θ₁ / r₂ = θ₂ (eq. 49; the ball turns clockwise as θ₁ grows). Masses m − J/r₂²,
+/// J/(2r₂²), J/(2r₂²): total m, centroid c and second moment J about c, hence
+/// T = ½ m ṡ² + ½ J θ̇₂² (eq. 50) and in gravity U = m g c_y = eq. 51.
+/// (J > m r₂² is no real ball and makes the centre mass negative; T stays exact.)
+impl Particles for BallInSphere {
+    fn dof(&self) -> usize {
+        1
+    }
+    fn dim(&self) -> usize {
+        2
+    }
+    fn count(&self) -> usize {
+        3
+    }
+    fn mass(&self, j: usize) -> f64 {
+        let rim = self.j / (self.r2 * self.r2);
+        if j == 0 { self.m - rim } else { 0.5 * rim }
+    }
+    fn positions<D: Scalar>(&self, _t: D, q: &[D], r: &mut [D]) {
+        let arm = self.r1 - self.r2;
+        let (s1, c1) = q[0].sin_cos();
+        let (cx, cy) = (s1 * arm, -c1 * arm);
+        let (s, c) = (q[0] * (arm / self.r2)).sin_cos();
+        let (ux, uy) = (s * self.r2, c * self.r2);
+        r[0] = cx;
+        r[1] = cy;
+        r[2] = cx + ux;
+        r[3] = cy + uy;
+        r[4] = cx - ux;
+        r[5] = cy - uy;
+    }
+    fn depends_on_time(&self) -> bool {
+        false
+    }
+}
+
 impl KineticEnergy for BallInSphere {
     fn kinetic<D: Scalar>(&self, _t: D, _q: &[D], qd: &[D]) -> D {
         qd[0] * qd[0] * (0.5 * self.inertia())
@@ -136,5 +181,56 @@ impl Potential for BallInSphere {
     }
     fn depends_on_time(&self) -> bool {
         false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Dynamics;
+    use approx::assert_relative_eq;
+    use num_dual::Dual64;
+
+    const BALLS: [(f64, f64, f64, f64, f64); 3] = [
+        (1.0, 0.4, 5.0, 1.0, 9.81),   // solid: J = ⅖ m r₂²
+        (0.3, 0.012, 1.0, 0.2, 9.81), // hollow shell: J = ⅔ m r₂²
+        (2.0, 0.5, 0.8, 0.5, 1.62),   // J = m r₂²: massless centre
+    ];
+
+    #[test]
+    fn accelerations_ball_in_sphere_both_routes() {
+        for (m, j, r1, r2, g) in BALLS {
+            let ball = BallInSphere::new(m, j, r1, r2, g);
+            let (energy, particles) = (ball.system(), ball.particles());
+            for k in 0..8 {
+                let q = [-2.5 + 0.7 * k as f64];
+                let qd = [0.9 - 0.3 * k as f64];
+                let exact = ball.closed_form_accelerations(&q, &qd)[0];
+                let a = energy.accelerations(0.0, &q, &qd).unwrap()[0];
+                let b = particles.accelerations(0.0, &q, &qd).unwrap()[0];
+                assert_relative_eq!(a, exact, max_relative = 1e-12);
+                assert_relative_eq!(b, exact, max_relative = 1e-12);
+                let (te, tp) = (energy.energy(0.0, &q, &qd), particles.energy(0.0, &q, &qd));
+                assert_relative_eq!(te.unwrap(), tp.unwrap(), max_relative = 1e-12);
+            }
+        }
+    }
+
+    /// Rolling without slipping: the ball's point touching the sphere is at rest. Rim point 1
+    /// points outwards along (sin θ₁, −cos θ₁) when ψ = π − θ₁, i.e. θ₁ = π r₂ / r₁.
+    #[test]
+    fn positions_ball_in_sphere_contact_at_rest() {
+        for (m, j, r1, r2, g) in BALLS {
+            let ball = BallInSphere::new(m, j, r1, r2, g);
+            let th = std::f64::consts::PI * r2 / r1;
+            let mut p = [Dual64::from(0.0); 6];
+            Particles::positions(&ball, Dual64::from(0.0), &[Dual64::new(th, 1.0)], &mut p);
+            assert_relative_eq!(p[2].re.hypot(p[3].re), r1, max_relative = 1e-14);
+            assert!(p[2].eps.abs() < 1e-14 && p[3].eps.abs() < 1e-14);
+            // The centre moves at (r₁ − r₂) per radian; the opposite rim point at twice that.
+            let arm = r1 - r2;
+            assert_relative_eq!(p[0].eps.hypot(p[1].eps), arm, max_relative = 1e-14);
+            assert_relative_eq!(p[4].eps.hypot(p[5].eps), 2.0 * arm, max_relative = 1e-14);
+        }
     }
 }

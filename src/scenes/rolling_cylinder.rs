@@ -1,6 +1,6 @@
 //! A cylinder rolling without slipping down an incline (seed Fig. 7, eq. 45–48).
 
-use crate::{KineticEnergy, Potential, Scalar, System};
+use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
 
 /// A cylinder of mass m, moment of inertia J about its axis and radius r rolling without
 /// slipping down a slope of angle α; the coordinate x is the distance its centre has travelled
@@ -32,6 +32,14 @@ impl RollingCylinder {
     /// The energy-route system.
     pub fn system(self) -> System<Self, Self> {
         System::new(1, self).with_potential(self)
+    }
+
+    /// The particle route, in gravity along −y: the plane motion of a rigid body has the kinetic
+    /// energy of any point masses with its mass, centroid and moment of inertia, so the cylinder
+    /// is m − J/r² at its centre and J/(2r²) at each of two opposite rim points (see the
+    /// [`Particles`] impl). The rim points show the rotation x/r when the scene is drawn.
+    pub fn particles(self) -> ParticleSystem<Self> {
+        ParticleSystem::new(self).with_gravity([0.0, -self.g, 0.0])
     }
 
     /// The effective mass m + J/r² of eq. 48.
@@ -78,5 +86,98 @@ impl Potential for RollingCylinder {
     }
     fn depends_on_time(&self) -> bool {
         false
+    }
+}
+
+/// Three points in the vertical plane of the slope, which descends along (cos α, −sin α) from
+/// the origin (the centre's position at x = 0): the centre c = x (cos α, −sin α), then the rim
+/// points c ± r (sin ψ, cos ψ) with ψ = α + x/r — the rotation x = r θ of eq. 45, clockwise as
+/// the cylinder rolls down. Masses m − J/r², J/(2r²), J/(2r²): total m, centroid c and second
+/// moment J about c, hence T = ½ m ẋ² + ½ J θ̇² (eq. 46), and in gravity U = m g c_y = eq. 47.
+/// (J > m r² is no real body and makes the centre mass negative; T stays exact.)
+impl Particles for RollingCylinder {
+    fn dof(&self) -> usize {
+        1
+    }
+    fn dim(&self) -> usize {
+        2
+    }
+    fn count(&self) -> usize {
+        3
+    }
+    fn mass(&self, j: usize) -> f64 {
+        let rim = self.j / (self.r * self.r);
+        if j == 0 { self.m - rim } else { 0.5 * rim }
+    }
+    fn positions<D: Scalar>(&self, _t: D, q: &[D], r: &mut [D]) {
+        let (sa, ca) = self.alpha.sin_cos();
+        let (cx, cy) = (q[0] * ca, -q[0] * sa);
+        let (s, c) = (q[0] / self.r + self.alpha).sin_cos();
+        let (ux, uy) = (s * self.r, c * self.r);
+        r[0] = cx;
+        r[1] = cy;
+        r[2] = cx + ux;
+        r[3] = cy + uy;
+        r[4] = cx - ux;
+        r[5] = cy - uy;
+    }
+    fn depends_on_time(&self) -> bool {
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Dynamics;
+    use approx::assert_relative_eq;
+    use num_dual::Dual64;
+
+    const CYLINDERS: [(f64, f64, f64, f64, f64); 3] = [
+        (2.0, 0.09, 0.3, 9.81, 0.4),  // solid: J = ½ m r²
+        (1.5, 0.24, 0.4, 9.81, 0.25), // thin tube: J = m r², massless centre
+        (0.7, 0.01, 0.5, 3.7, -0.6),  // slope the other way
+    ];
+
+    #[test]
+    fn accelerations_rolling_cylinder_both_routes() {
+        for (m, j, r, g, alpha) in CYLINDERS {
+            let cyl = RollingCylinder::new(m, j, r, g, alpha);
+            let (energy, particles) = (cyl.system(), cyl.particles());
+            let exact = cyl.acceleration();
+            for k in 0..8 {
+                let q = [0.9 * k as f64 - 2.0];
+                let qd = [1.3 - 0.4 * k as f64];
+                let a = energy.accelerations(0.0, &q, &qd).unwrap()[0];
+                let b = particles.accelerations(0.0, &q, &qd).unwrap()[0];
+                assert_relative_eq!(a, exact, max_relative = 1e-12);
+                assert_relative_eq!(b, exact, max_relative = 1e-12);
+                // The same T and U, not just the same equation of motion.
+                let (te, tp) = (energy.energy(0.0, &q, &qd), particles.energy(0.0, &q, &qd));
+                assert_relative_eq!(te.unwrap(), tp.unwrap(), max_relative = 1e-12);
+            }
+        }
+    }
+
+    /// Rolling without slipping: the rim point touching the slope is at rest. Rim point 1 points
+    /// along −n = −(sin α, cos α), onto the slope, when ψ = α + π, i.e. x = π r.
+    #[test]
+    fn positions_rolling_cylinder_contact_at_rest() {
+        for (m, j, r, g, alpha) in CYLINDERS {
+            let cyl = RollingCylinder::new(m, j, r, g, alpha);
+            let x = std::f64::consts::PI * r;
+            let mut p = [Dual64::from(0.0); 6];
+            Particles::positions(&cyl, Dual64::from(0.0), &[Dual64::new(x, 1.0)], &mut p);
+            // The contact point lies on the slope line through −r n along (cos α, −sin α).
+            let (sa, ca) = alpha.sin_cos();
+            let (px, py) = (p[2].re + r * sa, p[3].re + r * ca);
+            assert_relative_eq!(px * sa + py * ca, 0.0, epsilon = 1e-14);
+            assert!(p[2].eps.abs() < 1e-15 && p[3].eps.abs() < 1e-15);
+            // The centre moves with dx/dx = 1 along the slope; the top point at twice that.
+            assert_relative_eq!(p[0].eps, ca, epsilon = 1e-15);
+            assert_relative_eq!(p[1].eps, -sa, epsilon = 1e-15);
+            assert_relative_eq!(p[4].eps, 2.0 * ca, epsilon = 1e-14);
+            assert_relative_eq!(p[5].eps, -2.0 * sa, epsilon = 1e-14);
+        }
     }
 }

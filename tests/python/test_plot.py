@@ -1,0 +1,321 @@
+"""Pictures: Solution.plot, Model.positions against closed forms, Model.animate."""
+
+import math
+import sys
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+
+import lagrangian as lg
+from conftest import double_pendulum_dsl
+
+matplotlib = pytest.importorskip("matplotlib")
+matplotlib.use("Agg")
+Image = pytest.importorskip("PIL.Image")
+
+DP = dict(m1=1.3, m2=0.7, l1=1.1, l2=0.8, g=9.81)
+
+
+def double_pendulum_particles(m1=1.3, m2=0.7, l1=1.1, l2=0.8, g=9.81):
+    th1, th2 = lg.coordinates("th1 th2")
+    x1, y1 = l1 * lg.sin(th1), -l1 * lg.cos(th1)
+    x2, y2 = x1 + l2 * lg.sin(th2), y1 - l2 * lg.cos(th2)
+    return lg.Model(coordinates=[th1, th2], positions=[(x1, y1), (x2, y2)], masses=[m1, m2],
+                    potential=g * (m1 * y1 + m2 * y2))
+
+
+def gif_frames(path):
+    with Image.open(path) as im:
+        return im.n_frames, im.size
+
+
+# -- Solution.plot -------------------------------------------------------------------------
+
+
+def test_plot_lines_hold_solution_data(tmp_path):
+    model = lg.scenes.double_pendulum(**DP)
+    sol = model.simulate([1.0, 0.5], [0.0, 0.0], 3.0, rtol=1e-8, atol=1e-10)
+    assert sol.names == ("th1", "th2")
+    path = tmp_path / "dp.png"
+    fig = sol.plot(path, title="double pendulum")
+    ax_q, ax_v, ax_h, drift = fig.axes
+    for ax, data in ((ax_q, sol.q), (ax_v, sol.qd)):
+        assert len(ax.lines) == 2
+        for i, line in enumerate(ax.lines):
+            assert_array_equal(line.get_xdata(), sol.t)
+            assert_array_equal(line.get_ydata(), data[:, i])
+    assert [x.get_label() for x in ax_q.lines] == ["th1", "th2"]
+    assert [x.get_label() for x in ax_v.lines] == ["dth1/dt", "dth2/dt"]
+    (h,) = ax_h.lines
+    assert_array_equal(h.get_xdata(), sol.t)
+    assert_array_equal(h.get_ydata(), sol.energy)
+    # The drift |h − h0| on the right axis, zeros left out of the log scale.
+    (d,) = drift.lines
+    want = np.abs(sol.energy - sol.energy[0])
+    got = d.get_ydata()
+    assert np.isnan(got[0]) and want[0] == 0.0
+    assert_array_equal(got[want > 0], want[want > 0])
+    assert drift.get_yscale() == "log"
+    assert f"{want.max():.3g}" in d.get_label()
+    assert fig._suptitle.get_text() == "double pendulum"
+    with open(path, "rb") as f:
+        assert f.read(8) == b"\x89PNG\r\n\x1a\n"
+    with Image.open(path) as im:
+        assert im.size[0] > 100 and im.size[1] > 100
+
+
+def test_plot_formats_by_suffix(tmp_path):
+    x, = lg.coordinates("x")
+    osc = lg.Model(coordinates=[x], kinetic=0.5 * x.d**2, potential=0.5 * x**2)
+    sol = osc.simulate([1.0], [0.0], 1.0, t_eval=np.linspace(0.0, 1.0, 11))
+    assert sol.names == ("x",)
+    sol.plot(tmp_path / "a.svg")
+    sol.plot(tmp_path / "a.PDF")
+    assert (tmp_path / "a.svg").read_text().lstrip().startswith("<?xml")
+    assert (tmp_path / "a.PDF").read_bytes().startswith(b"%PDF")
+    with pytest.raises(ValueError, match=r"\.png, \.svg, \.pdf"):
+        sol.plot(tmp_path / "a.jpg")
+    assert not (tmp_path / "a.jpg").exists()
+
+
+def test_plot_without_names_and_empty_errors():
+    t = np.linspace(0.0, 1.0, 4)
+    q = np.stack([np.cos(t), np.sin(t)], axis=1)
+    sol = lg.Solution(t, q, -q, np.ones(4), {"method": "none", "accepted_steps": 0})
+    fig = sol.plot()
+    assert [x.get_label() for x in fig.axes[0].lines] == ["q0", "q1"]
+    # A perfectly conserved energy has no drift to put on a log scale.
+    assert fig.axes[3].get_yscale() == "linear"
+    empty = lg.Solution(np.zeros(0), np.zeros((0, 1)), np.zeros((0, 1)), np.zeros(0),
+                        {"method": "none", "accepted_steps": 0})
+    with pytest.raises(ValueError, match="empty"):
+        empty.plot()
+
+
+def test_plot_without_matplotlib_says_how_to_install(monkeypatch):
+    sol = lg.scenes.simple_pendulum(m=1.0, l=1.0, g=9.81).simulate([0.3], [0.0], 0.5)
+    for name in [m for m in sys.modules if m == "matplotlib" or m.startswith("matplotlib.")]:
+        monkeypatch.setitem(sys.modules, name, None)
+    with pytest.raises(ImportError, match=r"pip install lagrangian\[plot\]"):
+        sol.plot()
+
+
+# -- Model.positions -----------------------------------------------------------------------
+
+STATES = [[0.3, -0.4], [1.0, 0.5], [-2.0, 2.5], [3.1, -3.0]]
+
+
+def dp_closed_form(q, l1=DP["l1"], l2=DP["l2"]):
+    x1, y1 = l1 * math.sin(q[0]), -l1 * math.cos(q[0])
+    return [[x1, y1], [x1 + l2 * math.sin(q[1]), y1 - l2 * math.cos(q[1])]]
+
+
+@pytest.mark.parametrize("make", [lambda: lg.scenes.double_pendulum(**DP),
+                                  lambda: double_pendulum_particles(**DP)],
+                         ids=["scene", "particle_route"])
+def test_positions_double_pendulum_closed_form(make):
+    model = make()
+    assert model.has_positions
+    for q in STATES:
+        r = model.positions(0.7, q)
+        assert r.shape == (2, 2)
+        assert_allclose(r, dp_closed_form(q), rtol=1e-15, atol=1e-15)
+    many = model.positions(np.linspace(0.0, 1.0, len(STATES)), np.array(STATES))
+    assert many.shape == (len(STATES), 2, 2)
+    assert_allclose(many, [dp_closed_form(q) for q in STATES], rtol=1e-15, atol=1e-15)
+
+
+def test_positions_scenes_closed_form():
+    th = 0.7
+    assert_allclose(lg.scenes.simple_pendulum(m=1.0, l=2.0, g=9.81).positions(0.0, [th]),
+                    [[2.0 * math.sin(th), -2.0 * math.cos(th)]], rtol=1e-15)
+    lengths = [1.0, 0.5, 0.25]
+    chain = lg.scenes.n_pendulum([1.0, 2.0, 3.0], lengths, g=9.81)
+    q = [0.2, -0.9, 2.0]
+    x = np.cumsum([l * math.sin(a) for l, a in zip(lengths, q)])
+    y = np.cumsum([-l * math.cos(a) for l, a in zip(lengths, q)])
+    assert_allclose(chain.positions(0.0, q), np.stack([x, y], axis=1), rtol=1e-15)
+    elastic = lg.scenes.elastic_pendulum(m=1.0, k=20.0, l0=1.0, g=9.81)
+    assert_allclose(elastic.positions(0.0, [1.3, th]),
+                    [[1.3 * math.sin(th), -1.3 * math.cos(th)]], rtol=1e-15)
+    # The driven pivot moves: the bob at (l sin θ, a cos ω t − l cos θ).
+    driven = lg.scenes.driven_pendulum(m=1.0, l=1.5, g=9.81, a=0.2, omega=30.0)
+    t = 0.37
+    assert_allclose(driven.positions(t, [th]),
+                    [[1.5 * math.sin(th), 0.2 * math.cos(30.0 * t) - 1.5 * math.cos(th)]],
+                    rtol=1e-15)
+    for scene in (lg.scenes.kepler(m=1.0, mu=1.0), lg.scenes.henon_heiles(),
+                  lg.scenes.charged_particle(m=1.0, e=1.0, b=2.0)):
+        assert_allclose(scene.positions(0.0, [0.4, -1.2]), [[0.4, -1.2]], rtol=1e-15)
+    lever = lg.scenes.lever(l1=2.0, l2=3.0, p=1.0, q=1.0)
+    assert_allclose(lever.positions(0.0, [th]),
+                    [[2.0 * math.cos(th), -2.0 * math.sin(th)],
+                     [-3.0 * math.cos(th), 3.0 * math.sin(th)]], rtol=1e-15)
+
+
+def test_positions_particle_route_3d():
+    th, ph = lg.coordinates("th ph")
+    l = 1.5
+    pos = (l * lg.sin(th) * lg.cos(ph), l * lg.sin(th) * lg.sin(ph), -l * lg.cos(th))
+    model = lg.Model(coordinates=[th, ph], positions=[pos], masses=[1.0])
+    q = [0.7, 0.3]
+    want = [l * math.sin(q[0]) * math.cos(q[1]), l * math.sin(q[0]) * math.sin(q[1]),
+            -l * math.cos(q[0])]
+    assert_allclose(model.positions(0.0, q), [want], rtol=1e-15)
+
+
+CYLINDER = dict(m=2.0, j=0.09, r=0.3, g=9.81, alpha=0.4)
+BALL = dict(m=1.0, j=0.4, r1=5.0, r2=1.0, g=9.81)
+
+
+def test_positions_rolling_cylinder_rolls_without_slipping():
+    cyl = lg.scenes.rolling_cylinder(**CYLINDER)
+    r, alpha = CYLINDER["r"], CYLINDER["alpha"]
+    down = np.array([math.cos(alpha), -math.sin(alpha)])
+    normal = np.array([math.sin(alpha), math.cos(alpha)])
+    for x in [-0.4, 0.0, 0.25, 1.7, 6.0]:
+        centre, rim, opposite = cyl.positions(0.0, [x])
+        assert_allclose(centre, x * down, atol=1e-15)
+        assert_allclose(rim - centre, centre - opposite, atol=1e-14)
+        assert_allclose(np.linalg.norm(rim - centre), r, rtol=1e-14)
+        # The marker starts along the normal and turns clockwise by the distance rolled / r.
+        turned = math.atan2(rim[0] - centre[0], rim[1] - centre[1]) - alpha
+        assert_allclose(math.remainder(turned - x / r, 2 * math.pi), 0.0, atol=1e-14)
+    # The rim point touching the slope (marker along −n, at x = π r) is at rest: its central
+    # difference vanishes to O(h²) while the centre moves at unit speed along the slope.
+    x, h = math.pi * r, 1e-5
+    contact = cyl.positions(0.0, [x])[1]
+    assert_allclose((contact + r * normal) @ normal, 0.0, atol=1e-15)
+    ahead, behind = cyl.positions(0.0, [x + h]), cyl.positions(0.0, [x - h])
+    assert_allclose((ahead[1] - behind[1]) / (2 * h), [0.0, 0.0], atol=1e-9)
+    assert_allclose((ahead[0] - behind[0]) / (2 * h), down, rtol=1e-9)
+    assert_allclose((ahead[2] - behind[2]) / (2 * h), 2 * down, rtol=1e-9)
+
+
+def test_positions_ball_in_sphere_rolls_without_slipping():
+    ball = lg.scenes.ball_in_sphere(**BALL)
+    r1, r2 = BALL["r1"], BALL["r2"]
+    for th in [-1.2, 0.0, 0.3, 2.0]:
+        centre, rim, opposite = ball.positions(0.0, [th])
+        assert_allclose(centre, (r1 - r2) * np.array([math.sin(th), -math.cos(th)]), atol=1e-15)
+        assert_allclose(rim - centre, centre - opposite, atol=1e-14)
+        assert_allclose(np.linalg.norm(rim - centre), r2, rtol=1e-14)
+        # The ball turns by θ₂ = (r₁ − r₂) θ₁ / r₂ (seed eq. 49), clockwise.
+        turned = math.atan2(rim[0] - centre[0], rim[1] - centre[1])
+        assert_allclose(math.remainder(turned - (r1 - r2) * th / r2, 2 * math.pi), 0.0,
+                        atol=1e-14)
+    # At θ₁ = π r₂ / r₁ the marker touches the sphere, and that point is at rest.
+    th, h = math.pi * r2 / r1, 1e-5
+    contact = ball.positions(0.0, [th])[1]
+    assert_allclose(np.linalg.norm(contact), r1, rtol=1e-15)
+    ahead, behind = ball.positions(0.0, [th + h]), ball.positions(0.0, [th - h])
+    assert_allclose((ahead[1] - behind[1]) / (2 * h), [0.0, 0.0], atol=1e-8)
+    assert_allclose(np.linalg.norm((ahead[0] - behind[0]) / (2 * h)), r1 - r2, rtol=1e-9)
+
+
+def test_positions_errors():
+    energy = double_pendulum_dsl()
+    assert not energy.has_positions
+    with pytest.raises(ValueError, match="no positions"):
+        energy.positions(0.0, [0.1, 0.2])
+    for scene in (lg.scenes.forced_two_mass(m1=1.0, m2=1.0, k1=1.0, k2=1.0),
+                  lg.scenes.damped_oscillator(m=1.0, k=1.0, c=0.1)):
+        assert not scene.has_positions
+        with pytest.raises(ValueError, match="no particle positions"):
+            scene.positions(0.0, np.zeros(scene.dof))
+    dp = lg.scenes.double_pendulum(**DP)
+    with pytest.raises(ValueError, match="coordinates"):
+        dp.positions(0.0, [0.1])
+    with pytest.raises(ValueError, match="not finite"):
+        dp.positions(0.0, [0.1, math.nan])
+    with pytest.raises(ValueError, match="not finite"):
+        dp.positions(np.array([0.0, math.inf]), np.zeros((2, 2)))
+    with pytest.raises(ValueError, match=r"shape \(3, 2\)"):
+        dp.positions(np.zeros(2), np.zeros((3, 2)))
+
+
+def test_position_expressions_kept():
+    model = double_pendulum_particles()
+    assert len(model.position_expressions) == 2
+    assert lg.scenes.double_pendulum(**DP).position_expressions is None
+
+
+# -- Model.animate -------------------------------------------------------------------------
+
+
+def test_animate_gif_frame_count(tmp_path):
+    model = lg.scenes.double_pendulum(**DP)
+    sol = model.simulate([1.0, 0.5], [0.0, 0.0], 2.0, rtol=1e-8, atol=1e-10)
+    assert len(sol) > 12
+    out = model.animate(sol, tmp_path / "dp.gif", fps=10, max_frames=12)
+    assert out == tmp_path / "dp.gif"
+    frames, size = gif_frames(out)
+    assert frames == 12 and size[0] > 100
+    # Fewer points than max_frames: one frame per point.
+    short = model.simulate([1.0, 0.5], [0.0, 0.0], 1.0, t_eval=np.linspace(0.0, 1.0, 7))
+    assert gif_frames(model.animate(short, tmp_path / "short.gif", trail=False))[0] == 7
+
+
+@pytest.mark.parametrize("make,q0,qd0", [
+    (lambda: lg.scenes.rolling_cylinder(**CYLINDER), [0.0], [0.5]),
+    (lambda: lg.scenes.ball_in_sphere(**BALL), [1.0], [0.0]),
+    (lambda: lg.scenes.driven_pendulum(m=1.0, l=1.0, g=9.81, a=0.1, omega=20.0), [0.5], [0.0]),
+    (lambda: lg.scenes.kepler(m=1.0, mu=1.0), [1.0, 0.0], [0.0, 1.2]),
+    (lambda: lg.scenes.n_pendulum([1.0] * 4, [0.5] * 4, g=9.81), [0.5] * 4, [0.0] * 4),
+], ids=["rolling_cylinder", "ball_in_sphere", "driven_pendulum", "kepler", "n_pendulum"])
+def test_animate_scenes(tmp_path, make, q0, qd0):
+    model = make()
+    sol = model.simulate(q0, qd0, 1.5, t_eval=np.linspace(0.0, 1.5, 9))
+    assert gif_frames(model.animate(sol, str(tmp_path / "m.gif"), max_frames=30))[0] == 9
+
+
+def test_animate_particle_route_chain_and_backwards(tmp_path):
+    model = double_pendulum_particles()
+    sol = model.simulate([1.0, 0.5], [0.0, 0.0], -1.0, t_eval=np.linspace(0.0, -1.0, 5))
+    assert gif_frames(model.animate(sol, tmp_path / "c.gif", chain=True))[0] == 5
+
+
+def test_animate_3d_points(tmp_path):
+    th, ph = lg.coordinates("th ph")
+    pos = (lg.sin(th) * lg.cos(ph), lg.sin(th) * lg.sin(ph), -lg.cos(th))
+    model = lg.Model(coordinates=[th, ph], positions=[pos], masses=[1.0],
+                     potential=9.81 * pos[2])
+    sol = model.simulate([1.0, 0.0], [0.0, 2.0], 1.0, t_eval=np.linspace(0.0, 1.0, 6))
+    assert gif_frames(model.animate(sol, tmp_path / "s.gif", chain=True))[0] == 6
+
+
+def test_animate_errors(tmp_path):
+    dp = lg.scenes.double_pendulum(**DP)
+    sol = dp.simulate([1.0, 0.5], [0.0, 0.0], 1.0)
+    with pytest.raises(ValueError, match=r"\.gif, \.mp4"):
+        dp.animate(sol, tmp_path / "dp.avi")
+    with pytest.raises(ValueError, match="no positions"):
+        double_pendulum_dsl().animate(sol, tmp_path / "dp.gif")
+    pend = lg.scenes.simple_pendulum(m=1.0, l=1.0, g=9.81)
+    with pytest.raises(ValueError, match="2 coordinates but the model has 1"):
+        pend.animate(sol, tmp_path / "dp.gif")
+    bad = lg.Solution(sol.t, np.where(sol.t[:, None] > 0.5, np.nan, sol.q), sol.qd, sol.energy,
+                      sol.stats)
+    with pytest.raises(ValueError, match="not finite"):
+        dp.animate(bad, tmp_path / "dp.gif")
+    empty = lg.Solution(np.zeros(0), np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), sol.stats)
+    with pytest.raises(ValueError, match="empty"):
+        dp.animate(empty, tmp_path / "dp.gif")
+    with pytest.raises(ValueError, match="fps"):
+        dp.animate(sol, tmp_path / "dp.gif", fps=0)
+    with pytest.raises(ValueError, match="max_frames"):
+        dp.animate(sol, tmp_path / "dp.gif", max_frames=0)
+    assert not (tmp_path / "dp.gif").exists()
+
+
+def test_animate_mp4_needs_ffmpeg(tmp_path):
+    from matplotlib import animation
+
+    pend = lg.scenes.simple_pendulum(m=1.0, l=1.0, g=9.81)
+    sol = pend.simulate([0.5], [0.0], 1.0, t_eval=np.linspace(0.0, 1.0, 5))
+    if animation.FFMpegWriter.isAvailable():
+        assert pend.animate(sol, tmp_path / "p.mp4").stat().st_size > 0
+    else:
+        with pytest.raises(RuntimeError, match="ffmpeg"):
+            pend.animate(sol, tmp_path / "p.mp4")
