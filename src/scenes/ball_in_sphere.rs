@@ -1,5 +1,6 @@
 //! A ball rolling inside a hollow sphere, in a vertical plane (seed Fig. 8, eq. 49–53).
 
+use super::rigid_disc;
 use crate::error::{Error, Result};
 use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
 use std::f64::consts::PI;
@@ -127,7 +128,6 @@ pub fn elliptic_k(k: f64) -> Result<f64> {
 /// ψ = (r₁ − r₂) θ₁ / r₂ = θ₂ (eq. 49; the ball turns clockwise as θ₁ grows). Masses m − J/r₂²,
 /// J/(2r₂²), J/(2r₂²): total m, centroid c and second moment J about c, hence
 /// T = ½ m ṡ² + ½ J θ̇₂² (eq. 50) and in gravity U = m g c_y = eq. 51.
-/// (J > m r₂² is no real ball and makes the centre mass negative; T stays exact.)
 impl Particles for BallInSphere {
     fn dof(&self) -> usize {
         1
@@ -138,22 +138,13 @@ impl Particles for BallInSphere {
     fn count(&self) -> usize {
         3
     }
-    fn mass(&self, j: usize) -> f64 {
-        let rim = self.j / (self.r2 * self.r2);
-        if j == 0 { self.m - rim } else { 0.5 * rim }
+    fn mass(&self, k: usize) -> f64 {
+        rigid_disc::mass(self.m, self.j, self.r2, k)
     }
     fn positions<D: Scalar>(&self, _t: D, q: &[D], r: &mut [D]) {
         let arm = self.r1 - self.r2;
         let (s1, c1) = q[0].sin_cos();
-        let (cx, cy) = (s1 * arm, -c1 * arm);
-        let (s, c) = (q[0] * (arm / self.r2)).sin_cos();
-        let (ux, uy) = (s * self.r2, c * self.r2);
-        r[0] = cx;
-        r[1] = cy;
-        r[2] = cx + ux;
-        r[3] = cy + uy;
-        r[4] = cx - ux;
-        r[5] = cy - uy;
+        rigid_disc::points(s1 * arm, -c1 * arm, q[0] * (arm / self.r2), self.r2, r);
     }
     fn depends_on_time(&self) -> bool {
         false

@@ -12,6 +12,7 @@ mod forced_two_mass;
 mod henon_heiles;
 mod kepler;
 mod pendulum;
+mod rigid_disc;
 mod rolling_cylinder;
 mod statics;
 

@@ -1,5 +1,6 @@
 //! A cylinder rolling without slipping down an incline (seed Fig. 7, eq. 45–48).
 
+use super::rigid_disc;
 use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
 
 /// A cylinder of mass m, moment of inertia J about its axis and radius r rolling without
@@ -94,7 +95,6 @@ impl Potential for RollingCylinder {
 /// points c ± r (sin ψ, cos ψ) with ψ = α + x/r — the rotation x = r θ of eq. 45, clockwise as
 /// the cylinder rolls down. Masses m − J/r², J/(2r²), J/(2r²): total m, centroid c and second
 /// moment J about c, hence T = ½ m ẋ² + ½ J θ̇² (eq. 46), and in gravity U = m g c_y = eq. 47.
-/// (J > m r² is no real body and makes the centre mass negative; T stays exact.)
 impl Particles for RollingCylinder {
     fn dof(&self) -> usize {
         1
@@ -105,21 +105,13 @@ impl Particles for RollingCylinder {
     fn count(&self) -> usize {
         3
     }
-    fn mass(&self, j: usize) -> f64 {
-        let rim = self.j / (self.r * self.r);
-        if j == 0 { self.m - rim } else { 0.5 * rim }
+    fn mass(&self, k: usize) -> f64 {
+        rigid_disc::mass(self.m, self.j, self.r, k)
     }
     fn positions<D: Scalar>(&self, _t: D, q: &[D], r: &mut [D]) {
         let (sa, ca) = self.alpha.sin_cos();
-        let (cx, cy) = (q[0] * ca, -q[0] * sa);
-        let (s, c) = (q[0] / self.r + self.alpha).sin_cos();
-        let (ux, uy) = (s * self.r, c * self.r);
-        r[0] = cx;
-        r[1] = cy;
-        r[2] = cx + ux;
-        r[3] = cy + uy;
-        r[4] = cx - ux;
-        r[5] = cy - uy;
+        let psi = q[0] / self.r + self.alpha;
+        rigid_disc::points(q[0] * ca, -q[0] * sa, psi, self.r, r);
     }
     fn depends_on_time(&self) -> bool {
         false
