@@ -392,12 +392,18 @@ def run_stability(quick: bool = False, methods: Optional[Sequence[str]] = None,
         chosen = [c for c in chosen if c.key in cases]
     outcomes: List[Outcome] = []
     references: Dict[str, str] = {}
+    shared: Dict[int, Tuple[Optional[Reference], str]] = {}
     for case in chosen:
         progress(f"  {case.title}")
         if case.measure == "energy":
             ref, how = None, "energy function at the start"
+        elif case.base is not None and id(case.base) in shared:
+            # The scaled cases share one unscaled reference: compute it once.
+            ref, how = shared[id(case.base)]
         else:
             ref, how = _reference(case)
+            if case.base is not None:
+                shared[id(case.base)] = (ref, how)
         tau = _lyapunov_time(case) if case.chaotic else None
         if tau is not None:
             how += f"; Lyapunov time τ ≈ {tau:.2g} s, so t_end ≈ {case.t_end / tau:.0f} τ"
