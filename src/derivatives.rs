@@ -1,17 +1,22 @@
 //! The forward-mode derivative passes behind the equations of motion.
 //!
 //! Each term of eq. 55 gets only the pass it needs (DESIGN.md):
-//! - [`gradient`]: one first-order vector-dual pass (∂U/∂q, ∂T/∂q, ∂Φ/∂q̇, p = ∂T/∂q̇);
-//! - [`inertia`]: one hyper-dual pass whose first directions are q̇ and whose second directions
-//!   are q̇ plus the single direction (q, q̇, t) ↦ (q̇, 0, 1) along the motion. Its mixed part holds
-//!   M = ∂²T/∂q̇² and the two mixed terms (∂²T/∂q̇∂q) q̇ + ∂²T/∂q̇∂t at once — no full Hessian of L.
+//! - [`gradient`]: one first-order vector-dual pass (∂U/∂q, ∂Φ/∂q̇, p = ∂T/∂q̇);
+//! - [`inertia`]: everything T contributes, M = ∂²T/∂q̇² and the kinetic terms
+//!   ∂T/∂q − (∂²T/∂q̇∂q) q̇ − ∂²T/∂q̇∂t, from one hyper-dual pass whose first directions are q̇ and
+//!   whose second directions are q̇ and q: its mixed part holds M and ∂²T/∂q̇∂q, its second
+//!   first-order part ∂T/∂q. T (and every sine in it) is evaluated once; no full Hessian of L.
+//!   A T with explicit time dependence gets one more small pass for ∂²T/∂q̇∂t.
 //!
 //! Up to [`CHUNK`] coordinates are seeded in one pass (the const `C` equals the number of
 //! coordinates, so nothing is wasted); larger systems are seeded in chunks of [`CHUNK`], the way
-//! ForwardDiff.jl does. The const `C1` is always `C + 1` (stable Rust cannot write `C + 1` in a
-//! type).
+//! ForwardDiff.jl does, with M by blocks and the kinetic terms from a gradient pass and one
+//! hyper-dual pass per chunk along the motion (q, q̇, t) ↦ (q̇, 0, 1). The const `C2` is always
+//! `2 C` (stable Rust cannot write `2 * C` in a type).
 
-use crate::scalar::{Grad, Hyper, grad_const, grad_part, grad_seed, hyper, hyper_mixed, with_buf};
+use crate::scalar::{
+    Grad, Hyper, grad_const, grad_part, grad_seed, hyper, hyper_eps2, hyper_mixed, with_buf,
+};
 use crate::{KineticEnergy, Scalar};
 use nalgebra::{SMatrix, SVector};
 
@@ -65,108 +70,126 @@ fn gradient_n<const C: usize, D: Scalar, F>(
     let (q, qd, out) = (&q[..n], &qd[..n], &mut out[..n]);
     let tt = grad_const::<D, C>(t);
     let zero = grad_const::<D, C>(D::zero());
-    with_buf::<_, C, _>(n, zero, |qs| {
-        with_buf::<_, C, _>(n, zero, |qds| {
-            let (seeded, fixed, x_fixed, x_seeded) = match wrt {
-                Wrt::Position => (qs, qds, qd, q),
-                Wrt::Velocity => (qds, qs, q, qd),
-            };
-            for (l, &x) in fixed.iter_mut().zip(x_fixed) {
-                *l = grad_const(x);
-            }
-            for start in (0..n).step_by(C) {
-                let end = (start + C).min(n);
-                for (i, (l, &x)) in seeded.iter_mut().zip(x_seeded).enumerate() {
-                    *l = if (start..end).contains(&i) {
-                        grad_seed(x, i - start)
-                    } else {
-                        grad_const(x)
+    with_buf::<_, C, _>(
+        n,
+        zero,
+        #[inline(always)]
+        |qs| {
+            with_buf::<_, C, _>(
+                n,
+                zero,
+                #[inline(always)]
+                |qds| {
+                    let (seeded, fixed, x_fixed, x_seeded) = match wrt {
+                        Wrt::Position => (qs, qds, qd, q),
+                        Wrt::Velocity => (qds, qs, q, qd),
                     };
-                }
-                let v = match wrt {
-                    Wrt::Position => f(tt, seeded, fixed),
-                    Wrt::Velocity => f(tt, fixed, seeded),
-                };
-                for i in start..end {
-                    out[i] += grad_part(&v, i - start) * sign;
-                }
-            }
-        })
-    })
+                    for (l, &x) in fixed.iter_mut().zip(x_fixed) {
+                        *l = grad_const(x);
+                    }
+                    for start in (0..n).step_by(C) {
+                        let end = (start + C).min(n);
+                        for (i, (l, &x)) in seeded.iter_mut().zip(x_seeded).enumerate() {
+                            *l = if (start..end).contains(&i) {
+                                grad_seed(x, i - start)
+                            } else {
+                                grad_const(x)
+                            };
+                        }
+                        let v = match wrt {
+                            Wrt::Position => f(tt, seeded, fixed),
+                            Wrt::Velocity => f(tt, fixed, seeded),
+                        };
+                        for i in start..end {
+                            out[i] += grad_part(&v, i - start) * sign;
+                        }
+                    }
+                },
+            )
+        },
+    )
 }
 
 /// What [`inertia`] should fill.
 pub(crate) struct InertiaOut<'a, D> {
-    /// Row-major M = ∂²T/∂q̇².
+    /// Row-major M = ∂²T/∂q̇², overwritten.
     pub mass: Option<&'a mut [D]>,
-    /// (∂²T/∂q̇∂q) q̇ + ∂²T/∂q̇∂t.
-    pub mixed: Option<&'a mut [D]>,
+    /// ∂T/∂q − (∂²T/∂q̇∂q) q̇ − ∂²T/∂q̇∂t, added in.
+    pub kinetic_terms: Option<&'a mut [D]>,
 }
 
-/// Mass matrix and mixed terms of `ke` by hyper-dual passes (see the module docs).
-pub(crate) fn inertia<const C: usize, const C1: usize, D: Scalar, K: KineticEnergy>(
+/// Mass matrix and kinetic terms of `ke` (see the module docs).
+#[inline(always)]
+pub(crate) fn inertia<const C: usize, const C2: usize, D: Scalar, K: KineticEnergy>(
     ke: &K,
     t: D,
     q: &[D],
     qd: &[D],
     out: InertiaOut<'_, D>,
 ) {
-    debug_assert_eq!(C1, C + 1);
+    debug_assert_eq!(C2, 2 * C);
+    let InertiaOut {
+        mass,
+        kinetic_terms,
+    } = out;
     let n = q.len();
-    if n == C {
-        fused::<C, C1, D, K>(ke, t, q, qd, out);
-        return;
-    }
-    let InertiaOut { mass, mixed } = out;
-    if let Some(m) = mass {
-        mass_blocks::<C, D, K>(ke, t, q, qd, m);
-    }
-    if let Some(mix) = mixed {
-        mixed_chunks::<C, D, K>(ke, t, q, qd, mix);
-    }
-}
-
-/// All of M and the mixed terms in one pass, for n = C.
-#[inline]
-fn fused<const C: usize, const C1: usize, D: Scalar, K: KineticEnergy>(
-    ke: &K,
-    t: D,
-    q: &[D],
-    qd: &[D],
-    out: InertiaOut<'_, D>,
-) {
-    let n = C;
-    let along = |x: D| {
-        let mut e = SMatrix::<D, 1, C1>::zeros();
-        e[C] = x;
-        e
-    };
-    let tt = hyper::<D, C, C1>(t, None, Some(along(D::one())));
-    let qs: [Hyper<D, C, C1>; C] = std::array::from_fn(|i| hyper(q[i], None, Some(along(qd[i]))));
-    let qds: [Hyper<D, C, C1>; C] = std::array::from_fn(|i| {
-        let mut e1 = SVector::<D, C>::zeros();
-        e1[i] = D::one();
-        let mut e2 = SMatrix::<D, 1, C1>::zeros();
-        e2[i] = D::one();
-        hyper(qd[i], Some(e1), Some(e2))
-    });
-    let v = ke.kinetic(tt, &qs, &qds);
-    let InertiaOut { mass, mixed } = out;
-    if let Some(m) = mass {
-        for i in 0..n {
-            for j in 0..n {
-                m[i * n + j] = hyper_mixed(&v, i, j);
+    match kinetic_terms {
+        Some(terms) if n == C => {
+            fused::<C, C2, D, K>(ke, t, q, qd, mass, terms);
+            if ke.depends_on_time() {
+                along::<C, D, K>(ke, t, q, qd, Along::Time, terms);
+            }
+        }
+        terms => {
+            if let Some(m) = mass {
+                mass_blocks::<C, D, K>(ke, t, q, qd, m);
+            }
+            if let Some(terms) = terms {
+                let f = |t, q: &[_], qd: &[_]| ke.kinetic(t, q, qd);
+                gradient::<C, D, _>(t, q, qd, Wrt::Position, 1.0, f, terms);
+                along::<C, D, K>(ke, t, q, qd, Along::Motion, terms);
             }
         }
     }
-    if let Some(mix) = mixed {
-        for (i, x) in mix.iter_mut().enumerate() {
-            *x = hyper_mixed(&v, i, C);
+}
+
+/// M and the kinetic terms but ∂²T/∂q̇∂t in one pass, for n = C: first directions q̇, second
+/// directions (q̇, q).
+#[inline(always)]
+fn fused<const C: usize, const C2: usize, D: Scalar, K: KineticEnergy>(
+    ke: &K,
+    t: D,
+    q: &[D],
+    qd: &[D],
+    mass: Option<&mut [D]>,
+    terms: &mut [D],
+) {
+    // Seeds built whole (not zeros then one store) so no wide load waits on a narrow store.
+    let unit = |i: usize| SMatrix::<D, 1, C2>::from_fn(|_, j| D::from((i == j) as u8 as f64));
+    let tt = hyper::<D, C, C2>(t, None, None);
+    let qs: [Hyper<D, C, C2>; C] = std::array::from_fn(|i| hyper(q[i], None, Some(unit(C + i))));
+    let qds: [Hyper<D, C, C2>; C] = std::array::from_fn(|i| {
+        let e1 = SVector::<D, C>::from_fn(|k, _| D::from((i == k) as u8 as f64));
+        hyper(qd[i], Some(e1), Some(unit(i)))
+    });
+    let v = ke.kinetic(tt, &qs, &qds);
+    if let Some(m) = mass {
+        for i in 0..C {
+            for j in 0..C {
+                m[i * C + j] = hyper_mixed(&v, i, j);
+            }
         }
+    }
+    for (i, x) in terms.iter_mut().enumerate() {
+        let mut s = hyper_eps2(&v, C + i);
+        for (j, &w) in qd.iter().enumerate() {
+            s -= hyper_mixed(&v, i, C + j) * w;
+        }
+        *x += s;
     }
 }
 
-/// M by blocks of C × C, for n > C (upper blocks mirrored).
+/// M by blocks of C × C (upper blocks mirrored).
 fn mass_blocks<const C: usize, D: Scalar, K: KineticEnergy>(
     ke: &K,
     t: D,
@@ -206,22 +229,36 @@ fn mass_blocks<const C: usize, D: Scalar, K: KineticEnergy>(
     }
 }
 
-/// The mixed terms by chunks of C first directions and the one direction along the motion.
-fn mixed_chunks<const C: usize, D: Scalar, K: KineticEnergy>(
+/// The one second direction of [`along`].
+#[derive(Clone, Copy)]
+enum Along {
+    /// (q, q̇, t) ↦ (q̇, 0, 1): the mixed part is (∂²T/∂q̇∂q) q̇ + ∂²T/∂q̇∂t.
+    Motion,
+    /// (q, q̇, t) ↦ (0, 0, 1): the mixed part is ∂²T/∂q̇∂t.
+    Time,
+}
+
+/// `terms −= ∂/∂q̇ of the derivative of T along one second direction`, by chunks of C first
+/// directions.
+fn along<const C: usize, D: Scalar, K: KineticEnergy>(
     ke: &K,
     t: D,
     q: &[D],
     qd: &[D],
-    mix: &mut [D],
+    direction: Along,
+    terms: &mut [D],
 ) {
     let n = q.len();
     let one = |x: D| Some(SMatrix::<D, 1, 1>::new(x));
     let tt = hyper::<D, C, 1>(t, None, one(D::one()));
-    let qs: Vec<Hyper<D, C, 1>> = q
-        .iter()
-        .zip(qd)
-        .map(|(&x, &v)| hyper(x, None, one(v)))
-        .collect();
+    let qs: Vec<Hyper<D, C, 1>> = match direction {
+        Along::Motion => q
+            .iter()
+            .zip(qd)
+            .map(|(&x, &v)| hyper(x, None, one(v)))
+            .collect(),
+        Along::Time => q.iter().map(|&x| hyper(x, None, None)).collect(),
+    };
     let mut qds: Vec<Hyper<D, C, 1>> = Vec::with_capacity(n);
     for bi in (0..n).step_by(C) {
         qds.clear();
@@ -235,7 +272,7 @@ fn mixed_chunks<const C: usize, D: Scalar, K: KineticEnergy>(
         }));
         let v = ke.kinetic(tt, &qs, &qds);
         for i in bi..(bi + C).min(n) {
-            mix[i] = hyper_mixed(&v, i - bi, 0);
+            terms[i] -= hyper_mixed(&v, i - bi, 0);
         }
     }
 }

@@ -184,14 +184,14 @@ pub(crate) fn check_lengths<D>(n: usize, q: &[D], qd: &[D], out: &[D]) -> Result
 }
 
 /// Call a const-generic method with `C` = the number of coordinates (up to the chunk size) and
-/// `C1 = C + 1`.
+/// `C2 = 2 C`.
 macro_rules! by_dof {
     ($n:expr, $this:ident . $f:ident ( $($arg:expr),* $(,)? )) => {
         match $n {
             1 => $this.$f::<1, 2, _>($($arg),*),
-            2 => $this.$f::<2, 3, _>($($arg),*),
-            3 => $this.$f::<3, 4, _>($($arg),*),
-            _ => $this.$f::<{ $crate::derivatives::CHUNK }, { $crate::derivatives::CHUNK + 1 }, _>($($arg),*),
+            2 => $this.$f::<2, 4, _>($($arg),*),
+            3 => $this.$f::<3, 6, _>($($arg),*),
+            _ => $this.$f::<{ $crate::derivatives::CHUNK }, { 2 * $crate::derivatives::CHUNK }, _>($($arg),*),
         }
     };
 }

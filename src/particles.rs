@@ -13,7 +13,7 @@
 use crate::derivatives::{Wrt, gradient};
 use crate::dynamics::{Dynamics, Structure, by_dof, check_lengths, finite_re};
 use crate::error::Result;
-use crate::linalg::{cholesky_in_place, cholesky_solve};
+use crate::linalg::{ldlt_in_place, ldlt_solve};
 use crate::scalar::{Grad, grad_const, grad_part, grad_seed, with_buf};
 use crate::system::singular;
 use crate::{Dissipation, GeneralizedForces, KineticEnergy, Potential, Scalar, System};
@@ -202,7 +202,7 @@ impl<P: Particles, F: CartesianForces> GeneralizedForces for MappedForces<P, F> 
 }
 
 impl<P: Particles, F> MappedForces<P, F> {
-    fn jacobian_and_velocity<const C: usize, const C1: usize, D: Scalar>(
+    fn jacobian_and_velocity<const C: usize, const C2: usize, D: Scalar>(
         &self,
         t: D,
         q: &[D],
@@ -479,7 +479,7 @@ where
         }
     }
 
-    fn accelerations_dof<const C: usize, const C1: usize, D: Scalar>(
+    fn accelerations_dof<const C: usize, const C2: usize, D: Scalar>(
         &self,
         t: D,
         q: &[D],
@@ -530,8 +530,8 @@ where
                         project(jac, n, f, out);
                         with_buf::<D, 16, _>(n * n, zero, |m| {
                             particle_mass_matrix(p, jac, n, m);
-                            cholesky_in_place(m, n).map_err(|e| singular(e.reason(), t, q))?;
-                            cholesky_solve(&*m, n, out);
+                            ldlt_in_place(m, n).map_err(|e| singular(e.reason(), t, q))?;
+                            ldlt_solve(&*m, n, out);
                             finite_re(out, "accelerations", t)
                         })
                     })
@@ -540,7 +540,7 @@ where
         })
     }
 
-    fn mass_matrix_dof<const C: usize, const C1: usize, D: Scalar>(
+    fn mass_matrix_dof<const C: usize, const C2: usize, D: Scalar>(
         &self,
         t: D,
         q: &[D],
@@ -555,7 +555,7 @@ where
         })
     }
 
-    fn momenta_dof<const C: usize, const C1: usize, D: Scalar>(
+    fn momenta_dof<const C: usize, const C2: usize, D: Scalar>(
         &self,
         t: D,
         q: &[D],
@@ -580,7 +580,7 @@ where
         })
     }
 
-    fn potential_gradient_dof<const C: usize, const C1: usize, D: Scalar>(
+    fn potential_gradient_dof<const C: usize, const C2: usize, D: Scalar>(
         &self,
         t: D,
         q: &[D],

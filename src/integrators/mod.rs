@@ -25,7 +25,7 @@
 //! whose Newton iteration fails is retried as two half steps, at most ten times nested, then
 //! [`Error::NewtonFailure`]. Their `rhs_evaluations` count evaluations of (p, ∂L/∂q + Q″ −
 //! ∂Φ/∂q̇) at one stage; Radau's count evaluations of q̈. `jacobian_evaluations` and
-//! `factorizations` count AD Jacobians and LU (or Cholesky) factorizations.
+//! `factorizations` count AD Jacobians and LU (or LDLᵀ) factorizations.
 //!
 //! Failure is typed and early: [`Error::StepSizeTooSmall`], [`Error::TooManySteps`],
 //! [`Error::NonFinite`] with the time it appeared, [`Error::Stiffness`] when Hairer's test

@@ -12,7 +12,7 @@ use crate::Scalar;
 use crate::derivatives::{CHUNK, Wrt, gradient};
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
-use crate::linalg::{cholesky_in_place, cholesky_solve};
+use crate::linalg::{ldlt_in_place, ldlt_solve};
 use nalgebra::{ComplexField, DMatrix};
 use num_dual::Dual64;
 
@@ -355,7 +355,7 @@ impl Legendre {
     }
 
     /// Solve ∂L/∂q̇(t, q, v) = p for the velocity v, by Newton from the guess in `v`, with
-    /// M = ∂²T/∂q̇² (Cholesky) at the guess. `floor` is the smallest velocity scale that the
+    /// M = ∂²T/∂q̇² (LDLᵀ) at the guess. `floor` is the smallest velocity scale that the
     /// convergence test measures increments against.
     ///
     /// # Errors
@@ -374,8 +374,7 @@ impl Legendre {
     ) -> Result<()> {
         let n = q.len();
         system.mass_matrix_into(t, q, v, &mut self.mass);
-        cholesky_in_place(&mut self.mass, n)
-            .map_err(|f| crate::system::singular(f.reason(), t, q))?;
+        ldlt_in_place(&mut self.mass, n).map_err(|f| crate::system::singular(f.reason(), t, q))?;
         stats.factorizations += 1;
         let mut conv = Convergence::new(LEGENDRE_ITERATIONS);
         loop {
@@ -383,7 +382,7 @@ impl Legendre {
             for (r, pi) in self.residual.iter_mut().zip(p) {
                 *r -= pi;
             }
-            cholesky_solve(&self.mass, n, &mut self.residual);
+            ldlt_solve(&self.mass, n, &mut self.residual);
             for (vi, d) in v.iter_mut().zip(&self.residual) {
                 *vi -= d;
             }

@@ -5,13 +5,13 @@
 //! K(b₀h) D(a₀h) K(b₁h) D(a₁h) … D(a_{s−1}h) K(b_s h).
 //!
 //! The last kick's force is the first kick's of the next step (FSAL): s force evaluations per
-//! step. M is factored once (Cholesky).
+//! step. M is factored once (LDLᵀ).
 
 use super::dense::{self, Ends};
 use super::{Integrator, Run};
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
-use crate::linalg::{cholesky_in_place, cholesky_solve};
+use crate::linalg::{ldlt_in_place, ldlt_solve};
 use num_dual::Dual64;
 
 /// The coefficients of a kick–drift splitting: kicks `b` (one more than drifts) and drifts
@@ -227,7 +227,7 @@ impl Kick {
                 *o += f;
             }
         }
-        cholesky_solve(&self.factor, run.n, out);
+        ldlt_solve(&self.factor, run.n, out);
         if out.iter().all(|a| a.is_finite()) {
             Ok(())
         } else {
@@ -293,8 +293,7 @@ impl Integrator for Splitting {
         let (t0, q0, qd0) = (run.t0, &run.y0[..n], &run.y0[n..]);
         let mut factor = vec![0.0; n * n];
         run.system.mass_matrix_into(t0, q0, qd0, &mut factor);
-        cholesky_in_place(&mut factor, n)
-            .map_err(|f| crate::system::singular(f.reason(), t0, q0))?;
+        ldlt_in_place(&mut factor, n).map_err(|f| crate::system::singular(f.reason(), t0, q0))?;
         run.stats.factorizations += 1;
         let mut kick = Kick {
             factor,

@@ -135,6 +135,7 @@ impl DoublePendulum {
 }
 
 impl KineticEnergy for DoublePendulum {
+    #[inline]
     fn kinetic<D: Scalar>(&self, _t: D, q: &[D], qd: &[D]) -> D {
         let Self { m1, m2, l1, l2, .. } = *self;
         qd[0] * qd[0] * (0.5 * (m1 + m2) * l1 * l1)
@@ -147,6 +148,7 @@ impl KineticEnergy for DoublePendulum {
 }
 
 impl Potential for DoublePendulum {
+    #[inline]
     fn potential<D: Scalar>(&self, _t: D, q: &[D]) -> D {
         let Self { m1, m2, l1, l2, g } = *self;
         -(q[0].cos() * ((m1 + m2) * g * l1) + q[1].cos() * (m2 * g * l2))

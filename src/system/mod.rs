@@ -15,7 +15,7 @@ use crate::Scalar;
 use crate::derivatives::{InertiaOut, Wrt, gradient, inertia};
 use crate::dynamics::{Dynamics, Structure, by_dof, check_lengths, finite_re};
 use crate::error::{Error, Result};
-use crate::linalg::{cholesky_in_place, cholesky_solve};
+use crate::linalg::{ldlt_in_place, ldlt_solve};
 use crate::scalar::with_buf;
 use std::sync::OnceLock;
 
@@ -56,7 +56,7 @@ pub struct System<T, U = (), R = (), Q = ()> {
     pub dissipation: R,
     /// Generalized forces Q″(t, q, q̇); `()` when absent.
     pub forces: Q,
-    /// Cholesky factor of a constant mass matrix, computed on first use.
+    /// LDLᵀ factor of a constant mass matrix, computed on first use.
     constant_factor: OnceLock<Result<Vec<f64>>>,
 }
 
@@ -136,31 +136,22 @@ where
     R: Dissipation,
     Q: GeneralizedForces,
 {
-    /// The right-hand side of eq. 55 without the inertia terms: Q″ + ∂L/∂q − ∂Φ/∂q̇.
+    /// The terms of eq. 55's right-hand side that T does not give, added into `out`:
+    /// Q″ − ∂U/∂q − ∂Φ/∂q̇.
+    #[inline(always)]
     fn force_terms<const C: usize, D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        out.fill(D::zero());
         if self.forces.is_present() {
             self.forces.forces(t, q, qd, out);
         }
-        let with_t = self.kinetic.depends_on_position();
-        let with_u = self.potential.is_present();
-        if with_t || with_u {
+        if self.potential.is_present() {
             gradient::<C, D, _>(
                 t,
                 q,
                 qd,
                 Wrt::Position,
-                1.0,
-                |t, q, qd| {
-                    let mut l = t * 0.0;
-                    if with_t {
-                        l += self.kinetic.kinetic(t, q, qd);
-                    }
-                    if with_u {
-                        l -= self.potential.potential(t, q);
-                    }
-                    l
-                },
+                -1.0,
+                #[inline(always)]
+                |t, q, _qd| self.potential.potential(t, q),
                 out,
             );
         }
@@ -171,18 +162,19 @@ where
                 qd,
                 Wrt::Velocity,
                 -1.0,
+                #[inline(always)]
                 |t, q, qd| self.dissipation.dissipation(t, q, qd),
                 out,
             );
         }
     }
 
-    /// Whether T has the mixed terms (∂²T/∂q̇∂q) q̇ + ∂²T/∂q̇∂t at all.
-    fn has_mixed_terms(&self) -> bool {
+    /// Whether T gives terms besides M q̈: ∂T/∂q − (∂²T/∂q̇∂q) q̇ − ∂²T/∂q̇∂t.
+    fn has_kinetic_terms(&self) -> bool {
         self.kinetic.depends_on_position() || self.kinetic.depends_on_time()
     }
 
-    fn accelerations_dof<const C: usize, const C1: usize, D: Scalar>(
+    fn accelerations_dof<const C: usize, const C2: usize, D: Scalar>(
         &self,
         t: D,
         q: &[D],
@@ -191,14 +183,14 @@ where
     ) -> Result<()> {
         // A copy of the body with the size known at compile time for the common n == C case.
         if self.dof == C {
-            self.accelerations_n::<C, C1, D>(C, t, q, qd, out)
+            self.accelerations_n::<C, C2, D>(C, t, q, qd, out)
         } else {
-            self.accelerations_n::<C, C1, D>(self.dof, t, q, qd, out)
+            self.accelerations_n::<C, C2, D>(self.dof, t, q, qd, out)
         }
     }
 
     #[inline(always)]
-    fn accelerations_n<const C: usize, const C1: usize, D: Scalar>(
+    fn accelerations_n<const C: usize, const C2: usize, D: Scalar>(
         &self,
         n: usize,
         t: D,
@@ -207,42 +199,44 @@ where
         out: &mut [D],
     ) -> Result<()> {
         let (q, qd, out) = (&q[..n], &qd[..n], &mut out[..n]);
-        self.force_terms::<C, D>(t, q, qd, out);
-        let mixed = self.has_mixed_terms();
-        let zero = D::zero();
-        with_buf::<D, 8, _>(if mixed { n } else { 0 }, zero, |mix| {
-            if self.kinetic.constant_mass_matrix() {
-                if mixed {
-                    let io = InertiaOut {
-                        mass: None,
-                        mixed: Some(&mut *mix),
-                    };
-                    inertia::<C, C1, D, T>(&self.kinetic, t, q, qd, io);
-                    subtract(out, mix);
-                }
-                let l = self.constant_factor::<C, C1, D>(t, q, qd)?;
-                cholesky_solve(l, n, out);
-            } else {
-                with_buf::<D, 16, _>(n * n, zero, |m| {
+        out.fill(D::zero());
+        let kinetic_terms = self.has_kinetic_terms();
+        if self.kinetic.constant_mass_matrix() {
+            let f = self.constant_factor::<C, C2, D>(t, q, qd)?;
+            if kinetic_terms {
+                let io = InertiaOut {
+                    mass: None,
+                    kinetic_terms: Some(&mut *out),
+                };
+                inertia::<C, C2, D, T>(&self.kinetic, t, q, qd, io);
+            }
+            self.force_terms::<C, D>(t, q, qd, out);
+            ldlt_solve(f, n, out);
+        } else {
+            with_buf::<D, 16, _>(
+                n * n,
+                D::zero(),
+                #[inline(always)]
+                |m| {
                     let io = InertiaOut {
                         mass: Some(&mut *m),
-                        mixed: mixed.then_some(&mut *mix),
+                        kinetic_terms: kinetic_terms.then_some(&mut *out),
                     };
-                    inertia::<C, C1, D, T>(&self.kinetic, t, q, qd, io);
-                    if mixed {
-                        subtract(out, mix);
-                    }
-                    cholesky_in_place(m, n).map_err(|f| singular(f.reason(), t, q))?;
-                    cholesky_solve(&*m, n, out);
+                    inertia::<C, C2, D, T>(&self.kinetic, t, q, qd, io);
+                    // Factored before the remaining force terms are computed: the factorization
+                    // is a serial chain of divisions, which the CPU then overlaps with them.
+                    ldlt_in_place(m, n).map_err(|f| singular(f.reason(), t, q))?;
+                    self.force_terms::<C, D>(t, q, qd, out);
+                    ldlt_solve(&*m, n, out);
                     Ok(())
-                })?;
-            }
-            finite_re(out, "accelerations", t)
-        })
+                },
+            )?;
+        }
+        finite_re(out, "accelerations", t)
     }
 
-    /// The Cholesky factor of a constant mass matrix, computed once at the first state seen.
-    fn constant_factor<const C: usize, const C1: usize, D: Scalar>(
+    /// The LDLᵀ factor of a constant mass matrix, computed once at the first state seen.
+    fn constant_factor<const C: usize, const C2: usize, D: Scalar>(
         &self,
         t: D,
         q: &[D],
@@ -256,16 +250,16 @@ where
             let mut m = vec![0.0; n * n];
             let io = InertiaOut {
                 mass: Some(&mut m),
-                mixed: None,
+                kinetic_terms: None,
             };
-            inertia::<C, C1, f64, T>(&self.kinetic, tr, &qr, &qdr, io);
-            cholesky_in_place(&mut m, n).map_err(|f| singular(f.reason(), tr, &qr))?;
+            inertia::<C, C2, f64, T>(&self.kinetic, tr, &qr, &qdr, io);
+            ldlt_in_place(&mut m, n).map_err(|f| singular(f.reason(), tr, &qr))?;
             Ok(m)
         });
         factor.as_deref().map_err(Clone::clone)
     }
 
-    fn mass_matrix_dof<const C: usize, const C1: usize, D: Scalar>(
+    fn mass_matrix_dof<const C: usize, const C2: usize, D: Scalar>(
         &self,
         t: D,
         q: &[D],
@@ -274,12 +268,12 @@ where
     ) {
         let io = InertiaOut {
             mass: Some(out),
-            mixed: None,
+            kinetic_terms: None,
         };
-        inertia::<C, C1, D, T>(&self.kinetic, t, q, qd, io);
+        inertia::<C, C2, D, T>(&self.kinetic, t, q, qd, io);
     }
 
-    fn momenta_dof<const C: usize, const C1: usize, D: Scalar>(
+    fn momenta_dof<const C: usize, const C2: usize, D: Scalar>(
         &self,
         t: D,
         q: &[D],
@@ -291,7 +285,7 @@ where
         gradient::<C, D, _>(t, q, qd, Wrt::Velocity, 1.0, f, out);
     }
 
-    fn potential_gradient_dof<const C: usize, const C1: usize, D: Scalar>(
+    fn potential_gradient_dof<const C: usize, const C2: usize, D: Scalar>(
         &self,
         t: D,
         q: &[D],
@@ -303,7 +297,7 @@ where
         }
     }
 
-    fn dissipative_forces_dof<const C: usize, const C1: usize, D: Scalar>(
+    fn dissipative_forces_dof<const C: usize, const C2: usize, D: Scalar>(
         &self,
         t: D,
         q: &[D],
@@ -315,13 +309,6 @@ where
             let f = |t, q: &[_], qd: &[_]| self.dissipation.dissipation(t, q, qd);
             gradient::<C, D, _>(t, q, qd, Wrt::Velocity, -1.0, f, out);
         }
-    }
-}
-
-/// `out -= x`.
-pub(crate) fn subtract<D: Scalar>(out: &mut [D], x: &[D]) {
-    for (o, &v) in out.iter_mut().zip(x) {
-        *o -= v;
     }
 }
 

@@ -4,7 +4,7 @@
 use super::jet::{Chain, First, Jet, Lagrange};
 use super::{Function, Input};
 use crate::dynamics::{check_lengths, finite_re};
-use crate::linalg::{cholesky_in_place, cholesky_solve};
+use crate::linalg::{ldlt_in_place, ldlt_solve};
 use crate::system::singular;
 use crate::{Dynamics, Error, GeneralizedForces, KineticEnergy, Result, Scalar, Structure, System};
 
@@ -183,8 +183,8 @@ impl EnergyModel {
                 }
             });
         }
-        cholesky_in_place(m, N).map_err(|f| singular(f.reason(), t, q))?;
-        cholesky_solve(&*m, N, &mut rhs);
+        ldlt_in_place(m, N).map_err(|f| singular(f.reason(), t, q))?;
+        ldlt_solve(&*m, N, &mut rhs);
         out.copy_from_slice(&rhs);
         finite_re(out, "accelerations", t)
     }
