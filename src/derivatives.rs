@@ -6,6 +6,8 @@
 //!   ∂T/∂q − (∂²T/∂q̇∂q) q̇ − ∂²T/∂q̇∂t, from one hyper-dual pass whose first directions are q̇ and
 //!   whose second directions are q̇ and q: its mixed part holds M and ∂²T/∂q̇∂q, its second
 //!   first-order part ∂T/∂q. T (and every sine in it) is evaluated once; no full Hessian of L.
+//!   The same pass evaluates L = T − U rather than T, so it also gives −∂U/∂q (U has no q̇, so
+//!   it leaves M and ∂²T/∂q̇∂q alone) and U needs no pass of its own.
 //!   A T with explicit time dependence gets one more small pass for ∂²T/∂q̇∂t.
 //!
 //! Up to [`CHUNK`] coordinates are seeded in one pass (the const `C` equals the number of
@@ -17,7 +19,7 @@
 use crate::scalar::{
     Grad, Hyper, grad_const, grad_part, grad_seed, hyper, hyper_eps2, hyper_mixed, with_buf,
 };
-use crate::{KineticEnergy, Scalar};
+use crate::{KineticEnergy, Potential, Scalar};
 use nalgebra::{SMatrix, SVector};
 
 /// The largest number of coordinates differentiated in one pass.
@@ -118,15 +120,24 @@ pub(crate) struct InertiaOut<'a, D> {
     pub kinetic_terms: Option<&'a mut [D]>,
 }
 
-/// Mass matrix and kinetic terms of `ke` (see the module docs).
+/// Mass matrix and kinetic terms of `ke` (see the module docs). Where the one fused pass runs
+/// (n = C and kinetic terms requested) it differentiates L = T − U instead of T, so −∂U/∂q is
+/// added into the kinetic terms at no extra pass; the return value says whether it was.
 #[inline(always)]
-pub(crate) fn inertia<const C: usize, const C2: usize, D: Scalar, K: KineticEnergy>(
+pub(crate) fn inertia<
+    const C: usize,
+    const C2: usize,
+    D: Scalar,
+    K: KineticEnergy,
+    P: Potential,
+>(
     ke: &K,
+    pot: &P,
     t: D,
     q: &[D],
     qd: &[D],
     out: InertiaOut<'_, D>,
-) {
+) -> bool {
     debug_assert_eq!(C2, 2 * C);
     let InertiaOut {
         mass,
@@ -135,10 +146,11 @@ pub(crate) fn inertia<const C: usize, const C2: usize, D: Scalar, K: KineticEner
     let n = q.len();
     match kinetic_terms {
         Some(terms) if n == C => {
-            fused::<C, C2, D, K>(ke, t, q, qd, mass, terms);
+            fused::<C, C2, D, K, P>(ke, pot, t, q, qd, mass, terms);
             if ke.depends_on_time() {
                 along::<C, D, K>(ke, t, q, qd, Along::Time, terms);
             }
+            pot.is_present()
         }
         terms => {
             if let Some(m) = mass {
@@ -149,15 +161,17 @@ pub(crate) fn inertia<const C: usize, const C2: usize, D: Scalar, K: KineticEner
                 gradient::<C, D, _>(t, q, qd, Wrt::Position, 1.0, f, terms);
                 along::<C, D, K>(ke, t, q, qd, Along::Motion, terms);
             }
+            false
         }
     }
 }
 
-/// M and the kinetic terms but ∂²T/∂q̇∂t in one pass, for n = C: first directions q̇, second
-/// directions (q̇, q).
+/// M and the kinetic terms but ∂²T/∂q̇∂t in one pass of L = T − U, for n = C: first directions
+/// q̇, second directions (q̇, q). U has no q̇ so adds nothing to the mixed part.
 #[inline(always)]
-fn fused<const C: usize, const C2: usize, D: Scalar, K: KineticEnergy>(
+fn fused<const C: usize, const C2: usize, D: Scalar, K: KineticEnergy, P: Potential>(
     ke: &K,
+    pot: &P,
     t: D,
     q: &[D],
     qd: &[D],
@@ -172,7 +186,10 @@ fn fused<const C: usize, const C2: usize, D: Scalar, K: KineticEnergy>(
         let e1 = SVector::<D, C>::from_fn(|k, _| D::from((i == k) as u8 as f64));
         hyper(qd[i], Some(e1), Some(unit(i)))
     });
-    let v = ke.kinetic(tt, &qs, &qds);
+    let mut v = ke.kinetic(tt, &qs, &qds);
+    if pot.is_present() {
+        v -= pot.potential(tt, &qs);
+    }
     if let Some(m) = mass {
         for i in 0..C {
             for j in 0..C {

@@ -684,3 +684,79 @@ fn exact_state_kepler_general_orbit() {
     }
     assert!(k.exact_state(a, e, f64::NAN).is_err());
 }
+
+/// A particle of mass m in the plane, in polar coordinates (r, φ), in the time-dependent
+/// potential U = ½ k(t) r² − ε t r cos φ with k(t) = k₀(1 + ½ sin t), plus `extra` uncoupled
+/// unit oscillators (so the same equations run through the one-pass and the chunked schemes).
+/// T depends on r, U on t: the accelerations need ∂L/∂q with both parts of L.
+struct PolarWell {
+    m: f64,
+    k0: f64,
+    eps: f64,
+    extra: usize,
+}
+
+impl PolarWell {
+    fn stiffness(&self, t: f64) -> f64 {
+        self.k0 * (1.0 + 0.5 * t.sin())
+    }
+
+    /// By hand: m r̈ = m r φ̇² − k r + ε t cos φ, m r² φ̈ + 2 m r ṙ φ̇ = −ε t r sin φ, ẍ_i = −x_i.
+    fn closed_form(&self, t: f64, q: &[f64], qd: &[f64]) -> Vec<f64> {
+        let (r, phi, rd, phid) = (q[0], q[1], qd[0], qd[1]);
+        let mut a = vec![
+            r * phid * phid + (-self.stiffness(t) * r + self.eps * t * phi.cos()) / self.m,
+            (-self.eps * t * r * phi.sin() - 2.0 * self.m * r * rd * phid) / (self.m * r * r),
+        ];
+        a.extend(q[2..].iter().map(|x| -x));
+        a
+    }
+}
+
+impl lagrangian::KineticEnergy for PolarWell {
+    fn kinetic<D: lagrangian::Scalar>(&self, _t: D, q: &[D], qd: &[D]) -> D {
+        let r = q[0];
+        let mut t = (qd[0] * qd[0] + r * r * qd[1] * qd[1]) * (0.5 * self.m);
+        for v in &qd[2..] {
+            t += *v * *v * 0.5;
+        }
+        t
+    }
+    fn depends_on_time(&self) -> bool {
+        false
+    }
+}
+
+impl lagrangian::Potential for PolarWell {
+    fn potential<D: lagrangian::Scalar>(&self, t: D, q: &[D]) -> D {
+        let k = ((t.sin() * 0.5) + 1.0) * self.k0;
+        let mut u = k * q[0] * q[0] * 0.5 - t * q[0] * q[1].cos() * self.eps;
+        for x in &q[2..] {
+            u += *x * *x * 0.5;
+        }
+        u
+    }
+}
+
+#[test]
+fn time_dependent_potential_with_position_dependent_kinetic_energy() {
+    for extra in [0, 3] {
+        let well = PolarWell {
+            m: 1.7,
+            k0: 2.3,
+            eps: 0.6,
+            extra,
+        };
+        let n = 2 + well.extra;
+        let sys = lagrangian::System::new(n, well).with_potential(PolarWell {
+            m: 1.7,
+            k0: 2.3,
+            eps: 0.6,
+            extra,
+        });
+        for (t, mut q, qd) in states(n) {
+            q[0] = 0.5 + q[0].abs();
+            assert_close(&acc(&sys, t, &q, &qd), &sys.kinetic.closed_form(t, &q, &qd));
+        }
+    }
+}

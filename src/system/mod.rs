@@ -137,13 +137,21 @@ where
     Q: GeneralizedForces,
 {
     /// The terms of eq. 55's right-hand side that T does not give, added into `out`:
-    /// Q″ − ∂U/∂q − ∂Φ/∂q̇.
+    /// Q″ − ∂U/∂q − ∂Φ/∂q̇. `with_potential: false` leaves out −∂U/∂q, which the one-pass
+    /// inertia scheme has already added.
     #[inline(always)]
-    fn force_terms<const C: usize, D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
+    fn force_terms<const C: usize, D: Scalar>(
+        &self,
+        t: D,
+        q: &[D],
+        qd: &[D],
+        with_potential: bool,
+        out: &mut [D],
+    ) {
         if self.forces.is_present() {
             self.forces.forces(t, q, qd, out);
         }
-        if self.potential.is_present() {
+        if with_potential && self.potential.is_present() {
             gradient::<C, D, _>(
                 t,
                 q,
@@ -203,14 +211,16 @@ where
         let kinetic_terms = self.has_kinetic_terms();
         if self.kinetic.constant_mass_matrix() {
             let f = self.constant_factor::<C, C2, D>(t, q, qd)?;
+            let mut with_potential = true;
             if kinetic_terms {
                 let io = InertiaOut {
                     mass: None,
                     kinetic_terms: Some(&mut *out),
                 };
-                inertia::<C, C2, D, T>(&self.kinetic, t, q, qd, io);
+                with_potential =
+                    !inertia::<C, C2, D, T, U>(&self.kinetic, &self.potential, t, q, qd, io);
             }
-            self.force_terms::<C, D>(t, q, qd, out);
+            self.force_terms::<C, D>(t, q, qd, with_potential, out);
             ldlt_solve(f, n, out);
         } else {
             with_buf::<D, 16, _>(
@@ -222,11 +232,12 @@ where
                         mass: Some(&mut *m),
                         kinetic_terms: kinetic_terms.then_some(&mut *out),
                     };
-                    inertia::<C, C2, D, T>(&self.kinetic, t, q, qd, io);
+                    let folded =
+                        inertia::<C, C2, D, T, U>(&self.kinetic, &self.potential, t, q, qd, io);
                     // Factored before the remaining force terms are computed: the factorization
                     // is a serial chain of divisions, which the CPU then overlaps with them.
                     ldlt_in_place(m, n).map_err(|f| singular(f.reason(), t, q))?;
-                    self.force_terms::<C, D>(t, q, qd, out);
+                    self.force_terms::<C, D>(t, q, qd, !folded, out);
                     ldlt_solve(&*m, n, out);
                     Ok(())
                 },
@@ -252,7 +263,7 @@ where
                 mass: Some(&mut m),
                 kinetic_terms: None,
             };
-            inertia::<C, C2, f64, T>(&self.kinetic, tr, &qr, &qdr, io);
+            inertia::<C, C2, f64, T, ()>(&self.kinetic, &(), tr, &qr, &qdr, io);
             ldlt_in_place(&mut m, n).map_err(|f| singular(f.reason(), tr, &qr))?;
             Ok(m)
         });
@@ -270,7 +281,7 @@ where
             mass: Some(out),
             kinetic_terms: None,
         };
-        inertia::<C, C2, D, T>(&self.kinetic, t, q, qd, io);
+        inertia::<C, C2, D, T, ()>(&self.kinetic, &(), t, q, qd, io);
     }
 
     fn momenta_dof<const C: usize, const C2: usize, D: Scalar>(
