@@ -6,8 +6,8 @@
 //!   ∂T/∂q − (∂²T/∂q̇∂q) q̇ − ∂²T/∂q̇∂t, from one hyper-dual pass whose first directions are q̇ and
 //!   whose second directions are q̇ and q: its mixed part holds M and ∂²T/∂q̇∂q, its second
 //!   first-order part ∂T/∂q. T (and every sine in it) is evaluated once; no full Hessian of L.
-//!   The same pass evaluates L = T − U rather than T, so it also gives −∂U/∂q (U has no q̇, so
-//!   it leaves M and ∂²T/∂q̇∂q alone) and U needs no pass of its own.
+//!   For one or two coordinates the same pass evaluates L = T − U rather than T, so it also gives
+//!   −∂U/∂q (U has no q̇, so it leaves M and ∂²T/∂q̇∂q alone) and U needs no pass of its own.
 //!   A T with explicit time dependence gets one more small pass for ∂²T/∂q̇∂t.
 //!
 //! Up to [`CHUNK`] coordinates are seeded in one pass (the const `C` equals the number of
@@ -24,6 +24,12 @@ use nalgebra::{SMatrix, SVector};
 
 /// The largest number of coordinates differentiated in one pass.
 pub(crate) const CHUNK: usize = 4;
+
+/// The largest number of coordinates for which the one-pass scheme also evaluates U. Up to two,
+/// its hyper-dual numbers (≤ 15 components) stay in registers and U rides along for free (double
+/// pendulum, benches/eom.rs: 48 → 42 ns); from three on (28 and 45 components) their operations
+/// are out-of-line calls, and U's own first-order pass is cheaper (4-pendulum: 800 vs 860 ns).
+const FOLD_POTENTIAL_MAX: usize = 2;
 
 /// Which argument a gradient pass differentiates.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -121,8 +127,9 @@ pub(crate) struct InertiaOut<'a, D> {
 }
 
 /// Mass matrix and kinetic terms of `ke` (see the module docs). Where the one fused pass runs
-/// (n = C and kinetic terms requested) it differentiates L = T − U instead of T, so −∂U/∂q is
-/// added into the kinetic terms at no extra pass; the return value says whether it was.
+/// (n = C and kinetic terms requested) and C ≤ [`FOLD_POTENTIAL_MAX`], it differentiates L = T − U
+/// instead of T, so −∂U/∂q is added into the kinetic terms at no extra pass; the return value
+/// says whether it was.
 #[inline(always)]
 pub(crate) fn inertia<
     const C: usize,
@@ -146,11 +153,12 @@ pub(crate) fn inertia<
     let n = q.len();
     match kinetic_terms {
         Some(terms) if n == C => {
-            fused::<C, C2, D, K, P>(ke, pot, t, q, qd, mass, terms);
+            let fold = C <= FOLD_POTENTIAL_MAX && pot.is_present();
+            fused::<C, C2, D, K, P>(ke, fold.then_some(pot), t, q, qd, mass, terms);
             if ke.depends_on_time() {
                 along::<C, D, K>(ke, t, q, qd, Along::Time, terms);
             }
-            pot.is_present()
+            fold
         }
         terms => {
             if let Some(m) = mass {
@@ -166,12 +174,13 @@ pub(crate) fn inertia<
     }
 }
 
-/// M and the kinetic terms but ∂²T/∂q̇∂t in one pass of L = T − U, for n = C: first directions
-/// q̇, second directions (q̇, q). U has no q̇ so adds nothing to the mixed part.
+/// M and the kinetic terms but ∂²T/∂q̇∂t in one pass of L = T − U (or of T alone when `pot` is
+/// `None`), for n = C: first directions q̇, second directions (q̇, q). U has no q̇ so adds nothing
+/// to the mixed part.
 #[inline(always)]
 fn fused<const C: usize, const C2: usize, D: Scalar, K: KineticEnergy, P: Potential>(
     ke: &K,
-    pot: &P,
+    pot: Option<&P>,
     t: D,
     q: &[D],
     qd: &[D],
@@ -187,7 +196,7 @@ fn fused<const C: usize, const C2: usize, D: Scalar, K: KineticEnergy, P: Potent
         hyper(qd[i], Some(e1), Some(unit(i)))
     });
     let mut v = ke.kinetic(tt, &qs, &qds);
-    if pot.is_present() {
+    if let Some(pot) = pot {
         v -= pot.potential(tt, &qs);
     }
     if let Some(m) = mass {

@@ -687,7 +687,8 @@ fn exact_state_kepler_general_orbit() {
 
 /// A particle of mass m in the plane, in polar coordinates (r, φ), in the time-dependent
 /// potential U = ½ k(t) r² − ε t r cos φ with k(t) = k₀(1 + ½ sin t), plus `extra` uncoupled
-/// unit oscillators (so the same equations run through the one-pass and the chunked schemes).
+/// unit oscillators (so the same equations run through the one-pass scheme with U folded into
+/// it, without, and the chunked scheme).
 /// T depends on r, U on t: the accelerations need ∂L/∂q with both parts of L.
 struct PolarWell {
     m: f64,
@@ -740,7 +741,7 @@ impl lagrangian::Potential for PolarWell {
 
 #[test]
 fn time_dependent_potential_with_position_dependent_kinetic_energy() {
-    for extra in [0, 3] {
+    for extra in [0, 1, 3] {
         let well = PolarWell {
             m: 1.7,
             k0: 2.3,
