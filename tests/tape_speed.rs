@@ -91,15 +91,17 @@ fn model(n: usize, build: impl FnOnce(&mut Graph) -> (usize, usize)) -> EnergyMo
     EnergyModel::new(n, t, Some(u), None, None).unwrap()
 }
 
-/// Nanoseconds per call of `f` over `calls` calls, best of three rounds.
+/// Nanoseconds per call of `f`: the best of `calls / 200` rounds of 200 calls (short rounds, so
+/// that on a busy machine some run undisturbed).
 fn time(calls: usize, mut f: impl FnMut(usize)) -> f64 {
-    (0..3)
+    let per_round = 200;
+    (0..calls / per_round)
         .map(|_| {
             let start = Instant::now();
-            for k in 0..calls {
+            for k in 0..per_round {
                 f(k);
             }
-            start.elapsed().as_secs_f64() * 1e9 / calls as f64
+            start.elapsed().as_secs_f64() * 1e9 / per_round as f64
         })
         .fold(f64::INFINITY, f64::min)
 }
