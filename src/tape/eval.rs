@@ -22,7 +22,7 @@ macro_rules! pass_chunks {
     };
 }
 
-/// Fails to compile unless [`pass_chunks!`] lists exactly C = 1..=CHUNK with C2 = 2C.
+/// Fails to compile unless `pass_chunks!` lists exactly C = 1..=CHUNK with C2 = 2C.
 macro_rules! assert_pass_chunks {
     ($(($c:literal, $c2:literal)),*) => {
         const _: () = {
@@ -79,7 +79,7 @@ impl Tape {
     /// Evaluate on (t, q, q̇) with the constants `consts`, handing each output to `emit`.
     ///
     /// The dual numbers of the engine's derivative passes on `f64` states (the shapes of
-    /// [`pass_chunks!`]) are evaluated as plain-array jets (see [`jet`]); every other scalar
+    /// `pass_chunks!`) are evaluated as plain-array jets (see [`jet`]); every other scalar
     /// with its own arithmetic.
     #[inline]
     pub(super) fn eval<D: Scalar>(

@@ -1,4 +1,4 @@
-//! The instruction set, stated once: [`instruction_set!`] generates from one table the [`Ins`]
+//! The instruction set, stated once: `instruction_set!` generates from one table the [`Ins`]
 //! enum, the lowering of an [`Op`] to an instruction ([`lower`]) and its evaluation ([`step`]).
 //!
 //! Every result is stored in its slot and also kept in an accumulator; the `…A` forms take their

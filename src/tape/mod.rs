@@ -1,5 +1,5 @@
 //! Models stated at run time: an expression graph compiled to a flat tape that is evaluated over
-//! the same generic [`Scalar`] as a hand-written Rust model, so the AD passes and every
+//! the same generic [`Scalar`](crate::Scalar) as a hand-written Rust model, so the AD passes and every
 //! integrator work unchanged.
 //!
 //! This is what the Python module compiles the user's energies to, and it is not behind the
