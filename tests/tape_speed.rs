@@ -106,6 +106,20 @@ fn time(calls: usize, mut f: impl FnMut(usize)) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
+/// [`time`] of 1e5 calls of `accelerations_into`.
+fn accelerations(s: &impl Dynamics, q: &[f64], qd: &[f64]) -> f64 {
+    let mut out = vec![0.0; q.len()];
+    time(100_000, |k| {
+        s.accelerations_into(
+            black_box(k as f64 * 1e-6),
+            black_box(q),
+            black_box(qd),
+            &mut out,
+        )
+        .unwrap()
+    })
+}
+
 fn report(name: &str, energy: &EnergyModel) {
     let system: &TapeSystem = energy.system();
     let n = energy.dof();
@@ -116,22 +130,8 @@ fn report(name: &str, energy: &EnergyModel) {
     let mut m = vec![0.0; n * n];
     let row = |what: &str, ns: f64| println!("{name:>16} {what:<34} {ns:9.1} ns");
     let t = |k: usize| black_box(k as f64 * 1e-6);
-    row(
-        "EnergyModel accelerations",
-        time(calls, |k| {
-            energy
-                .accelerations_into(t(k), black_box(&q), black_box(&qd), &mut out)
-                .unwrap()
-        }),
-    );
-    row(
-        "TapeSystem accelerations",
-        time(calls, |k| {
-            system
-                .accelerations_into(t(k), black_box(&q), black_box(&qd), &mut out)
-                .unwrap()
-        }),
-    );
+    row("EnergyModel accelerations", accelerations(energy, &q, &qd));
+    row("TapeSystem accelerations", accelerations(system, &q, &qd));
     row(
         "mass matrix",
         time(calls, |k| {

@@ -477,6 +477,11 @@ mod tests {
         }
     }
 
+    /// The evaluations since the last `path::take` were one, on the jet path.
+    fn assert_one_jet(what: &str) {
+        assert_eq!(path::take(), (vec![], 1), "{what} not evaluated as a jet");
+    }
+
     #[test]
     fn jets_match_num_dual_first_order() {
         use nalgebra::SVector;
@@ -487,11 +492,7 @@ mod tests {
         let q = [seed(0.7, [1.0, 0.3]), seed(1.3, [-0.4, 1.0])];
         path::take();
         let got = f.eval(DualSVec64::<2>::from(0.0), &q, &[]);
-        assert_eq!(
-            path::take(),
-            (vec![], 1),
-            "DualSVec64<2> not evaluated as a jet"
-        );
+        assert_one_jet("DualSVec64<2>");
         let want = every_operation_exact(q[0], q[1]);
         assert_relative_eq!(got.re, want.re, max_relative = 1e-14);
         let (g, w) = (got.eps.0.unwrap(), want.eps.0.unwrap());
@@ -520,11 +521,7 @@ mod tests {
         ];
         path::take();
         let got = f.eval(H::<N>::from(0.0), &q, &[]);
-        assert_eq!(
-            path::take(),
-            (vec![], 1),
-            "Hyper<f64, 2, {N}> not evaluated as a jet"
-        );
+        assert_one_jet(&format!("Hyper<f64, 2, {N}>"));
         let want = every_operation_exact(q[0], q[1]);
         assert_relative_eq!(got.re, want.re, max_relative = 1e-14);
         let (g1, w1) = (got.eps1.0.unwrap(), want.eps1.0.unwrap());

@@ -3,6 +3,7 @@
 
 use crate::error::{Error, Result};
 use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
 
 /// Functions of one argument.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -69,30 +70,31 @@ pub enum Node {
     PowI(usize, i32),
 }
 
-/// The hash-consing key of a node (numbers by their bits).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-enum Key {
-    Const(u64),
-    Param(usize),
-    Time,
-    Coord(usize),
-    Velocity(usize),
-    Unary(Unary, usize),
-    Binary(Binary, usize, usize),
-    PowI(usize, i32),
+/// A node as a hash-consing key: numbers are equal when their bits are.
+#[derive(Debug, Clone, Copy)]
+struct Key(Node);
+
+impl PartialEq for Key {
+    fn eq(&self, other: &Self) -> bool {
+        match (self.0, other.0) {
+            (Node::Const(x), Node::Const(y)) => x.to_bits() == y.to_bits(),
+            (a, b) => a == b,
+        }
+    }
 }
 
-impl From<Node> for Key {
-    fn from(node: Node) -> Self {
-        match node {
-            Node::Const(x) => Key::Const(x.to_bits()),
-            Node::Param(i) => Key::Param(i),
-            Node::Time => Key::Time,
-            Node::Coord(i) => Key::Coord(i),
-            Node::Velocity(i) => Key::Velocity(i),
-            Node::Unary(f, a) => Key::Unary(f, a),
-            Node::Binary(f, a, b) => Key::Binary(f, a, b),
-            Node::PowI(a, n) => Key::PowI(a, n),
+impl Eq for Key {}
+
+impl Hash for Key {
+    fn hash<H: Hasher>(&self, h: &mut H) {
+        std::mem::discriminant(&self.0).hash(h);
+        match self.0 {
+            Node::Const(x) => x.to_bits().hash(h),
+            Node::Param(i) | Node::Coord(i) | Node::Velocity(i) => i.hash(h),
+            Node::Time => {}
+            Node::Unary(f, a) => (f, a).hash(h),
+            Node::Binary(f, a, b) => (f, a, b).hash(h),
+            Node::PowI(a, n) => (a, n).hash(h),
         }
     }
 }
@@ -167,7 +169,7 @@ impl Graph {
             },
             _ => node,
         };
-        let key = Key::from(node);
+        let key = Key(node);
         if let Some(&i) = self.index.get(&key) {
             return Ok(i);
         }
@@ -223,7 +225,7 @@ impl Graph {
 
     /// The index of `node` if the graph holds it (as stored: no rewriting of powers).
     pub(super) fn find(&self, node: Node) -> Option<usize> {
-        self.index.get(&Key::from(node)).copied()
+        self.index.get(&Key(node)).copied()
     }
 }
 
