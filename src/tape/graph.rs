@@ -54,7 +54,8 @@ pub enum Binary {
 pub enum Node {
     /// A number.
     Const(f64),
-    /// Parameter `i`, a number fixed when the tape is bound ([`Function::new`](super::Function::new)).
+    /// Parameter `i`, a number fixed when the tape is bound
+    /// ([`Function::new`](super::Function::new)).
     Param(usize),
     /// The time t.
     Time,

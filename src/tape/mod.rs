@@ -1,6 +1,6 @@
 //! Models stated at run time: an expression graph compiled to a flat tape that is evaluated over
-//! the same generic [`Scalar`](crate::Scalar) as a hand-written Rust model, so the AD passes and every
-//! integrator work unchanged.
+//! the same generic [`Scalar`](crate::Scalar) as a hand-written Rust model, so the AD passes and
+//! every integrator work unchanged.
 //!
 //! This is what the Python module compiles the user's energies to, and it is not behind the
 //! `python` feature because it is useful on its own: a model read from a file or built by a
