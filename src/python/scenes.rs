@@ -191,6 +191,9 @@ pub(crate) fn scene_pivot<'py>(
     })
 }
 
+/// (q, q̇) as two NumPy arrays.
+type StatePair<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>);
+
 /// The exact state (q, q̇) at time `t` from (`q0`, `qd0`) at t = 0, for a scene whose catalog
 /// entry says `exact`; `ValueError` otherwise.
 #[pyfunction]
@@ -201,7 +204,7 @@ pub(crate) fn scene_exact<'py>(
     q0: Vec<f64>,
     qd0: Vec<f64>,
     t: f64,
-) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+) -> PyResult<StatePair<'py>> {
     guard(|| {
         let args = self::arguments(name, arguments)?;
         let (q, qd) = registry::exact(&args, &q0, &qd0, t)?;

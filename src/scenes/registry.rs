@@ -3,10 +3,10 @@
 //!
 //! A scene is its Rust file (the parameter struct and its energies) plus an implementation of
 //! [`Scene`]: its name, parameters with defaults, coordinates, route, docstring, how to draw it
-//! and, where one is known, its exact solution. [`scenes!`] lists the implementations once; the
-//! catalog ([`catalog`]), construction by name with arguments checked by name ([`Arguments`])
-//! and the Python model's enum over the scene systems are all produced from that list. Adding a
-//! scene is one file and one line in [`scenes!`].
+//! and, where one is known, its exact solution. The macro `scenes!` in this file lists the
+//! implementations once; the catalog ([`catalog`]), construction by name with arguments
+//! checked by name ([`Arguments`]) and the Python model's enum over the scene systems are all
+//! produced from that list. Adding a scene is one file and one line in `scenes!`.
 
 use crate::error::{Error, Result};
 use crate::{Dynamics, Particles};
@@ -389,7 +389,7 @@ pub(crate) use scenes;
 
 macro_rules! catalog_of {
     ($($scene:ident,)*) => {
-        /// Every scene's catalog entry, in the order of [`scenes!`].
+        /// Every scene's catalog entry, in the order of `scenes!` (in this file).
         pub static CATALOG: &[SceneInfo] = &[$(<super::$scene as Scene>::INFO,)*];
 
         /// What the registry can do with a scene known only by name.
@@ -582,7 +582,9 @@ mod tests {
             let n = s.coordinate_names(&args).len();
             assert!(n >= 1, "{}", s.name);
             assert!(!s.doc.is_empty());
-            let (q0, qd0) = (vec![0.1; n], vec![0.2; n]);
+            // Not radial, so that Kepler's orbit has angular momentum.
+            let q0 = vec![0.1; n];
+            let qd0: Vec<f64> = (0..n).map(|i| [0.2, -0.1][i % 2]).collect();
             assert_eq!(exact(&args, &q0, &qd0, 0.0).is_ok(), s.exact, "{}", s.name);
         }
     }
