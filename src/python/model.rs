@@ -2,7 +2,7 @@
 //! that each integrator is compiled once for all of them (the variant is one predictable branch
 //! per evaluation).
 
-use crate::scenes::registry::{Arguments, Positions, Scene, positions_of, scenes};
+use crate::scenes::registry::{Arguments, Drawn, Positions, Scene, scenes};
 use crate::scenes::*;
 use crate::tape::{Binary, EnergyModel, Function, Graph, Inputs, Node, Tape, TapeParticles, Unary};
 use crate::{Dynamics, Error, ParticleSystem, Result, Scalar, Structure};
@@ -53,8 +53,8 @@ macro_rules! any_model {
             pub(crate) fn positions(&self, t: &[f64], q: &[f64]) -> Option<Positions> {
                 match self {
                     AnyModel::Energy(_) => None,
-                    AnyModel::Particles(s) => Some(positions_of(&s.particles, t, q)),
-                    $(AnyModel::$scene(s) => <$scene as Scene>::positions(s, t, q),)*
+                    AnyModel::Particles(s) => s.positions(t, q),
+                    $(AnyModel::$scene(s) => s.positions(t, q),)*
                 }
             }
         }

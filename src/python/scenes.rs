@@ -145,31 +145,10 @@ pub(crate) fn scene_drawing<'py>(
         let out = PyDict::new(py);
         out.set_item("rods", d.rods)?;
         out.set_item("moving_pivot", d.moving_pivot)?;
-        out.set_item(
-            "bodies",
-            d.bodies
-                .iter()
-                .map(|b| (b[0], b[1], b[2]))
-                .collect::<Vec<_>>(),
-        )?;
-        out.set_item(
-            "circles",
-            d.circles
-                .iter()
-                .map(|c| (c[0], c[1], c[2]))
-                .collect::<Vec<_>>(),
-        )?;
-        out.set_item(
-            "lines",
-            d.lines
-                .iter()
-                .map(|l| (l[0], l[1], l[2], l[3]))
-                .collect::<Vec<_>>(),
-        )?;
-        out.set_item(
-            "marks",
-            d.marks.iter().map(|m| (m[0], m[1])).collect::<Vec<_>>(),
-        )?;
+        out.set_item("bodies", d.bodies)?;
+        out.set_item("circles", d.circles)?;
+        out.set_item("lines", d.lines)?;
+        out.set_item("marks", d.marks)?;
         out.set_item("trail", d.trail)?;
         Ok(Some(out))
     })

@@ -1,8 +1,6 @@
 //! A ball rolling inside a hollow sphere, in a vertical plane (seed Fig. 8, eq. 49–53).
 
-use super::registry::{
-    Arguments, Coordinates, Drawing, Parameter, Positions, Route, Scene, SceneInfo, positions_of,
-};
+use super::registry::{Arguments, Coordinates, Drawing, Parameter, Route, Scene, SceneInfo};
 use super::rigid_disc;
 use crate::error::{Error, Result};
 use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
@@ -198,9 +196,6 @@ impl Scene for BallInSphere {
     fn build(a: &Arguments) -> Result<Self::System> {
         let n = |k| a.number(k);
         Ok(Self::new(n("m"), n("j"), n("r1"), n("r2"), n("g")).system())
-    }
-    fn positions(s: &Self::System, t: &[f64], q: &[f64]) -> Option<Positions> {
-        Some(positions_of(&s.kinetic, t, q))
     }
     fn drawing(a: &Arguments) -> Option<Drawing> {
         Some(Drawing {

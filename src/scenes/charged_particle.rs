@@ -2,7 +2,7 @@
 //! uniform electric field in it: the reference problem for a velocity-dependent Lagrangian.
 
 use super::registry::{
-    Arguments, Coordinates, Parameter, Positions, Route, Scene, SceneInfo, State, positions_of,
+    Arguments, Coordinates, Parameter, Route, Scene, SceneInfo, State, exact_planar,
 };
 use crate::error::{Error, Result};
 use crate::{CartesianForces, KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
@@ -219,12 +219,8 @@ impl Scene for ChargedParticle {
     fn build(a: &Arguments) -> Result<Self::System> {
         Ok(Self::of(a).system())
     }
-    fn positions(s: &Self::System, t: &[f64], q: &[f64]) -> Option<Positions> {
-        Some(positions_of(&s.kinetic, t, q))
-    }
     fn exact(a: &Arguments, q0: &[f64], qd0: &[f64], t: f64) -> Result<State> {
-        let [x, v] = Self::of(a).exact_solution([q0[0], q0[1]], [qd0[0], qd0[1]], t)?;
-        Ok((x.to_vec(), v.to_vec()))
+        exact_planar(q0, qd0, |q0, v0| Self::of(a).exact_solution(q0, v0, t))
     }
 }
 

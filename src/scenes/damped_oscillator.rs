@@ -1,7 +1,9 @@
 //! The viscously damped oscillator: the one-coordinate case of Rayleigh's dissipation function
 //! (seed §4, eq. 54–55).
 
-use super::registry::{Arguments, Coordinates, Parameter, Route, Scene, SceneInfo, State};
+use super::registry::{
+    Arguments, Coordinates, Drawn, Parameter, Positions, Route, Scene, SceneInfo, State,
+};
 use crate::error::{Error, Result};
 use crate::{Dissipation, KineticEnergy, Potential, Scalar, System};
 
@@ -159,5 +161,12 @@ impl Scene for DampedOscillator {
 impl DampedOscillator {
     fn of(a: &Arguments) -> Self {
         Self::new(a.number("m"), a.number("k"), a.number("c"))
+    }
+}
+
+/// A mass on a spring along a line: nothing to draw.
+impl<U, R, Q> Drawn for System<DampedOscillator, U, R, Q> {
+    fn positions(&self, _t: &[f64], _q: &[f64]) -> Option<Positions> {
+        None
     }
 }

@@ -1,9 +1,7 @@
 //! A pendulum whose pivot is driven vertically (Kapitza's pendulum when the drive is fast): the
 //! reference problem for explicitly time-dependent kinetic energy.
 
-use super::registry::{
-    Arguments, Coordinates, Drawing, Parameter, Positions, Route, Scene, SceneInfo, positions_of,
-};
+use super::registry::{Arguments, Coordinates, Drawing, Parameter, Route, Scene, SceneInfo};
 use crate::error::Result;
 use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
 
@@ -127,9 +125,6 @@ impl Scene for DrivenPendulum {
     };
     fn build(a: &Arguments) -> Result<Self::System> {
         Ok(Self::of(a).system())
-    }
-    fn positions(s: &Self::System, t: &[f64], q: &[f64]) -> Option<Positions> {
-        Some(positions_of(&s.kinetic, t, q))
     }
     fn drawing(_: &Arguments) -> Option<Drawing> {
         Some(Drawing::chain(1, true))

@@ -1,8 +1,6 @@
 //! The spring (elastic) pendulum in polar coordinates, optionally with a radial dashpot.
 
-use super::registry::{
-    Arguments, Coordinates, Drawing, Parameter, Positions, Route, Scene, SceneInfo, positions_of,
-};
+use super::registry::{Arguments, Coordinates, Drawing, Parameter, Route, Scene, SceneInfo};
 use crate::error::Result;
 use crate::{Dissipation, KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
 
@@ -173,9 +171,6 @@ impl Scene for ElasticPendulum {
     fn build(a: &Arguments) -> Result<Self::System> {
         let n = |k| a.number(k);
         Ok(Self::new(n("m"), n("k"), n("l0"), n("g")).damped(n("c")))
-    }
-    fn positions(s: &Self::System, t: &[f64], q: &[f64]) -> Option<Positions> {
-        Some(positions_of(&s.kinetic, t, q))
     }
     fn drawing(_: &Arguments) -> Option<Drawing> {
         Some(Drawing::chain(1, false))

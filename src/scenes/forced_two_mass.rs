@@ -1,7 +1,10 @@
 //! Two masses coupled by springs, driven harmonically: the forced two-degree-of-freedom system of
 //! the seed (Fig. 5, eq. 41–44).
 
-use super::registry::{Arguments, Coordinates, Parameter, Route, Scene, SceneInfo, State};
+use super::registry::{
+    Arguments, Coordinates, Drawn, Parameter, Positions, Route, Scene, SceneInfo, State,
+    exact_planar,
+};
 use crate::error::{Error, Result};
 use crate::{GeneralizedForces, KineticEnergy, Potential, Scalar, System};
 
@@ -230,8 +233,7 @@ impl Scene for ForcedTwoMass {
         Ok(Self::of(a).system())
     }
     fn exact(a: &Arguments, q0: &[f64], qd0: &[f64], t: f64) -> Result<State> {
-        let [x, v] = Self::of(a).exact_solution([q0[0], q0[1]], [qd0[0], qd0[1]], t)?;
-        Ok((x.to_vec(), v.to_vec()))
+        exact_planar(q0, qd0, |x0, v0| Self::of(a).exact_solution(x0, v0, t))
     }
 }
 
@@ -239,5 +241,12 @@ impl ForcedTwoMass {
     fn of(a: &Arguments) -> Self {
         let n = |k| a.number(k);
         Self::new(n("m1"), n("m2"), n("k1"), n("k2")).with_forcing(n("f1"), n("f2"), n("omega"))
+    }
+}
+
+/// Masses on springs along a line: nothing to draw.
+impl<U, R, Q> Drawn for System<ForcedTwoMass, U, R, Q> {
+    fn positions(&self, _t: &[f64], _q: &[f64]) -> Option<Positions> {
+        None
     }
 }

@@ -1,7 +1,7 @@
 //! The Hénon–Heiles system: a separable two-degree-of-freedom Hamiltonian with regular and
 //! chaotic orbits, the standard test of long-time symplectic integration.
 
-use super::registry::{Arguments, Coordinates, Positions, Route, Scene, SceneInfo, positions_of};
+use super::registry::{Arguments, Coordinates, Route, Scene, SceneInfo};
 use crate::error::Result;
 use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
 
@@ -97,8 +97,5 @@ impl Scene for HenonHeiles {
     };
     fn build(_: &Arguments) -> Result<Self::System> {
         Ok(Self::new().system())
-    }
-    fn positions(s: &Self::System, t: &[f64], q: &[f64]) -> Option<Positions> {
-        Some(positions_of(&s.kinetic, t, q))
     }
 }

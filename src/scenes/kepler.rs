@@ -2,8 +2,7 @@
 //! energy and angular-momentum behaviour of integrators.
 
 use super::registry::{
-    Arguments, Coordinates, Drawing, Parameter, Positions, Route, Scene, SceneInfo, State,
-    positions_of,
+    Arguments, Coordinates, Drawing, Parameter, Route, Scene, SceneInfo, State, exact_planar,
 };
 use crate::error::{Error, Result};
 use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
@@ -246,9 +245,6 @@ impl Scene for Kepler {
     fn build(a: &Arguments) -> Result<Self::System> {
         Ok(Self::new(a.number("m"), a.number("mu")).system())
     }
-    fn positions(s: &Self::System, t: &[f64], q: &[f64]) -> Option<Positions> {
-        Some(positions_of(&s.kinetic, t, q))
-    }
     fn drawing(_: &Arguments) -> Option<Drawing> {
         Some(Drawing {
             marks: vec![[0.0, 0.0]],
@@ -256,11 +252,9 @@ impl Scene for Kepler {
         })
     }
     fn exact(a: &Arguments, q0: &[f64], qd0: &[f64], t: f64) -> Result<State> {
-        let (q, v) = Self::new(a.number("m"), a.number("mu")).exact_from(
-            [q0[0], q0[1]],
-            [qd0[0], qd0[1]],
-            t,
-        )?;
-        Ok((q.to_vec(), v.to_vec()))
+        let kepler = Self::new(a.number("m"), a.number("mu"));
+        exact_planar(q0, qd0, |q0, v0| {
+            kepler.exact_from(q0, v0, t).map(|(q, v)| [q, v])
+        })
     }
 }

@@ -1,9 +1,7 @@
 //! Plane pendulums: simple, double, and the N-link chain, all hanging in gravity g along −y.
 //! Angles are measured from the downward vertical.
 
-use super::registry::{
-    Arguments, Coordinates, Drawing, Parameter, Positions, Route, Scene, SceneInfo, positions_of,
-};
+use super::registry::{Arguments, Coordinates, Drawing, Parameter, Route, Scene, SceneInfo};
 use crate::error::{Error, Result};
 use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
 
@@ -337,9 +335,6 @@ impl Scene for SimplePendulum {
     fn build(a: &Arguments) -> Result<Self::System> {
         Ok(Self::new(a.number("m"), a.number("l"), a.number("g")).system())
     }
-    fn positions(s: &Self::System, t: &[f64], q: &[f64]) -> Option<Positions> {
-        Some(positions_of(&s.kinetic, t, q))
-    }
     fn drawing(_: &Arguments) -> Option<Drawing> {
         Some(Drawing::chain(1, false))
     }
@@ -365,9 +360,6 @@ impl Scene for DoublePendulum {
     fn build(a: &Arguments) -> Result<Self::System> {
         let n = |k| a.number(k);
         Ok(Self::new(n("m1"), n("m2"), n("l1"), n("l2"), n("g")).system())
-    }
-    fn positions(s: &Self::System, t: &[f64], q: &[f64]) -> Option<Positions> {
-        Some(positions_of(&s.kinetic, t, q))
     }
     fn drawing(_: &Arguments) -> Option<Drawing> {
         Some(Drawing::chain(2, false))
@@ -406,9 +398,6 @@ impl Scene for NPendulum {
             });
         }
         Ok(Self::new(masses.to_vec(), lengths.to_vec(), a.number("g")).system())
-    }
-    fn positions(s: &Self::System, t: &[f64], q: &[f64]) -> Option<Positions> {
-        Some(positions_of(&s.kinetic, t, q))
     }
     fn drawing(a: &Arguments) -> Option<Drawing> {
         Some(Drawing::chain(a.list("masses").len(), false))

@@ -9,7 +9,7 @@
 //! produced from that list. Adding a scene is one file and one line in `scenes!`.
 
 use crate::error::{Error, Result};
-use crate::{Dynamics, Particles};
+use crate::{Dynamics, ParticleSystem, Particles, System};
 
 /// The kind and default of one parameter.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -297,10 +297,23 @@ impl Drawing {
 /// The states (q, q̇) of an exact solution.
 pub type State = (Vec<f64>, Vec<f64>);
 
+/// [`Scene::exact`] from a closed form in two coordinates that takes and gives arrays.
+///
+/// # Errors
+/// Those of `closed_form`.
+pub fn exact_planar(
+    q0: &[f64],
+    qd0: &[f64],
+    closed_form: impl FnOnce([f64; 2], [f64; 2]) -> Result<[[f64; 2]; 2]>,
+) -> Result<State> {
+    let [q, qd] = closed_form([q0[0], q0[1]], [qd0[0], qd0[1]])?;
+    Ok((q.to_vec(), qd.to_vec()))
+}
+
 /// A ready-made system declared for the catalog: implemented by each scene's parameter struct.
 pub trait Scene {
     /// The system the scene's arguments build.
-    type System: Dynamics;
+    type System: Dynamics + Drawn;
 
     /// The catalog entry.
     const INFO: SceneInfo;
@@ -311,12 +324,6 @@ pub trait Scene {
     /// [`Error::SceneArgument`] when the values are of the right kinds but do not go together
     /// (lists of different lengths).
     fn build(args: &Arguments) -> Result<Self::System>;
-
-    /// The particles' positions at the states (t_i, q_i) (`q` row after row) as (count, dim,
-    /// values), or `None` for a scene without particle positions (see [`positions_of`]).
-    fn positions(_system: &Self::System, _t: &[f64], _q: &[f64]) -> Option<Positions> {
-        None
-    }
 
     /// How to draw the scene beyond points with trails; `None` for points with trails.
     fn drawing(_args: &Arguments) -> Option<Drawing> {
@@ -347,6 +354,26 @@ fn no_exact(scene: &str) -> Error {
 
 /// Particle positions of many states: (particles, dimension, values state after state).
 pub type Positions = (usize, usize, Vec<f64>);
+
+/// A system that can say where its particles are: every particle-route system, and every
+/// energy-route system whose kinetic energy is that of [`Particles`]; the others (a scene stated
+/// by its energies only) implement it with `None`.
+pub trait Drawn {
+    /// The particles' positions at the states (t_i, q_i) (`q` row after row), or `None`.
+    fn positions(&self, t: &[f64], q: &[f64]) -> Option<Positions>;
+}
+
+impl<P: Particles, U, R, Q, F> Drawn for ParticleSystem<P, U, R, Q, F> {
+    fn positions(&self, t: &[f64], q: &[f64]) -> Option<Positions> {
+        Some(positions_of(&self.particles, t, q))
+    }
+}
+
+impl<K: Particles, U, R, Q> Drawn for System<K, U, R, Q> {
+    fn positions(&self, t: &[f64], q: &[f64]) -> Option<Positions> {
+        Some(positions_of(&self.kinetic, t, q))
+    }
+}
 
 /// Positions of `p` at the states (t_i, q_i), `q` row after row.
 pub fn positions_of<P: Particles>(p: &P, t: &[f64], q: &[f64]) -> Positions {

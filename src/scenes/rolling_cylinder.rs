@@ -1,9 +1,6 @@
 //! A cylinder rolling without slipping down an incline (seed Fig. 7, eq. 45–48).
 
-use super::registry::{
-    Arguments, Coordinates, Drawing, Parameter, Positions, Route, Scene, SceneInfo, State,
-    positions_of,
-};
+use super::registry::{Arguments, Coordinates, Drawing, Parameter, Route, Scene, SceneInfo, State};
 use super::rigid_disc;
 use crate::error::Result;
 use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
@@ -146,9 +143,6 @@ impl Scene for RollingCylinder {
     };
     fn build(a: &Arguments) -> Result<Self::System> {
         Ok(Self::of(a).system())
-    }
-    fn positions(s: &Self::System, t: &[f64], q: &[f64]) -> Option<Positions> {
-        Some(positions_of(&s.kinetic, t, q))
     }
     fn drawing(a: &Arguments) -> Option<Drawing> {
         // The slope is the line through −r n, n = (sin α, cos α), along (cos α, −sin α).

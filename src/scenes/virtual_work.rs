@@ -7,7 +7,7 @@
 //! [`SingularMassMatrix`](crate::Error::SingularMassMatrix), as they should.
 
 use super::registry::{
-    Arguments, Coordinates, Drawing, Parameter, Positions, Route, Scene, SceneInfo, positions_of,
+    Arguments, Coordinates, Drawing, Drawn, Parameter, Positions, Route, Scene, SceneInfo,
 };
 use crate::error::Result;
 use crate::{
@@ -505,9 +505,6 @@ impl Scene for Lever {
         let n = |k| a.number(k);
         Ok(Self::new(n("l1"), n("l2"), n("p"), n("q")).particles())
     }
-    fn positions(s: &Self::System, t: &[f64], q: &[f64]) -> Option<Positions> {
-        Some(positions_of(&s.particles, t, q))
-    }
     fn drawing(_: &Arguments) -> Option<Drawing> {
         Some(Drawing {
             rods: vec![(-1, 0), (-1, 1)],
@@ -538,9 +535,6 @@ impl Scene for DifferentialPulley {
         let n = |k| a.number(k);
         Ok(Self::new(n("r1"), n("r2"), n("p"), n("q"), n("k")).particles())
     }
-    fn positions(s: &Self::System, t: &[f64], q: &[f64]) -> Option<Positions> {
-        Some(positions_of(&s.particles, t, q))
-    }
     fn drawing(a: &Arguments) -> Option<Drawing> {
         Some(Drawing {
             circles: vec![[0.0, 0.0, a.number("r1")], [0.0, 0.0, a.number("r2")]],
@@ -567,9 +561,6 @@ impl Scene for RhombusLink {
     };
     fn build(a: &Arguments) -> Result<Self::System> {
         Ok(Self::new(a.number("l"), a.number("p"), a.number("q")).particles())
-    }
-    fn positions(s: &Self::System, t: &[f64], q: &[f64]) -> Option<Positions> {
-        Some(positions_of(&s.particles, t, q))
     }
     fn drawing(_: &Arguments) -> Option<Drawing> {
         Some(Drawing {
@@ -600,9 +591,6 @@ impl Scene for SpringRhombus {
         let n = |k| a.number(k);
         Ok(Self::new(n("a"), n("k"), n("l0"), n("m"), n("g")).particles())
     }
-    fn positions(s: &Self::System, t: &[f64], q: &[f64]) -> Option<Positions> {
-        Some(positions_of(&s.particles, t, q))
-    }
 }
 
 impl Scene for TwoSprings {
@@ -626,5 +614,12 @@ impl Scene for TwoSprings {
     fn build(a: &Arguments) -> Result<Self::System> {
         let n = |k| a.number(k);
         Ok(Self::new(n("m1"), n("m2"), n("k1"), n("k2"), n("f1"), n("f2")).system())
+    }
+}
+
+/// Masses on springs along a line: nothing to draw.
+impl<U, R, Q> Drawn for System<TwoSprings, U, R, Q> {
+    fn positions(&self, _t: &[f64], _q: &[f64]) -> Option<Positions> {
+        None
     }
 }
