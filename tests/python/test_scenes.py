@@ -369,3 +369,15 @@ def test_stub_matches_catalog():
     # python/lagrangian/scenes.pyi is generated from the registry (see its docstring).
     stub = Path(lg.scenes.__file__).with_name("scenes.pyi")
     assert stub.read_text(encoding="utf-8") == lg.scenes._stub()
+
+
+def test_elastic_pendulum_dashpot_absent_at_zero():
+    # One system type for both: at c = 0 the dashpot is absent, not a zero term.
+    assert not lg.scenes.elastic_pendulum().structure["dissipative"]
+    assert lg.scenes.elastic_pendulum().structure["conservative"]
+    damped = lg.scenes.elastic_pendulum(c=0.3)
+    assert damped.structure["dissipative"]
+    r, th, rd, thd = 1.2, 0.5, 0.3, -0.7
+    free = lg.scenes.elastic_pendulum().accelerations(0.0, [r, th], [rd, thd])
+    assert_allclose(damped.accelerations(0.0, [r, th], [rd, thd]), free - [0.3 * rd, 0.0],
+                    rtol=1e-13)
