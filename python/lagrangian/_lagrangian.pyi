@@ -18,6 +18,11 @@ __all__ = [
     "NativeModel",
     "method_info",
     "methods",
+    "scene_catalog",
+    "scene_drawing",
+    "scene_exact",
+    "scene_model",
+    "scene_pivot",
     "__version__",
 ]
 
@@ -70,8 +75,6 @@ class NativeModel:
         dim: int = 0,
         masses: Optional[Sequence[int]] = None,
     ) -> "NativeModel": ...
-    @staticmethod
-    def scene(name: str, values: Sequence[float]) -> "NativeModel": ...
     def with_parameters(self, params: Sequence[float]) -> "NativeModel": ...
     @property
     def dof(self) -> int: ...
@@ -109,3 +112,14 @@ class NativeModel:
         max_iterations: int = 100,
         max_step: float = ...,
     ) -> Tuple[_FloatArray, float, int, str, _FloatArray, _FloatArray]: ...
+
+# The scene registry (src/python/scenes.rs).
+def scene_catalog() -> List[Dict[str, Any]]: ...
+def scene_model(
+    name: str, arguments: Dict[str, Any]
+) -> Tuple[NativeModel, Dict[str, Any], List[str]]: ...
+def scene_drawing(name: str, arguments: Dict[str, Any]) -> Optional[Dict[str, Any]]: ...
+def scene_pivot(name: str, arguments: Dict[str, Any], t: _FloatArray) -> _FloatArray: ...
+def scene_exact(
+    name: str, arguments: Dict[str, Any], q0: Sequence[float], qd0: Sequence[float], t: float
+) -> Tuple[_FloatArray, _FloatArray]: ...

@@ -19,6 +19,8 @@ if TYPE_CHECKING:
 
     from matplotlib.figure import Figure  # type: ignore[import-not-found, unused-ignore]
 
+    from ._plot import Drawing
+
 __all__ = ["Model", "Solution", "Equilibrium", "methods"]
 
 FloatArray = npt.NDArray[np.float64]
@@ -256,7 +258,6 @@ class Model:
         "_masses",
         "_parameters",
         "_native",
-        "_scene",
     )
 
     _coordinates: Tuple[Coordinate, ...]
@@ -268,7 +269,6 @@ class Model:
     _masses: Optional[Tuple[Expr, ...]]
     _parameters: Dict[str, Any]
     _native: Any
-    _scene: Optional[str]
 
     def __init__(
         self,
@@ -361,7 +361,6 @@ class Model:
         self._kinetic, self._potential, self._dissipation = t_, u_, r_
         self._forces, self._positions, self._masses = f_, pos, mass
         self._parameters = values
-        self._scene = None
         self._native = self._compile()
 
     def _compile(self) -> Any:
@@ -399,24 +398,6 @@ class Model:
             dim=dim,
             **{k: at(v) for k, v in slots.items()},
         )
-
-    @classmethod
-    def _from_native(
-        cls,
-        native: Any,
-        coordinates: Sequence[str],
-        parameters: Dict[str, Any],
-        scene: str,
-    ) -> "Model":
-        """A model backed by a Rust scene (see :mod:`lagrangian.scenes`)."""
-        self = cls.__new__(cls)
-        self._coordinates = tuple(Coordinate(n) for n in coordinates)
-        self._kinetic = self._potential = self._dissipation = None
-        self._forces = self._positions = self._masses = None
-        self._parameters = dict(parameters)
-        self._native = native
-        self._scene = scene
-        return self
 
     # -- description -------------------------------------------------------------------
     @property
@@ -498,14 +479,7 @@ class Model:
             values.
         """
         if not self.has_positions:
-            if self._scene is not None:
-                raise ValueError(
-                    f"the scene {self._scene} has no particle positions: it cannot be drawn"
-                )
-            raise ValueError(
-                "this model has no positions: it is stated by its energies (kinetic=…); state it "
-                "by positions=… and masses=… (the particle route) to draw it"
-            )
+            raise ValueError(self._no_positions())
         n = self.dof
         times = np.asarray(t, dtype=np.float64)
         if times.ndim == 0:
@@ -578,11 +552,7 @@ class Model:
         """
         from . import _plot
 
-        drawing: Optional[_plot.Drawing] = None
-        if chain is None and self._scene is not None:
-            from . import scenes
-
-            drawing = scenes._drawing(self._scene, self._parameters)
+        drawing = self._drawing() if chain is None else None
         return _plot.animate(
             self, sol, path, fps=fps, max_frames=max_frames, trail=trail, drawing=drawing,
             chain=bool(chain),
@@ -614,12 +584,21 @@ class Model:
                 f"unknown parameter {unknown[0]!r}; the model's parameters are "
                 f"{', '.join(self._parameters) or 'none'}"
             )
-        if self._scene is not None:
-            from . import scenes
+        return self._rebound(values)
 
-            merged = {**self._parameters, **values}
-            made: Model = getattr(scenes, self._scene)(**merged)
-            return made
+    def _no_positions(self) -> str:
+        """Why :meth:`positions` has nothing to give."""
+        return (
+            "this model has no positions: it is stated by its energies (kinetic=…); state it "
+            "by positions=… and masses=… (the particle route) to draw it"
+        )
+
+    def _drawing(self) -> "Optional[Drawing]":
+        """How :meth:`animate` draws the model beyond points with trails (``None``: points)."""
+        return None
+
+    def _rebound(self, values: Mapping[str, float]) -> "Model":
+        """The model with the (known) parameters ``values`` changed."""
         new = dict(self._parameters)
         for k, v in values.items():
             new[k] = _real(f"parameter {k!r}", v)
@@ -840,9 +819,6 @@ class Model:
 
     # -- Python protocol ---------------------------------------------------------------
     def __repr__(self) -> str:
-        if self._scene is not None:
-            args = ", ".join(f"{k}={v!r}" for k, v in self._parameters.items())
-            return f"lagrangian.scenes.{self._scene}({args})"
         parts = [f"coordinates=[{', '.join(c.name for c in self._coordinates)}]"]
         if self._kinetic is not None:
             parts.append(f"kinetic={self._kinetic!r}")
@@ -864,8 +840,6 @@ class Model:
         return "Model(" + ", ".join(parts) + ")"
 
     def __reduce__(self) -> Tuple[Any, ...]:
-        if self._scene is not None:
-            return (_scene_from_state, (self._scene, dict(self._parameters)))
         roots: List[Expr] = []
         layout: Dict[str, Any] = {}
 
@@ -923,13 +897,6 @@ def _model_from_state(state: Dict[str, Any]) -> Model:
         positions=positions,
         masses=get("masses"),
     )
-
-
-def _scene_from_state(name: str, parameters: Dict[str, Any]) -> Model:
-    from . import scenes
-
-    made: Model = getattr(scenes, name)(**parameters)
-    return made
 
 
 def _check_coordinates(coordinates: object) -> Tuple[Coordinate, ...]:

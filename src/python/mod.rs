@@ -13,6 +13,7 @@
 
 mod error;
 mod model;
+mod scenes;
 
 use crate::integrators::{Method, Options, Output, solve_with_interrupt};
 use crate::{Dynamics, Error, Stability, StaticsOptions, equilibrium};
@@ -117,17 +118,6 @@ impl PyModel {
             Ok(Self {
                 model: Arc::new(model),
                 compiled: Some(Arc::new(compiled)),
-            })
-        })
-    }
-
-    /// The Rust scene `name`, its constructor's arguments in order.
-    #[staticmethod]
-    fn scene(name: &str, values: Vec<f64>) -> PyResult<Self> {
-        guard(|| {
-            Ok(Self {
-                model: Arc::new(model::scene(name, &values)?),
-                compiled: None,
             })
         })
     }
@@ -521,6 +511,8 @@ mod lagrangian_module {
         ConvergenceError, LagrangianError, NonFiniteError, SingularMassMatrixError, StepSizeError,
         StiffnessError, TooManyStepsError,
     };
+    #[pymodule_export]
+    use super::scenes::{scene_catalog, scene_drawing, scene_exact, scene_model, scene_pivot};
     #[pymodule_export]
     use super::{PyModel, method_info, methods};
     use pyo3::prelude::*;
