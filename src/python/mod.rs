@@ -12,14 +12,18 @@
 //! every 20 ms through [`crate::integrators::solve_with_interrupt`].
 
 mod error;
+mod first_order;
 mod model;
 
-use crate::integrators::{Method, Options, Output, solve_with_interrupt};
+use crate::integrators::{Method, Options, Output, solve_with_interrupt, step_towards};
 use crate::{Dynamics, Error, Stability, StaticsOptions, equilibrium};
 use error::panic_error;
 use model::{AnyModel, Compiled, RawNode, Spec, WithLoads};
 use numpy::ndarray::{Array2, Array3};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{
+    IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayDyn, PyReadonlyArray1, PyReadonlyArray2,
+    PyReadonlyArrayDyn,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
@@ -48,6 +52,13 @@ fn check_vector(what: &str, v: &[f64], n: usize) -> PyResult<()> {
         )));
     }
     Ok(())
+}
+
+/// A count from Python's signed integers: `ValueError` for a negative one (zero and up are
+/// validated with the options).
+fn count(what: &str, v: i64) -> PyResult<usize> {
+    usize::try_from(v)
+        .map_err(|_| PyValueError::new_err(format!("{what} = {v}: a count cannot be negative")))
 }
 
 /// `ValueError` unless `x` is finite.
@@ -229,6 +240,27 @@ impl PyModel {
         })
     }
 
+    /// dy/dt = (q̇, q̈) of the first-order system y = (q, q̇) at (t, y): SciPy's `fun(t, y)`;
+    /// y of shape (2n,) or (2n, k) (`vectorized=True`).
+    fn rhs<'py>(
+        &self,
+        py: Python<'py>,
+        t: f64,
+        y: PyReadonlyArrayDyn<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        guard(|| Ok(first_order::rhs(&*self.model, t, y.as_array())?.into_pyarray(py)))
+    }
+
+    /// The 2n × 2n Jacobian of `rhs` at (t, y) by forward-mode AD: SciPy's `jac(t, y)`.
+    fn jacobian<'py>(
+        &self,
+        py: Python<'py>,
+        t: f64,
+        y: PyReadonlyArrayDyn<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| Ok(first_order::jacobian(&*self.model, t, y.as_array())?.into_pyarray(py)))
+    }
+
     /// Whether the model has particles to draw (the particle route, or a scene with positions).
     #[getter]
     fn has_positions(&self) -> bool {
@@ -290,8 +322,8 @@ impl PyModel {
         rtol: f64,
         atol: f64,
         t_eval: Option<PyReadonlyArray1<'py, f64>>,
-        max_steps: Option<usize>,
-        every: Option<usize>,
+        max_steps: Option<i64>,
+        every: Option<i64>,
     ) -> PyResult<Bound<'py, PyTuple>> {
         let n = self.model.dof();
         check_vector("q0", &q0, n)?;
@@ -299,68 +331,25 @@ impl PyModel {
         check_finite("t0", t0)?;
         check_finite("t_end", t_end)?;
         let method = Method::from_str(method)?;
-        if t_end == t0 {
-            return Err(PyValueError::new_err(format!(
-                "t_end = t0 = {t0}: the time span is empty"
-            )));
-        }
+        // Python's conventions converted to the options; `solve` validates them (options.rs).
         let mut options = match dt {
-            Some(dt) => {
-                check_finite("dt", dt)?;
-                if dt == 0.0 {
-                    return Err(PyValueError::new_err("dt = 0: the step must be non-zero"));
-                }
-                if (t_end - t0) * dt < 0.0 {
-                    return Err(PyValueError::new_err(format!(
-                        "t_end = {t_end} lies {} t0 = {t0} but dt = {dt} steps the other way: \
-                         give dt the sign of t_end − t0 (a negative dt integrates backwards)",
-                        if t_end < t0 { "before" } else { "after" }
-                    )));
-                }
-                Options::fixed(dt.abs())
-            }
-            None => {
-                for (what, v) in [("rtol", rtol), ("atol", atol)] {
-                    if !(v.is_finite() && v > 0.0) {
-                        return Err(PyValueError::new_err(format!(
-                            "{what} = {v}: tolerances must be finite and > 0"
-                        )));
-                    }
-                }
-                if method.is_adaptive() == Some(false) {
-                    return Err(PyValueError::new_err(format!(
-                        "{} takes fixed steps: pass dt=…",
-                        method.name()
-                    )));
-                }
-                Options::adaptive(rtol, atol)
-            }
+            Some(dt) => Options::fixed(step_towards(dt, t0, t_end)?),
+            None => Options::adaptive(rtol, atol),
         };
+        options.check_method(method)?;
         if let Some(max_steps) = max_steps {
-            if max_steps == 0 {
-                return Err(PyValueError::new_err(
-                    "max_steps = 0: at least one step is needed",
-                ));
-            }
-            options.max_steps = max_steps;
+            options.max_steps = count("max_steps", max_steps)?;
         }
-        match (t_eval, every) {
+        options.output = match (t_eval, every) {
             (Some(_), Some(_)) => {
                 return Err(PyValueError::new_err(
                     "give t_eval or output_every, not both",
                 ));
             }
-            (Some(times), None) => {
-                options.output = Output::Times(times.as_array().iter().copied().collect());
-            }
-            (None, Some(0)) => {
-                return Err(PyValueError::new_err(
-                    "output_every = 0: keep every k-th step with k ≥ 1",
-                ));
-            }
-            (None, Some(k)) => options.output = Output::Every(k),
-            (None, None) => {}
-        }
+            (Some(times), None) => Output::Times(times.as_array().iter().copied().collect()),
+            (None, Some(k)) => Output::Every(count("output_every", k)?),
+            (None, None) => Output::Steps,
+        };
         let model = self.model.clone();
         let pending: Mutex<Option<PyErr>> = Mutex::new(None);
         let outcome = py.detach(|| {
