@@ -18,8 +18,9 @@ from typing import Any, Dict, Mapping, Optional, Sequence
 import numpy as np
 
 from . import _lagrangian
-from ._model import Model, _real
+from ._model import Model
 from ._plot import Drawing, FloatArray
+from ._validate import real as _real
 
 __all__ = [
     "simple_pendulum",

@@ -65,8 +65,6 @@ mod variational;
 
 #[cfg(feature = "python")]
 pub(crate) use newton::acceleration_jacobian;
-#[cfg(feature = "python")]
-pub(crate) use options::step_towards;
 pub use options::{Options, Output};
 pub use solution::{Solution, Statistics};
 pub use symplectic::SymplecticTableau;

@@ -82,6 +82,34 @@ impl Options {
         }
     }
 
+    /// Fixed steps of `dt` stated with their direction, as the Python API states them: a
+    /// negative `dt` integrates backwards, so its sign must be that of `t_end − t0`.
+    ///
+    /// ```
+    /// use lagrangian::integrators::Options;
+    /// assert_eq!(Options::fixed_towards(-0.1, (1.0, 0.0)).unwrap().dt, Some(0.1));
+    /// assert!(Options::fixed_towards(0.1, (1.0, 0.0)).is_err());
+    /// ```
+    pub fn fixed_towards(dt: f64, (t0, t_end): (f64, f64)) -> Result<Self> {
+        if !dt.is_finite() || dt == 0.0 {
+            return bad(
+                "dt",
+                format!("dt = {dt}: the step must be finite and non-zero"),
+            );
+        }
+        if (t_end - t0) * dt < 0.0 {
+            return bad(
+                "dt",
+                format!(
+                    "t_end = {t_end} lies {} t0 = {t0} but dt = {dt} steps the other way: give \
+                     dt the sign of t_end − t0 (a negative dt integrates backwards)",
+                    if t_end < t0 { "before" } else { "after" }
+                ),
+            );
+        }
+        Ok(Self::fixed(dt.abs()))
+    }
+
     /// Error-controlled steps with these tolerances.
     pub fn adaptive(rtol: f64, atol: f64) -> Self {
         Self {
@@ -229,31 +257,58 @@ impl Options {
     }
 }
 
-/// The size of a signed step `dt` that points from `t0` towards `t_end` (a negative `dt`
-/// integrates backwards), for callers that state the step with its direction, as the Python
-/// API does.
-#[cfg(feature = "python")]
-pub(crate) fn step_towards(dt: f64, t0: f64, t_end: f64) -> Result<f64> {
-    if !dt.is_finite() || dt == 0.0 {
-        return bad(
-            "dt",
-            format!("dt = {dt}: the step must be finite and non-zero"),
-        );
-    }
-    if (t_end - t0) * dt < 0.0 {
-        return bad(
-            "dt",
-            format!(
-                "t_end = {t_end} lies {} t0 = {t0} but dt = {dt} steps the other way: give dt the \
-                 sign of t_end − t0 (a negative dt integrates backwards)",
-                if t_end < t0 { "before" } else { "after" }
-            ),
-        );
-    }
-    Ok(dt.abs())
-}
-
 /// The error of an invalid option.
 fn bad<T>(what: &'static str, why: String) -> Result<T> {
     Err(Error::InvalidInput { what, why })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn why(r: Result<impl std::fmt::Debug>) -> String {
+        r.unwrap_err().to_string()
+    }
+
+    #[test]
+    fn fixed_towards_sign_of_the_span() {
+        assert_eq!(
+            Options::fixed_towards(0.1, (0.0, 1.0)).unwrap().dt,
+            Some(0.1)
+        );
+        assert_eq!(
+            Options::fixed_towards(-0.1, (0.0, -1.0)).unwrap().dt,
+            Some(0.1)
+        );
+        assert!(why(Options::fixed_towards(-0.1, (0.0, 1.0))).contains("after t0"));
+        assert!(why(Options::fixed_towards(0.1, (0.0, -1.0))).contains("before t0"));
+        assert!(why(Options::fixed_towards(0.0, (0.0, 1.0))).contains("dt = 0"));
+        assert!(why(Options::fixed_towards(f64::NAN, (0.0, 1.0))).contains("dt = NaN"));
+    }
+
+    #[test]
+    fn validate_one_message_per_option() {
+        let check = |o: Options| why(o.validate(0.0, 1.0));
+        assert_eq!(
+            check(Options::adaptive(0.0, 1e-9)),
+            "invalid rtol: rtol = 0: tolerances must be finite and > 0"
+        );
+        assert_eq!(
+            check(Options::adaptive(1e-6, -1.0)),
+            "invalid atol: atol = -1: tolerances must be finite and > 0"
+        );
+        assert_eq!(
+            check(Options::default().with_max_steps(0)),
+            "invalid max_steps: max_steps = 0: at least one step is needed"
+        );
+        assert!(check(Options::default().with_output(Output::Every(0))).contains("k ≥ 1"));
+    }
+
+    #[test]
+    fn check_method_fixed_step_needs_dt() {
+        let adaptive = Options::default();
+        assert!(why(adaptive.check_method(Method::Rk4)).contains("rk4 takes fixed steps: pass dt"));
+        assert!(adaptive.check_method(Method::Dop853).is_ok());
+        assert!(Options::fixed(0.1).check_method(Method::Rk4).is_ok());
+    }
 }

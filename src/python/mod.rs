@@ -15,7 +15,7 @@ mod error;
 mod first_order;
 mod model;
 
-use crate::integrators::{Method, Options, Output, solve_with_interrupt, step_towards};
+use crate::integrators::{Method, Options, Output, solve_with_interrupt};
 use crate::{Dynamics, Error, Stability, StaticsOptions, equilibrium};
 use error::panic_error;
 use model::{AnyModel, Compiled, RawNode, Spec, WithLoads};
@@ -333,7 +333,7 @@ impl PyModel {
         let method = Method::from_str(method)?;
         // Python's conventions converted to the options; `solve` validates them (options.rs).
         let mut options = match dt {
-            Some(dt) => Options::fixed(step_towards(dt, t0, t_end)?),
+            Some(dt) => Options::fixed_towards(dt, (t0, t_end))?,
             None => Options::adaptive(rtol, atol),
         };
         options.check_method(method)?;
