@@ -8,7 +8,7 @@ use crate::Dynamics;
 use crate::integrators::acceleration_jacobian;
 use nalgebra::DMatrix;
 use num_dual::Dual64;
-use numpy::ndarray::{Array2, ArrayViewD, Axis, Dimension, IxDyn};
+use numpy::ndarray::{Array2, ArrayViewD, Axis, Dimension, Ix1, Ix2, IxDyn};
 use pyo3::PyResult;
 use pyo3::exceptions::PyValueError;
 
@@ -62,9 +62,12 @@ pub(super) fn rhs<S: Dynamics + ?Sized>(
     check_time(t)?;
     check_finite_entries(&y)?;
     let columns = if batch { shape[1] } else { 1 };
-    let y2 = y
-        .into_shape_with_order((2 * n, columns))
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let y2 = if batch {
+        y.into_dimensionality::<Ix2>()
+    } else {
+        y.into_dimensionality::<Ix1>().map(|v| v.insert_axis(Axis(1)))
+    }
+    .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let mut out = Array2::<f64>::zeros((2 * n, columns));
     let (mut q, mut qd, mut qdd) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     for (k, column) in y2.axis_iter(Axis(1)).enumerate() {

@@ -139,7 +139,8 @@ def test_solve_ivp_on_rhs_reaches_simulate_final_state(method):
     assert sol.success, sol.message
     assert_allclose(sol.y[:2, -1], ours.q[-1], atol=1e-6)
     assert_allclose(sol.y[2:, -1], ours.qd[-1], atol=1e-6)
-    if kwargs:
+    if method in ("Radau", "BDF"):
+        # (LSODA stays with its non-stiff Adams methods here and needs no Jacobian.)
         assert sol.njev >= 1
 
 
