@@ -12,7 +12,9 @@ SciPy plus a Python right-hand side.
 
 :func:`run_scipy` (from :mod:`lagrangian._scipy`, re-exported here) integrates such a right-hand
 side with ``scipy.integrate.solve_ivp`` and keeps only the final state, for the error-versus-cost
-comparison with ``Model.simulate``. Import this file with ``benches/`` on ``sys.path``.
+comparison with ``Model.simulate``. Import this file with ``benches/`` on ``sys.path``;
+``python3 benches/peers.py [repeats]`` prints SciPy on these right-hand sides against SciPy on
+``Model.rhs``.
 """
 
 from __future__ import annotations
@@ -320,3 +322,30 @@ def numpy_rhs(scene: str, **params: Any) -> Rhs:
         takes = ", ".join(signature) or "no parameters"
         raise ValueError(f"numpy_rhs({scene!r}) {' and '.join(problems)} (it takes {takes})")
     return builder(**params)
+
+
+def _compare(repeats: int = 3) -> None:
+    """SciPy on the hand-written NumPy right-hand side against SciPy on ``Model.rhs`` (and
+    ``Model.jacobian`` for the implicit methods), double pendulum, rtol = atol = 1e-8."""
+    import lagrangian as lg
+    from lagrangian._scipy import IMPLICIT_METHODS
+
+    params = dict(m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81)
+    model = lg.scenes.double_pendulum(**params)
+    hand = numpy_rhs("double_pendulum", **params)
+    print("double pendulum, q0 = (1.0, 0.5), t_end = 10, rtol = atol = 1e-8\n")
+    print("| method | NumPy RHS | model.rhs | ratio | evaluations (NumPy / model) |")
+    print("|---|---|---|---|---|")
+    for method in SCIPY_METHODS:
+        jac = model.jacobian if method in IMPLICIT_METHODS else None
+        a = run_scipy(hand, [1.0, 0.5], [0.0, 0.0], 10.0, method, 1e-8, 1e-8, repeats=repeats)
+        b = run_scipy(model.rhs, [1.0, 0.5], [0.0, 0.0], 10.0, method, 1e-8, 1e-8,
+                      repeats=repeats, jac=jac)
+        print(f"| {method} | {a.seconds * 1e3:.1f} ms | {b.seconds * 1e3:.1f} ms | "
+              f"{b.seconds / a.seconds:.2f} | {a.nfev} / {b.nfev} |")
+
+
+if __name__ == "__main__":
+    import sys
+
+    _compare(int(sys.argv[1]) if len(sys.argv) > 1 else 3)

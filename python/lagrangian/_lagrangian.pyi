@@ -16,6 +16,7 @@ __all__ = [
     "StiffnessError",
     "TooManyStepsError",
     "NativeModel",
+    "check_options",
     "method_info",
     "methods",
     "__version__",
@@ -49,6 +50,16 @@ class NonFiniteError(LagrangianError):
 
 def methods() -> List[str]:
     """The integration method names: "auto" and the registry's."""
+
+def check_options(
+    t0: float,
+    t_end: float,
+    method: str = "auto",
+    dt: Optional[float] = None,
+    rtol: float = 1e-6,
+    atol: float = 1e-9,
+) -> None:
+    """Check a method and its step options as ``simulate`` does; raises ValueError."""
 
 def method_info(name: str) -> Tuple[str, Optional[bool], Optional[int]]:
     """(canonical name, adaptive, order) of a method name; raises ValueError if unknown."""

@@ -26,7 +26,7 @@ from ._measure import (
     state_error,
 )
 from ._model import Model
-from ._validate import real, vector
+from ._validate import number, real, vector
 
 __all__ = ["Reference", "Row", "WorkPrecision", "work_precision", "state_error"]
 
@@ -314,12 +314,9 @@ def work_precision(
     names = list(methods) if methods is not None else [m for m in _lagrangian.methods() if m != "auto"]
     if not names:
         raise ValueError("methods is empty")
-    tols = [real("tolerance", x) for x in tolerances]
-    steps = [real("dt", x) for x in dts]
-    for what, values in (("tolerances", tols), ("dts", steps)):
-        bad = [x for x in values if not x > 0.0]
-        if bad:
-            raise ValueError(f"{what} must be > 0, got {bad[0]}")
+    tols = [number("tolerance", x) for x in tolerances]
+    steps = [number("dt", x) for x in dts]
+    span_sign = 1.0 if t_endf > t0f else -1.0
     plan: List[Tuple[str, Optional[float], Optional[float]]] = []
     for name in names:
         canonical, adaptive, _order = _lagrangian.method_info(name)
@@ -328,10 +325,15 @@ def work_precision(
         if adaptive:
             if not tols:
                 raise ValueError(f"{canonical} is adaptive: give tolerances")
+            for level in tols:
+                # The checks `simulate` makes (in Rust, one message each), before any run.
+                _lagrangian.check_options(t0f, t_endf, canonical, rtol=level, atol=level)
             plan += [(canonical, tol, None) for tol in tols]
         else:
             if not steps:
                 raise ValueError(f"{canonical} takes fixed steps: give dts")
+            for step in steps:
+                _lagrangian.check_options(t0f, t_endf, canonical, dt=span_sign * step)
             plan += [(canonical, None, dt) for dt in steps]
 
     ref = (
@@ -341,7 +343,6 @@ def work_precision(
     )
     structure = model.structure
     conserved = bool(structure["conservative"]) and not bool(structure["time_dependent"])
-    span_sign = 1.0 if t_endf > t0f else -1.0
     rows: List[Row] = []
     unsupported = set()
     for method, tol, dt in plan:

@@ -65,7 +65,8 @@ pub(super) fn rhs<S: Dynamics + ?Sized>(
     let y2 = if batch {
         y.into_dimensionality::<Ix2>()
     } else {
-        y.into_dimensionality::<Ix1>().map(|v| v.insert_axis(Axis(1)))
+        y.into_dimensionality::<Ix1>()
+            .map(|v| v.insert_axis(Axis(1)))
     }
     .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let mut out = Array2::<f64>::zeros((2 * n, columns));

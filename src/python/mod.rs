@@ -61,6 +61,45 @@ fn count(what: &str, v: i64) -> PyResult<usize> {
         .map_err(|_| PyValueError::new_err(format!("{what} = {v}: a count cannot be negative")))
 }
 
+/// How a run steps, as Python states it: a signed fixed `dt`, or tolerances.
+struct Step {
+    dt: Option<f64>,
+    rtol: f64,
+    atol: f64,
+}
+
+/// The method and options of a run over `span` from Python's arguments (a signed `dt`, counts
+/// as signed integers, `t_eval` or `every`), validated by [`Options`]' own checks.
+fn run_options(
+    span: (f64, f64),
+    method: &str,
+    step: Step,
+    max_steps: Option<i64>,
+    output: (Option<Vec<f64>>, Option<i64>),
+) -> PyResult<(Method, Options)> {
+    let method = Method::from_str(method)?;
+    let mut options = match step.dt {
+        Some(dt) => Options::fixed_towards(dt, span)?,
+        None => Options::adaptive(step.rtol, step.atol),
+    };
+    if let Some(max_steps) = max_steps {
+        options.max_steps = count("max_steps", max_steps)?;
+    }
+    options.output = match output {
+        (Some(_), Some(_)) => {
+            return Err(PyValueError::new_err(
+                "give t_eval or output_every, not both",
+            ));
+        }
+        (Some(times), None) => Output::Times(times),
+        (None, Some(k)) => Output::Every(count("output_every", k)?),
+        (None, None) => Output::Steps,
+    };
+    options.validate(span.0, span.1)?;
+    options.check_method(method)?;
+    Ok((method, options))
+}
+
 /// `ValueError` unless `x` is finite.
 fn check_finite(what: &str, x: f64) -> PyResult<()> {
     if x.is_finite() {
@@ -330,26 +369,14 @@ impl PyModel {
         check_vector("qd0", &qd0, n)?;
         check_finite("t0", t0)?;
         check_finite("t_end", t_end)?;
-        let method = Method::from_str(method)?;
-        // Python's conventions converted to the options; `solve` validates them (options.rs).
-        let mut options = match dt {
-            Some(dt) => Options::fixed_towards(dt, (t0, t_end))?,
-            None => Options::adaptive(rtol, atol),
-        };
-        options.check_method(method)?;
-        if let Some(max_steps) = max_steps {
-            options.max_steps = count("max_steps", max_steps)?;
-        }
-        options.output = match (t_eval, every) {
-            (Some(_), Some(_)) => {
-                return Err(PyValueError::new_err(
-                    "give t_eval or output_every, not both",
-                ));
-            }
-            (Some(times), None) => Output::Times(times.as_array().iter().copied().collect()),
-            (None, Some(k)) => Output::Every(count("output_every", k)?),
-            (None, None) => Output::Steps,
-        };
+        let times = t_eval.map(|t| t.as_array().iter().copied().collect());
+        let (method, options) = run_options(
+            (t0, t_end),
+            method,
+            Step { dt, rtol, atol },
+            max_steps,
+            (times, every),
+        )?;
         let model = self.model.clone();
         let pending: Mutex<Option<PyErr>> = Mutex::new(None);
         let outcome = py.detach(|| {
@@ -502,6 +529,28 @@ fn method_info(name: &str) -> PyResult<(&'static str, Option<bool>, Option<usize
     Ok((m.name(), m.is_adaptive(), m.order()))
 }
 
+/// Check a method and its step options as `simulate` checks them, without running: the same
+/// `ValueError`, for callers that plan many runs (work–precision).
+#[pyfunction]
+#[pyo3(signature = (t0, t_end, method="auto", dt=None, rtol=1e-6, atol=1e-9))]
+fn check_options(
+    t0: f64,
+    t_end: f64,
+    method: &str,
+    dt: Option<f64>,
+    rtol: f64,
+    atol: f64,
+) -> PyResult<()> {
+    run_options(
+        (t0, t_end),
+        method,
+        Step { dt, rtol, atol },
+        None,
+        (None, None),
+    )
+    .map(|_| ())
+}
+
 /// The compiled core of the `lagrangian` package.
 #[pymodule(name = "_lagrangian")]
 mod lagrangian_module {
@@ -511,7 +560,7 @@ mod lagrangian_module {
         StiffnessError, TooManyStepsError,
     };
     #[pymodule_export]
-    use super::{PyModel, method_info, methods};
+    use super::{PyModel, check_options, method_info, methods};
     use pyo3::prelude::*;
 
     #[pymodule_init]

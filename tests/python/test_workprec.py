@@ -177,3 +177,28 @@ def test_work_precision_slice_keeps_reference_and_title() -> None:
     assert part.methods == ["rk4"] and len(wp[::2]) == 2 and len(wp[5:]) == 0
     assert repr(part) == "WorkPrecision('osc', rows=2, methods=['rk4'])"
     assert repr(wp) == "WorkPrecision('osc', rows=4, methods=['dop853', 'rk4'])"
+
+
+def test_options_have_one_message_from_simulate_and_work_precision() -> None:
+    # The options are validated once, in Rust: the same value gets the same message wherever it
+    # is given.
+    m = damped()
+    with pytest.raises(ValueError) as direct:
+        m.simulate([1.0], [0.0], 1.0, method="dop853", rtol=-1e-6, atol=-1e-6)
+    with pytest.raises(ValueError) as planned:
+        lg.work_precision(m, [1.0], [0.0], 1.0, methods=["dop853"], tolerances=[-1e-6])
+    assert str(direct.value) == str(planned.value) == (
+        "invalid rtol: rtol = -0.000001: tolerances must be finite and > 0")
+    with pytest.raises(ValueError) as direct:
+        m.simulate([1.0], [0.0], 1.0, method="rk4", dt=0.0)
+    with pytest.raises(ValueError) as planned:
+        lg.work_precision(m, [1.0], [0.0], 1.0, methods=["rk4"], dts=[0.0])
+    assert str(direct.value) == str(planned.value)
+    with pytest.raises(ValueError, match="max_steps = 0: at least one step is needed"):
+        m.simulate([1.0], [0.0], 1.0, max_steps=0)
+    with pytest.raises(ValueError, match="max_steps = -3: a count cannot be negative"):
+        m.simulate([1.0], [0.0], 1.0, max_steps=-3)
+    with pytest.raises(ValueError, match="k ≥ 1"):
+        m.simulate([1.0], [0.0], 1.0, output_every=0)
+    with pytest.raises(TypeError, match="max_steps must be an integer"):
+        m.simulate([1.0], [0.0], 1.0, max_steps=2.5)  # type: ignore[arg-type]
