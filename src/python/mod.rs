@@ -2,9 +2,11 @@
 //!
 //! The user's energies are compiled once to a [`crate::tape`] and evaluated over the same dual
 //! numbers as a Rust model, so no Python runs while a model is integrated. This module holds the
-//! compiled model ([`PyModel`], `NativeModel` in Python), the exception classes and the method
-//! registry; the expression language, argument checking and docstrings of the public API live in
-//! `python/lagrangian/`.
+//! compiled model ([`PyModel`], `NativeModel` in Python) and the method registry; the exception
+//! classes are in [`error`], the model as a first-order system for SciPy (`rhs`, `jacobian`) in
+//! [`first_order`], the models themselves in [`model`]. Options are converted here from Python's
+//! conventions and validated by [`Options`] itself. The expression language, argument checking
+//! and docstrings of the public API live in `python/lagrangian/`.
 //!
 //! Every entry point releases nothing half-done: inputs are checked before any work, a failure
 //! is a typed exception (see [`error`]), a panic is caught and reported as `LagrangianError`,
