@@ -16,6 +16,7 @@ __all__ = [
     "StiffnessError",
     "TooManyStepsError",
     "NativeModel",
+    "check_options",
     "method_info",
     "methods",
     "scene_catalog",
@@ -55,6 +56,16 @@ class NonFiniteError(LagrangianError):
 def methods() -> List[str]:
     """The integration method names: "auto" and the registry's."""
 
+def check_options(
+    t0: float,
+    t_end: float,
+    method: str = "auto",
+    dt: Optional[float] = None,
+    rtol: float = 1e-6,
+    atol: float = 1e-9,
+) -> None:
+    """Check a method and its step options as ``simulate`` does; raises ValueError."""
+
 def method_info(name: str) -> Tuple[str, Optional[bool], Optional[int]]:
     """(canonical name, adaptive, order) of a method name; raises ValueError if unknown."""
 
@@ -84,6 +95,10 @@ class NativeModel:
     def energy(self, t: float, q: Sequence[float], qd: Sequence[float]) -> float: ...
     def momenta(self, t: float, q: Sequence[float], qd: Sequence[float]) -> _FloatArray: ...
     def lagrangian(self, t: float, q: Sequence[float], qd: Sequence[float]) -> float: ...
+    def rhs(self, t: float, y: _FloatArray) -> _FloatArray:
+        """dy/dt = (q̇, q̈) at y = (q, q̇), shape (2n,) or (2n, k)."""
+    def jacobian(self, t: float, y: _FloatArray) -> _FloatArray:
+        """The 2n × 2n Jacobian of ``rhs`` by forward-mode AD."""
     @property
     def has_positions(self) -> bool: ...
     def positions(self, t: _FloatArray, q: _FloatArray) -> Optional[_FloatArray]:

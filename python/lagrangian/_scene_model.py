@@ -10,7 +10,9 @@ import numpy as np
 
 from . import _lagrangian
 from ._expr import Coordinate
-from ._model import FloatArray, Model, _real, _vector
+from ._model import FloatArray, Model
+from ._validate import real as _real
+from ._validate import vector as _vector
 
 if TYPE_CHECKING:
     from ._plot import Drawing
