@@ -1,12 +1,11 @@
 //! [`EnergyModel`]: a model stated at run time by its energies, with the accelerations at `f64`
 //! states from one fused derivative pass of T.
 
-use super::jet::{Chain, First, Jet, Lagrange};
+use super::jet::{Chain, Jet, Lagrange};
 use super::{Function, Input};
-use crate::dynamics::{check_lengths, finite_re};
-use crate::linalg::{ldlt_in_place, ldlt_solve};
-use crate::system::singular;
-use crate::{Dynamics, Error, GeneralizedForces, KineticEnergy, Result, Scalar, Structure, System};
+use crate::dynamics::check_lengths;
+use crate::eom::{self, Forces};
+use crate::{Dynamics, Error, KineticEnergy, Result, Scalar, Structure, System};
 
 /// The [`System`] of tape functions an [`EnergyModel`] wraps.
 pub type TapeSystem = System<Function, Option<Function>, Option<Function>, Option<Function>>;
@@ -107,7 +106,11 @@ impl EnergyModel {
         )
     }
 
-    /// Eq. 55 at an `f64` state with one pass of T (see the type's documentation).
+    /// Eq. 55 at an `f64` state with one pass of T (see the type's documentation); the rest of
+    /// the right-hand side and the LDLᵀ tail are [`eom`]'s, as for every route. U is not folded
+    /// into the pass of T as [`System`] does for one or two coordinates: T and U are separate
+    /// tapes, so L = T − U would be a second run over the heavier jet, while U's own gradient
+    /// pass runs over a first-order one.
     fn fused<const N: usize, const N1: usize>(
         &self,
         t: f64,
@@ -116,86 +119,46 @@ impl EnergyModel {
         out: &mut [f64],
     ) -> Result<()> {
         let s = &self.system;
-        let mut rhs = [0.0; N];
-        if let Some(f) = &s.forces {
-            f.forces(t, q, qd, &mut rhs);
-        }
-        let mut m = [0.0; 64];
-        let m = &mut m[..N * N];
-        // T: first directions q̇, second directions (q̇, motion), first-order directions q.
-        let k = &s.kinetic;
-        let seed = |i: Input| {
-            let mut x = Lagrange::<N, N1>::cst(0.0);
-            match i {
-                Input::Time => {
-                    x.s.re = t;
-                    x.s.e2[N] = 1.0;
-                }
-                Input::Coord(j) => {
-                    x.s.re = q[j];
-                    x.s.e2[N] = qd[j];
-                    x.g[j] = 1.0;
-                }
-                Input::Velocity(j) => {
-                    x.s.re = qd[j];
-                    x.s.e1[j] = 1.0;
-                    x.s.e2[j] = 1.0;
-                }
-            }
-            Jet(x)
+        let parts = Forces {
+            potential: &s.potential,
+            dissipation: &s.dissipation,
+            forces: &s.forces,
         };
-        k.tape.run(&k.consts, seed, |_, v: Jet<Lagrange<N, N1>>| {
-            let v = v.0;
-            for i in 0..N {
-                rhs[i] += v.g[i] - v.s.e12[i][N];
-                for j in 0..N {
-                    m[i * N + j] = v.s.e12[i][j];
-                }
-            }
-        });
-        // U: its gradient in q.
-        if let Some(u) = &s.potential {
+        eom::accelerations::<N, f64, _, _, _>(&parts, t, q, qd, out, |m, rhs| {
+            // T: first directions q̇, second directions (q̇, motion), first-order directions q.
+            let k = &s.kinetic;
             let seed = |i: Input| {
-                Jet(match i {
-                    Input::Time => First::cst(t),
-                    Input::Coord(j) => unit::<N>(q[j], j),
-                    Input::Velocity(_) => First::cst(0.0),
-                })
+                let mut x = Lagrange::<N, N1>::cst(0.0);
+                match i {
+                    Input::Time => {
+                        x.s.re = t;
+                        x.s.e2[N] = 1.0;
+                    }
+                    Input::Coord(j) => {
+                        x.s.re = q[j];
+                        x.s.e2[N] = qd[j];
+                        x.g[j] = 1.0;
+                    }
+                    Input::Velocity(j) => {
+                        x.s.re = qd[j];
+                        x.s.e1[j] = 1.0;
+                        x.s.e2[j] = 1.0;
+                    }
+                }
+                Jet(x)
             };
-            u.tape.run(&u.consts, seed, |_, v: Jet<First<N>>| {
-                for (r, e) in rhs.iter_mut().zip(v.0.e) {
-                    *r -= e;
+            k.tape.run(&k.consts, seed, |_, v: Jet<Lagrange<N, N1>>| {
+                let v = v.0;
+                for i in 0..N {
+                    rhs[i] += v.g[i] - v.s.e12[i][N];
+                    for j in 0..N {
+                        m[i * N + j] = v.s.e12[i][j];
+                    }
                 }
             });
-        }
-        // Φ: its gradient in q̇.
-        if let Some(r) = &s.dissipation {
-            let seed = |i: Input| {
-                Jet(match i {
-                    Input::Time => First::cst(t),
-                    Input::Coord(j) => First::cst(q[j]),
-                    Input::Velocity(j) => unit::<N>(qd[j], j),
-                })
-            };
-            r.tape.run(&r.consts, seed, |_, v: Jet<First<N>>| {
-                for (x, e) in rhs.iter_mut().zip(v.0.e) {
-                    *x -= e;
-                }
-            });
-        }
-        ldlt_in_place(m, N).map_err(|f| singular(f.reason(), t, q))?;
-        ldlt_solve(&*m, N, &mut rhs);
-        out.copy_from_slice(&rhs);
-        finite_re(out, "accelerations", t)
+            false
+        })
     }
-}
-
-/// The jet x + ε_j.
-#[inline(always)]
-fn unit<const N: usize>(x: f64, j: usize) -> First<N> {
-    let mut e = [0.0; N];
-    e[j] = 1.0;
-    First { re: x, e }
 }
 
 impl Dynamics for EnergyModel {

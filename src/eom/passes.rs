@@ -1,6 +1,7 @@
 //! The forward-mode derivative passes behind the equations of motion.
 //!
-//! Each term of eq. 55 gets only the pass it needs (DESIGN.md):
+//! Each term of eq. 55 gets only the pass it needs (the design is described in
+//! docs/ARCHITECTURE.md and the README's "How the derivatives are taken"):
 //! - [`gradient`]: one first-order vector-dual pass (∂U/∂q, ∂Φ/∂q̇, p = ∂T/∂q̇);
 //! - [`inertia`]: everything T contributes, M = ∂²T/∂q̇² and the kinetic terms
 //!   ∂T/∂q − (∂²T/∂q̇∂q) q̇ − ∂²T/∂q̇∂t, from one hyper-dual pass whose first directions are q̇ and
@@ -26,9 +27,10 @@ use nalgebra::{SMatrix, SVector};
 pub(crate) const CHUNK: usize = 4;
 
 /// The largest number of coordinates for which the one-pass scheme also evaluates U. Up to two,
-/// its hyper-dual numbers (≤ 15 components) stay in registers and U rides along for free (double
-/// pendulum, benches/eom.rs: 48 → 42 ns); from three on (28 and 45 components) their operations
-/// are out-of-line calls, and U's own first-order pass is cheaper (4-pendulum: 800 vs 860 ns).
+/// its hyper-dual numbers (≤ 15 components) stay in registers and U rides along for free; from
+/// three on (28 and 45 components) their operations are out-of-line calls, and U's own
+/// first-order pass is cheaper (both measured in benches/eom.rs, on the double pendulum and the
+/// 4-pendulum).
 const FOLD_POTENTIAL_MAX: usize = 2;
 
 /// Which argument a gradient pass differentiates.
