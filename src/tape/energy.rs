@@ -260,7 +260,10 @@ mod tests {
             self.0.powi(a, 2).unwrap()
         }
         fn function(&self, root: usize, inputs: Inputs, params: &[f64]) -> Function {
-            let tape = Tape::new(&self.0, &[root], inputs, "test").unwrap();
+            self.outputs(&[root], inputs, params)
+        }
+        fn outputs(&self, roots: &[usize], inputs: Inputs, params: &[f64]) -> Function {
+            let tape = Tape::new(&self.0, roots, inputs, "test").unwrap();
             Function::new(Arc::new(tape), params).unwrap()
         }
     }
@@ -418,5 +421,229 @@ mod tests {
         assert!(EnergyModel::new(1, k.clone(), Some(k.clone()), None, None).is_err());
         // One force for two coordinates.
         assert!(EnergyModel::new(2, k2.clone(), None, None, Some(k2)).is_err());
+    }
+
+    /// A particle of mass m at r = (x + A sin ωt, y + b x²) in gravity g (T depends on t and q,
+    /// M on q), a spring U = ½ k (x² + y²) + κ x y, Φ = ½ c (ẋ² + ẏ²) + ½ c₂ x² ẏ², and
+    /// Q″ = (F cos νt, −d y ẋ): every term of eq. 55.
+    #[derive(Clone, Copy)]
+    struct Every {
+        m: f64,
+        a: f64,
+        w: f64,
+        b: f64,
+        g: f64,
+        k: f64,
+        kappa: f64,
+        c: f64,
+        c2: f64,
+        f: f64,
+        nu: f64,
+        d: f64,
+    }
+
+    const EVERY: Every = Every {
+        m: 1.3,
+        a: 0.4,
+        w: 1.7,
+        b: 0.6,
+        g: 9.81,
+        k: 2.5,
+        kappa: 0.3,
+        c: 0.35,
+        c2: 0.2,
+        f: 0.8,
+        nu: 1.1,
+        d: 0.45,
+    };
+
+    impl crate::Particles for Every {
+        fn dof(&self) -> usize {
+            2
+        }
+        fn dim(&self) -> usize {
+            2
+        }
+        fn count(&self) -> usize {
+            1
+        }
+        fn mass(&self, _j: usize) -> f64 {
+            self.m
+        }
+        fn positions<D: Scalar>(&self, t: D, q: &[D], r: &mut [D]) {
+            r[0] = q[0] + (t * self.w).sin() * self.a;
+            r[1] = q[1] + q[0] * q[0] * self.b;
+        }
+    }
+
+    impl crate::Potential for Every {
+        fn potential<D: Scalar>(&self, _t: D, q: &[D]) -> D {
+            (q[0] * q[0] + q[1] * q[1]) * (0.5 * self.k) + q[0] * q[1] * self.kappa
+        }
+        fn depends_on_time(&self) -> bool {
+            false
+        }
+    }
+
+    impl crate::Dissipation for Every {
+        fn dissipation<D: Scalar>(&self, _t: D, q: &[D], qd: &[D]) -> D {
+            (qd[0] * qd[0] + qd[1] * qd[1]) * (0.5 * self.c)
+                + q[0] * q[0] * qd[1] * qd[1] * (0.5 * self.c2)
+        }
+    }
+
+    impl crate::GeneralizedForces for Every {
+        fn forces<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
+            out[0] += (t * self.nu).cos() * self.f;
+            out[1] -= q[1] * qd[0] * self.d;
+        }
+    }
+
+    /// [`EVERY`] as tapes: T, U (gravity and spring), Φ and Q″.
+    fn every_model() -> EnergyModel {
+        let e = EVERY;
+        let mut b = B(Graph::new());
+        let (x, y, vx, vy, t) = (
+            b.0.coord(0),
+            b.0.coord(1),
+            b.0.velocity(0),
+            b.0.velocity(1),
+            b.0.time(),
+        );
+        let c = |b: &mut B, v: f64| b.c(v);
+        // ṙ = (ẋ + A ω cos ωt, ẏ + 2 b x ẋ)
+        let w = c(&mut b, e.w);
+        let wt = b.mul(w, t);
+        let cwt = b.un(Unary::Cos, wt);
+        let aw = c(&mut b, e.a * e.w);
+        let drive = b.mul(aw, cwt);
+        let rx = b.add(vx, drive);
+        let two_b = c(&mut b, 2.0 * e.b);
+        let xv = b.mul(x, vx);
+        let bxv = b.mul(two_b, xv);
+        let ry = b.add(vy, bxv);
+        let rx2 = b.sqr(rx);
+        let ry2 = b.sqr(ry);
+        let v2 = b.add(rx2, ry2);
+        let half_m = c(&mut b, 0.5 * e.m);
+        let kinetic = b.mul(half_m, v2);
+        // U = m g (y + b x²) + ½ k (x² + y²) + κ x y
+        let x2 = b.sqr(x);
+        let y2 = b.sqr(y);
+        let bb = c(&mut b, e.b);
+        let bx2 = b.mul(bb, x2);
+        let height = b.add(y, bx2);
+        let mg = c(&mut b, e.m * e.g);
+        let ug = b.mul(mg, height);
+        let r2 = b.add(x2, y2);
+        let hk = c(&mut b, 0.5 * e.k);
+        let us = b.mul(hk, r2);
+        let kap = c(&mut b, e.kappa);
+        let xy = b.mul(x, y);
+        let uk = b.mul(kap, xy);
+        let u = b.add(ug, us);
+        let potential = b.add(u, uk);
+        // Φ = ½ c (ẋ² + ẏ²) + ½ c₂ x² ẏ²
+        let vx2 = b.sqr(vx);
+        let vy2 = b.sqr(vy);
+        let vv = b.add(vx2, vy2);
+        let hc = c(&mut b, 0.5 * e.c);
+        let p1 = b.mul(hc, vv);
+        let hc2 = c(&mut b, 0.5 * e.c2);
+        let x2vy2 = b.mul(x2, vy2);
+        let p2 = b.mul(hc2, x2vy2);
+        let dissipation = b.add(p1, p2);
+        // Q″ = (F cos νt, −d y ẋ)
+        let nu = c(&mut b, e.nu);
+        let nut = b.mul(nu, t);
+        let cnt = b.un(Unary::Cos, nut);
+        let ff = c(&mut b, e.f);
+        let q0 = b.mul(ff, cnt);
+        let md = c(&mut b, -e.d);
+        let yvx = b.mul(y, vx);
+        let q1 = b.mul(md, yvx);
+        let (ki, po) = (Inputs::kinetic(2, 0), Inputs::potential(2, 0));
+        EnergyModel::new(
+            2,
+            b.function(kinetic, ki, &[]),
+            Some(b.function(potential, po, &[])),
+            Some(b.function(dissipation, ki, &[])),
+            Some(b.outputs(&[q0, q1], ki, &[])),
+        )
+        .unwrap()
+    }
+
+    /// q̈ from the (q, p) form: ṗ = G with ṗ = ∂p/∂t + (∂p/∂q) q̇ + M q̈, so
+    /// q̈ = M⁻¹ (G − ∂p/∂t − (∂p/∂q) q̇), the derivative of p along (1, q̇, 0) by one dual pass.
+    fn qp_accelerations<S: Dynamics>(system: &S, t: f64, q: &[f64], qd: &[f64]) -> Vec<f64> {
+        use num_dual::Dual64;
+        let n = q.len();
+        let (mut g, mut tmp) = (vec![0.0; n], vec![0.0; n]);
+        crate::eom::ForceParts::of(system).force_into(system, t, q, qd, &mut g, &mut tmp);
+        let td = Dual64::new(t, 1.0);
+        let qdual: Vec<Dual64> = q.iter().zip(qd).map(|(&x, &v)| Dual64::new(x, v)).collect();
+        let vdual: Vec<Dual64> = qd.iter().map(|&v| Dual64::from_re(v)).collect();
+        let mut p = vec![Dual64::from_re(0.0); n];
+        system.momenta_into(td, &qdual, &vdual, &mut p);
+        let rhs: Vec<f64> = g.iter().zip(&p).map(|(g, p)| g - p.eps).collect();
+        let m = system.mass_matrix(t, q, qd).unwrap();
+        m.lu()
+            .solve(&nalgebra::DVector::from_vec(rhs))
+            .unwrap()
+            .as_slice()
+            .to_vec()
+    }
+
+    /// The four routes of eq. 55 — the energy route (U folded into T's pass), the tape's fused
+    /// jet pass, the particle route, and the (q, p) form of each — agree on a system with every
+    /// term: T depending on t and q, U, Φ and Q″.
+    #[test]
+    fn accelerations_every_term_four_routes() {
+        let e = EVERY;
+        let particles = crate::ParticleSystem::new(e)
+            .with_gravity([0.0, -e.g, 0.0])
+            .with_potential(e)
+            .with_dissipation(e)
+            .with_forces(e);
+        let energy = particles.energy_route();
+        let model = every_model();
+        assert!(model.fused);
+        let s = model.structure();
+        assert!(s.time_dependent && s.dissipative && s.forced && !s.constant_mass);
+        for (t, q, qd) in [
+            (0.0, [0.3, -0.4], [0.0, 0.0]),
+            (0.7, [1.1, 0.5], [0.8, -1.3]),
+            (2.9, [-0.6, 1.7], [-2.1, 0.4]),
+        ] {
+            let want = energy.accelerations(t, &q, &qd).unwrap();
+            let routes = [
+                ("tape", model.accelerations(t, &q, &qd).unwrap()),
+                (
+                    "tape, generic",
+                    model.system().accelerations(t, &q, &qd).unwrap(),
+                ),
+                ("particles", particles.accelerations(t, &q, &qd).unwrap()),
+            ];
+            let qp = [
+                ("(q, p) energy", qp_accelerations(&energy, t, &q, &qd)),
+                ("(q, p) tape", qp_accelerations(&model, t, &q, &qd)),
+                ("(q, p) particles", qp_accelerations(&particles, t, &q, &qd)),
+            ];
+            let routes = routes
+                .into_iter()
+                .map(|(name, a)| (name, a.as_slice().to_vec()))
+                .chain(qp);
+            for (name, got) in routes {
+                for i in 0..2 {
+                    let tol = 1e-12 * want[i].abs().max(1.0);
+                    assert!(
+                        (got[i] - want[i]).abs() <= tol,
+                        "{name} at t = {t}: q̈{i} = {} vs {}",
+                        got[i],
+                        want[i]
+                    );
+                }
+            }
+        }
     }
 }
