@@ -504,31 +504,40 @@ where
         let p = &self.particles;
         let (na, dim) = (p.coordinates_len(), p.dim());
         let zero = D::zero();
-        eom::accelerations::<C, D, U, R, Q>(&self.parts(), t, q, qd, out, |m, rhs| {
-            with_buf::<D, 36, _>(na * n, zero, |jac| {
-                with_buf::<D, 12, _>(na, zero, |r| {
-                    with_buf::<D, 12, _>(na, zero, |v| {
-                        with_buf::<D, 12, _>(na, zero, |f| {
-                            jacobian::<C, D, P>(p, t, q, jac);
-                            motion(p, t, q, qd, r, v, f);
-                            // f holds the accelerations at q̈ = 0; turn it into F_j − m_j a_j.
-                            for (j, fj) in f.chunks_exact_mut(dim).enumerate() {
-                                let m = p.mass(j);
-                                for (d, fk) in fj.iter_mut().enumerate() {
-                                    *fk = D::from(m * self.gravity[d]) - *fk * m;
+        let parts = self.parts();
+        eom::accelerations::<C, D, U, R, Q>(
+            &parts,
+            t,
+            q,
+            qd,
+            out,
+            #[inline(always)]
+            |m, rhs| {
+                with_buf::<D, 36, _>(na * n, zero, |jac| {
+                    with_buf::<D, 12, _>(na, zero, |r| {
+                        with_buf::<D, 12, _>(na, zero, |v| {
+                            with_buf::<D, 12, _>(na, zero, |f| {
+                                jacobian::<C, D, P>(p, t, q, jac);
+                                motion(p, t, q, qd, r, v, f);
+                                // f holds the accelerations at q̈ = 0; turn it into F_j − m_j a_j.
+                                for (j, fj) in f.chunks_exact_mut(dim).enumerate() {
+                                    let m = p.mass(j);
+                                    for (d, fk) in fj.iter_mut().enumerate() {
+                                        *fk = D::from(m * self.gravity[d]) - *fk * m;
+                                    }
                                 }
-                            }
-                            if self.cartesian.is_present() {
-                                self.cartesian.forces(t, r, v, f);
-                            }
-                            project(jac, n, f, rhs);
-                            particle_mass_matrix(p, jac, n, m);
+                                if self.cartesian.is_present() {
+                                    self.cartesian.forces(t, r, v, f);
+                                }
+                                project(jac, n, f, rhs);
+                                particle_mass_matrix(p, jac, n, m);
+                            })
                         })
                     })
-                })
-            });
-            false
-        })
+                });
+                false
+            },
+        )
     }
 
     fn mass_matrix_dof<const C: usize, const C2: usize, D: Scalar>(

@@ -124,40 +124,48 @@ impl EnergyModel {
             dissipation: &s.dissipation,
             forces: &s.forces,
         };
-        eom::accelerations::<N, f64, _, _, _>(&parts, t, q, qd, out, |m, rhs| {
-            // T: first directions q̇, second directions (q̇, motion), first-order directions q.
-            let k = &s.kinetic;
-            let seed = |i: Input| {
-                let mut x = Lagrange::<N, N1>::cst(0.0);
-                match i {
-                    Input::Time => {
-                        x.s.re = t;
-                        x.s.e2[N] = 1.0;
+        eom::accelerations::<N, f64, _, _, _>(
+            &parts,
+            t,
+            q,
+            qd,
+            out,
+            #[inline(always)]
+            |m, rhs| {
+                // T: first directions q̇, second directions (q̇, motion), first-order directions q.
+                let k = &s.kinetic;
+                let seed = |i: Input| {
+                    let mut x = Lagrange::<N, N1>::cst(0.0);
+                    match i {
+                        Input::Time => {
+                            x.s.re = t;
+                            x.s.e2[N] = 1.0;
+                        }
+                        Input::Coord(j) => {
+                            x.s.re = q[j];
+                            x.s.e2[N] = qd[j];
+                            x.g[j] = 1.0;
+                        }
+                        Input::Velocity(j) => {
+                            x.s.re = qd[j];
+                            x.s.e1[j] = 1.0;
+                            x.s.e2[j] = 1.0;
+                        }
                     }
-                    Input::Coord(j) => {
-                        x.s.re = q[j];
-                        x.s.e2[N] = qd[j];
-                        x.g[j] = 1.0;
+                    Jet(x)
+                };
+                k.tape.run(&k.consts, seed, |_, v: Jet<Lagrange<N, N1>>| {
+                    let v = v.0;
+                    for i in 0..N {
+                        rhs[i] += v.g[i] - v.s.e12[i][N];
+                        for j in 0..N {
+                            m[i * N + j] = v.s.e12[i][j];
+                        }
                     }
-                    Input::Velocity(j) => {
-                        x.s.re = qd[j];
-                        x.s.e1[j] = 1.0;
-                        x.s.e2[j] = 1.0;
-                    }
-                }
-                Jet(x)
-            };
-            k.tape.run(&k.consts, seed, |_, v: Jet<Lagrange<N, N1>>| {
-                let v = v.0;
-                for i in 0..N {
-                    rhs[i] += v.g[i] - v.s.e12[i][N];
-                    for j in 0..N {
-                        m[i * N + j] = v.s.e12[i][j];
-                    }
-                }
-            });
-            false
-        })
+                });
+                false
+            },
+        )
     }
 }
 
