@@ -11,7 +11,7 @@
 //! and gives the same accelerations as the energy route (tests prove it).
 
 use crate::dynamics::{Dynamics, Structure, check_lengths};
-use crate::eom::{self, Forces, by_dof};
+use crate::eom::{Forces, by_dof};
 use crate::error::Result;
 use crate::scalar::{Grad, grad_const, grad_part, grad_seed, with_buf};
 use crate::{Dissipation, GeneralizedForces, KineticEnergy, Potential, Scalar, System};
@@ -465,11 +465,7 @@ where
     /// eq. 55.
     #[inline(always)]
     fn parts(&self) -> Forces<'_, U, R, Q> {
-        Forces {
-            potential: &self.potential,
-            dissipation: &self.dissipation,
-            forces: &self.forces,
-        }
+        Forces::new(&self.potential, &self.dissipation, &self.forces)
     }
 
     fn accelerations_dof<const C: usize, const C2: usize, D: Scalar>(
@@ -490,7 +486,7 @@ where
     /// Eq. 55 with M = Σ m_j J_jᵀJ_j and the particles' terms Σ J_jᵀ(F_j − m_j a_j): J from one
     /// vector-dual pass per chunk of C coordinates, and r, ṙ and the acceleration a_j at q̈ = 0
     /// from one second-order pass along (q̇, 1). (A single nested `Dual2<Grad>` pass measured 5×
-    /// slower: num-dual's nested `sin_cos` dominates.) The rest from [`eom`].
+    /// slower: num-dual's nested `sin_cos` dominates.) The rest from [`crate::eom`].
     #[inline(always)]
     fn accelerations_n<const C: usize, D: Scalar>(
         &self,
@@ -504,9 +500,7 @@ where
         let p = &self.particles;
         let (na, dim) = (p.coordinates_len(), p.dim());
         let zero = D::zero();
-        let parts = self.parts();
-        eom::accelerations::<C, D, U, R, Q>(
-            &parts,
+        self.parts().accelerations::<C, D>(
             t,
             q,
             qd,
@@ -591,13 +585,8 @@ where
             g: self.gravity,
         };
         let u = (gravity, &self.potential);
-        let parts = Forces {
-            potential: &u,
-            dissipation: &(),
-            forces: &(),
-        };
         out.fill(D::zero());
-        parts.add_potential_gradient::<C, D>(t, q, 1.0, out);
+        Forces::new(&u, &(), &()).add_potential_gradient::<C, D>(t, q, 1.0, out);
     }
 }
 

@@ -5,9 +5,9 @@
 //! - [`passes`]: the forward-mode derivative passes, each term of eq. 55 with only the pass it
 //!   needs;
 //! - [`Forces`]: the terms T does not give, Q″ − ∂U/∂q − ∂Φ/∂q̇, from the parts U, Φ and Q″;
-//! - [`accelerations`] and [`accelerations_constant`]: the one right-hand side and its LDLᵀ
-//!   tail ([`factor`], [`solve`]): M factored with typed errors naming t and q, solved, checked
-//!   finite;
+//! - [`Forces::accelerations`] and [`Forces::accelerations_constant`]: the one right-hand side
+//!   and its LDLᵀ tail ([`factor`], [`solve`]): M factored with typed errors naming t and q,
+//!   solved, checked finite;
 //! - [`ForceParts`]: the (q, p) form ṗ = ∂L/∂q + Q″ − ∂Φ/∂q̇ of the implicit symplectic methods.
 //!
 //! A route supplies only M and the terms its kinetic energy gives (T's
@@ -49,14 +49,24 @@ pub(crate) use by_dof;
 /// itself absent and costs no pass.
 pub(crate) struct Forces<'a, U, R, Q> {
     /// U(t, q).
-    pub(crate) potential: &'a U,
+    potential: &'a U,
     /// Rayleigh's Φ(t, q, q̇).
-    pub(crate) dissipation: &'a R,
+    dissipation: &'a R,
     /// Q″(t, q, q̇).
-    pub(crate) forces: &'a Q,
+    forces: &'a Q,
 }
 
-impl<U: Potential, R: Dissipation, Q: GeneralizedForces> Forces<'_, U, R, Q> {
+impl<'a, U: Potential, R: Dissipation, Q: GeneralizedForces> Forces<'a, U, R, Q> {
+    /// The parts U, Φ and Q″.
+    #[inline(always)]
+    pub(crate) fn new(potential: &'a U, dissipation: &'a R, forces: &'a Q) -> Self {
+        Self {
+            potential,
+            dissipation,
+            forces,
+        }
+    }
+
     /// `out += sign · ∂U/∂q`, one gradient pass in chunks of `C` (nothing when U is absent).
     #[inline(always)]
     pub(crate) fn add_potential_gradient<const C: usize, D: Scalar>(
@@ -124,73 +134,61 @@ impl<U: Potential, R: Dissipation, Q: GeneralizedForces> Forces<'_, U, R, Q> {
         }
         self.add_dissipative_forces::<C, D>(t, q, qd, out);
     }
-}
 
-/// Eq. 55 solved for q̈ into `out` (n = `q.len()` entries). `inertia(m, rhs)` is the route's
-/// part: it writes M (row-major, n × n) to `m`, adds the terms its kinetic energy gives into
-/// `rhs`, and returns whether those include −∂U/∂q. The rest of the right-hand side comes from
-/// [`Forces::add_into`]. M is factored before those force terms are computed: the factorization
-/// is a serial chain of divisions, which the processor then overlaps with them.
-///
-/// # Errors
-/// As [`factor`] and [`solve`].
-#[inline(always)]
-pub(crate) fn accelerations<const C: usize, D, U, R, Q>(
-    forces: &Forces<'_, U, R, Q>,
-    t: D,
-    q: &[D],
-    qd: &[D],
-    out: &mut [D],
-    inertia: impl FnOnce(&mut [D], &mut [D]) -> bool,
-) -> Result<()>
-where
-    D: Scalar,
-    U: Potential,
-    R: Dissipation,
-    Q: GeneralizedForces,
-{
-    let n = q.len();
-    out.fill(D::zero());
-    with_buf::<D, 16, _>(
-        n * n,
-        D::zero(),
-        #[inline(always)]
-        |m| {
-            let folded = inertia(m, out);
-            factor(m, n, t, q)?;
-            forces.add_into::<C, D>(t, q, qd, folded, out);
-            solve(&*m, n, t, out)
-        },
-    )
-}
+    /// Eq. 55 solved for q̈ into `out` (n = `q.len()` entries). `inertia(m, rhs)` is the route's
+    /// part: it writes M (row-major, n × n) to `m`, adds the terms its kinetic energy gives into
+    /// `rhs`, and returns whether those include −∂U/∂q. The rest of the right-hand side comes
+    /// from [`add_into`](Self::add_into). M is factored before those force terms are computed:
+    /// the factorization is a serial chain of divisions, which the processor then overlaps with
+    /// them.
+    ///
+    /// # Errors
+    /// As [`factor`] and [`solve`].
+    #[inline(always)]
+    pub(crate) fn accelerations<const C: usize, D: Scalar>(
+        &self,
+        t: D,
+        q: &[D],
+        qd: &[D],
+        out: &mut [D],
+        inertia: impl FnOnce(&mut [D], &mut [D]) -> bool,
+    ) -> Result<()> {
+        let n = q.len();
+        out.fill(D::zero());
+        with_buf::<D, 16, _>(
+            n * n,
+            D::zero(),
+            #[inline(always)]
+            |m| {
+                let folded = inertia(m, out);
+                factor(m, n, t, q)?;
+                self.add_into::<C, D>(t, q, qd, folded, out);
+                solve(&*m, n, t, out)
+            },
+        )
+    }
 
-/// [`accelerations`] with a constant M whose factor (from [`factor`], at `f64`) is `m`:
-/// `kinetic(rhs)` adds the terms the kinetic energy gives (if any) into `rhs` and returns whether
-/// those include −∂U/∂q.
-///
-/// # Errors
-/// As [`solve`].
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn accelerations_constant<const C: usize, D, U, R, Q>(
-    forces: &Forces<'_, U, R, Q>,
-    m: &[f64],
-    t: D,
-    q: &[D],
-    qd: &[D],
-    out: &mut [D],
-    kinetic: impl FnOnce(&mut [D]) -> bool,
-) -> Result<()>
-where
-    D: Scalar,
-    U: Potential,
-    R: Dissipation,
-    Q: GeneralizedForces,
-{
-    out.fill(D::zero());
-    let folded = kinetic(out);
-    forces.add_into::<C, D>(t, q, qd, folded, out);
-    solve(m, q.len(), t, out)
+    /// [`accelerations`](Self::accelerations) with a constant M whose factor (from [`factor`],
+    /// at `f64`) is `m`: `kinetic(rhs)` adds the terms the kinetic energy gives (if any) into
+    /// `rhs` and returns whether those include −∂U/∂q.
+    ///
+    /// # Errors
+    /// As [`solve`].
+    #[inline(always)]
+    pub(crate) fn accelerations_constant<const C: usize, D: Scalar>(
+        &self,
+        m: &[f64],
+        t: D,
+        q: &[D],
+        qd: &[D],
+        out: &mut [D],
+        kinetic: impl FnOnce(&mut [D]) -> bool,
+    ) -> Result<()> {
+        out.fill(D::zero());
+        let folded = kinetic(out);
+        self.add_into::<C, D>(t, q, qd, folded, out);
+        solve(m, q.len(), t, out)
+    }
 }
 
 /// Factor the row-major n × n mass matrix `m` in place as LDLᵀ (only [`solve`] reads the result).

@@ -138,11 +138,7 @@ where
     /// U, Φ and Q″, for the shared assembly of eq. 55.
     #[inline(always)]
     fn parts(&self) -> Forces<'_, U, R, Q> {
-        Forces {
-            potential: &self.potential,
-            dissipation: &self.dissipation,
-            forces: &self.forces,
-        }
+        Forces::new(&self.potential, &self.dissipation, &self.forces)
     }
 
     /// Whether T gives terms besides M q̈: ∂T/∂q − (∂²T/∂q̇∂q) q̇ − ∂²T/∂q̇∂t.
@@ -166,7 +162,7 @@ where
     }
 
     /// Eq. 55 with M and T's terms from [`inertia`] (which folds −∂U/∂q into its one pass
-    /// where that pays), the rest from [`eom`].
+    /// where that pays), the rest from [`crate::eom`].
     #[inline(always)]
     fn accelerations_n<const C: usize, const C2: usize, D: Scalar>(
         &self,
@@ -181,8 +177,7 @@ where
         let (ke, pot) = (&self.kinetic, &self.potential);
         if ke.constant_mass_matrix() {
             let m = self.constant_factor::<C, C2, D>(t, q, qd)?;
-            eom::accelerations_constant::<C, D, U, R, Q>(
-                &self.parts(),
+            self.parts().accelerations_constant::<C, D>(
                 m,
                 t,
                 q,
@@ -200,8 +195,7 @@ where
                 },
             )
         } else {
-            eom::accelerations::<C, D, U, R, Q>(
-                &self.parts(),
+            self.parts().accelerations::<C, D>(
                 t,
                 q,
                 qd,

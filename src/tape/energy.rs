@@ -4,7 +4,7 @@
 use super::jet::{Chain, Jet, Lagrange};
 use super::{Function, Input};
 use crate::dynamics::check_lengths;
-use crate::eom::{self, Forces};
+use crate::eom::Forces;
 use crate::{Dynamics, Error, KineticEnergy, Result, Scalar, Structure, System};
 
 /// The [`System`] of tape functions an [`EnergyModel`] wraps.
@@ -107,7 +107,7 @@ impl EnergyModel {
     }
 
     /// Eq. 55 at an `f64` state with one pass of T (see the type's documentation); the rest of
-    /// the right-hand side and the LDLᵀ tail are [`eom`]'s, as for every route. U is not folded
+    /// the right-hand side and the LDLᵀ tail are [`crate::eom`]'s, as for every route. U is not folded
     /// into the pass of T as [`System`] does for one or two coordinates: T and U are separate
     /// tapes, so L = T − U would be a second run over the heavier jet, while U's own gradient
     /// pass runs over a first-order one.
@@ -119,13 +119,8 @@ impl EnergyModel {
         out: &mut [f64],
     ) -> Result<()> {
         let s = &self.system;
-        let parts = Forces {
-            potential: &s.potential,
-            dissipation: &s.dissipation,
-            forces: &s.forces,
-        };
-        eom::accelerations::<N, f64, _, _, _>(
-            &parts,
+        let parts = Forces::new(&s.potential, &s.dissipation, &s.forces);
+        parts.accelerations::<N, f64>(
             t,
             q,
             qd,
@@ -235,8 +230,9 @@ impl Dynamics for EnergyModel {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ParticleSystem;
     use crate::scenes::{DoublePendulum, DrivenPendulum};
-    use crate::tape::{Binary, Graph, Inputs, Tape, Unary};
+    use crate::tape::{Binary, Graph, Inputs, Tape, TapeParticles, Unary};
     use approx::assert_relative_eq;
     use std::sync::Arc;
 
@@ -433,83 +429,16 @@ mod tests {
 
     /// A particle of mass m at r = (x + A sin ωt, y + b x²) in gravity g (T depends on t and q,
     /// M on q), a spring U = ½ k (x² + y²) + κ x y, Φ = ½ c (ẋ² + ẏ²) + ½ c₂ x² ẏ², and
-    /// Q″ = (F cos νt, −d y ẋ): every term of eq. 55.
-    #[derive(Clone, Copy)]
-    struct Every {
-        m: f64,
-        a: f64,
-        w: f64,
-        b: f64,
-        g: f64,
-        k: f64,
-        kappa: f64,
-        c: f64,
-        c2: f64,
-        f: f64,
-        nu: f64,
-        d: f64,
-    }
-
-    const EVERY: Every = Every {
-        m: 1.3,
-        a: 0.4,
-        w: 1.7,
-        b: 0.6,
-        g: 9.81,
-        k: 2.5,
-        kappa: 0.3,
-        c: 0.35,
-        c2: 0.2,
-        f: 0.8,
-        nu: 1.1,
-        d: 0.45,
-    };
-
-    impl crate::Particles for Every {
-        fn dof(&self) -> usize {
-            2
-        }
-        fn dim(&self) -> usize {
-            2
-        }
-        fn count(&self) -> usize {
-            1
-        }
-        fn mass(&self, _j: usize) -> f64 {
-            self.m
-        }
-        fn positions<D: Scalar>(&self, t: D, q: &[D], r: &mut [D]) {
-            r[0] = q[0] + (t * self.w).sin() * self.a;
-            r[1] = q[1] + q[0] * q[0] * self.b;
-        }
-    }
-
-    impl crate::Potential for Every {
-        fn potential<D: Scalar>(&self, _t: D, q: &[D]) -> D {
-            (q[0] * q[0] + q[1] * q[1]) * (0.5 * self.k) + q[0] * q[1] * self.kappa
-        }
-        fn depends_on_time(&self) -> bool {
-            false
-        }
-    }
-
-    impl crate::Dissipation for Every {
-        fn dissipation<D: Scalar>(&self, _t: D, q: &[D], qd: &[D]) -> D {
-            (qd[0] * qd[0] + qd[1] * qd[1]) * (0.5 * self.c)
-                + q[0] * q[0] * qd[1] * qd[1] * (0.5 * self.c2)
-        }
-    }
-
-    impl crate::GeneralizedForces for Every {
-        fn forces<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-            out[0] += (t * self.nu).cos() * self.f;
-            out[1] -= q[1] * qd[0] * self.d;
-        }
-    }
-
-    /// [`EVERY`] as tapes: T, U (gravity and spring), Φ and Q″.
-    fn every_model() -> EnergyModel {
-        let e = EVERY;
+    /// Q″ = (F cos νt, −d y ẋ): every term of eq. 55. As a model stated by its energies (T
+    /// written out, U with gravity) and as particles (the positions, gravity, and the same
+    /// spring, Φ and Q″).
+    fn every_term() -> (
+        EnergyModel,
+        ParticleSystem<TapeParticles, Function, Function, Function>,
+    ) {
+        let [m, a, w, bq, g, k, kappa, c, c2, f, nu, d] = [
+            1.3, 0.4, 1.7, 0.6, 9.81, 2.5, 0.3, 0.35, 0.2, 0.8, 1.1, 0.45,
+        ];
         let mut b = B(Graph::new());
         let (x, y, vx, vy, t) = (
             b.0.coord(0),
@@ -518,67 +447,88 @@ mod tests {
             b.0.velocity(1),
             b.0.time(),
         );
-        let c = |b: &mut B, v: f64| b.c(v);
-        // ṙ = (ẋ + A ω cos ωt, ẏ + 2 b x ẋ)
-        let w = c(&mut b, e.w);
-        let wt = b.mul(w, t);
+        let cs: Vec<usize> = [
+            a,
+            w,
+            bq,
+            0.5 * m,
+            m * g,
+            0.5 * k,
+            kappa,
+            0.5 * c,
+            0.5 * c2,
+            f,
+            nu,
+            -d,
+        ]
+        .iter()
+        .map(|&v| b.c(v))
+        .collect();
+        let [ca, cw, cb, chm, cmg, chk, ckap, chc, chc2, cf, cnu, cmd] = cs[..] else {
+            unreachable!()
+        };
+        // r = (x + A sin ωt, y + b x²) and ṙ = (ẋ + A ω cos ωt, ẏ + 2 b x ẋ).
+        let wt = b.mul(cw, t);
+        let swt = b.un(Unary::Sin, wt);
         let cwt = b.un(Unary::Cos, wt);
-        let aw = c(&mut b, e.a * e.w);
-        let drive = b.mul(aw, cwt);
-        let rx = b.add(vx, drive);
-        let two_b = c(&mut b, 2.0 * e.b);
-        let xv = b.mul(x, vx);
-        let bxv = b.mul(two_b, xv);
-        let ry = b.add(vy, bxv);
-        let rx2 = b.sqr(rx);
-        let ry2 = b.sqr(ry);
-        let v2 = b.add(rx2, ry2);
-        let half_m = c(&mut b, 0.5 * e.m);
-        let kinetic = b.mul(half_m, v2);
-        // U = m g (y + b x²) + ½ k (x² + y²) + κ x y
+        let shift = b.mul(ca, swt);
+        let rx = b.add(x, shift);
         let x2 = b.sqr(x);
+        let bx2 = b.mul(cb, x2);
+        let ry = b.add(y, bx2);
+        let drift = b.mul(ca, cwt);
+        let drift = b.mul(cw, drift);
+        let vrx = b.add(vx, drift);
+        let xv = b.mul(x, vx);
+        let bxv = b.mul(cb, xv);
+        let two_bxv = b.add(bxv, bxv);
+        let vry = b.add(vy, two_bxv);
+        let vrx2 = b.sqr(vrx);
+        let vry2 = b.sqr(vry);
+        let v2 = b.add(vrx2, vry2);
+        let kinetic = b.mul(chm, v2);
+        // The spring, and U = m g r_y + spring.
         let y2 = b.sqr(y);
-        let bb = c(&mut b, e.b);
-        let bx2 = b.mul(bb, x2);
-        let height = b.add(y, bx2);
-        let mg = c(&mut b, e.m * e.g);
-        let ug = b.mul(mg, height);
         let r2 = b.add(x2, y2);
-        let hk = c(&mut b, 0.5 * e.k);
-        let us = b.mul(hk, r2);
-        let kap = c(&mut b, e.kappa);
+        let us = b.mul(chk, r2);
         let xy = b.mul(x, y);
-        let uk = b.mul(kap, xy);
-        let u = b.add(ug, us);
-        let potential = b.add(u, uk);
-        // Φ = ½ c (ẋ² + ẏ²) + ½ c₂ x² ẏ²
+        let uk = b.mul(ckap, xy);
+        let spring = b.add(us, uk);
+        let ug = b.mul(cmg, ry);
+        let potential = b.add(ug, spring);
+        // Φ and Q″.
         let vx2 = b.sqr(vx);
         let vy2 = b.sqr(vy);
         let vv = b.add(vx2, vy2);
-        let hc = c(&mut b, 0.5 * e.c);
-        let p1 = b.mul(hc, vv);
-        let hc2 = c(&mut b, 0.5 * e.c2);
+        let p1 = b.mul(chc, vv);
         let x2vy2 = b.mul(x2, vy2);
-        let p2 = b.mul(hc2, x2vy2);
+        let p2 = b.mul(chc2, x2vy2);
         let dissipation = b.add(p1, p2);
-        // Q″ = (F cos νt, −d y ẋ)
-        let nu = c(&mut b, e.nu);
-        let nut = b.mul(nu, t);
+        let nut = b.mul(cnu, t);
         let cnt = b.un(Unary::Cos, nut);
-        let ff = c(&mut b, e.f);
-        let q0 = b.mul(ff, cnt);
-        let md = c(&mut b, -e.d);
+        let q0 = b.mul(cf, cnt);
         let yvx = b.mul(y, vx);
-        let q1 = b.mul(md, yvx);
+        let q1 = b.mul(cmd, yvx);
         let (ki, po) = (Inputs::kinetic(2, 0), Inputs::potential(2, 0));
-        EnergyModel::new(
+        let (phi, forces) = (
+            b.function(dissipation, ki, &[]),
+            b.outputs(&[q0, q1], ki, &[]),
+        );
+        let model = EnergyModel::new(
             2,
             b.function(kinetic, ki, &[]),
             Some(b.function(potential, po, &[])),
-            Some(b.function(dissipation, ki, &[])),
-            Some(b.outputs(&[q0, q1], ki, &[])),
+            Some(phi.clone()),
+            Some(forces.clone()),
         )
-        .unwrap()
+        .unwrap();
+        let positions = TapeParticles::new(2, 2, b.outputs(&[rx, ry], po, &[]), vec![m]).unwrap();
+        let particles = ParticleSystem::new(positions)
+            .with_gravity([0.0, -g, 0.0])
+            .with_potential(b.function(spring, po, &[]))
+            .with_dissipation(phi)
+            .with_forces(forces);
+        (model, particles)
     }
 
     /// q̈ from the (q, p) form: ṗ = G with ṗ = ∂p/∂t + (∂p/∂q) q̇ + M q̈, so
@@ -607,14 +557,8 @@ mod tests {
     /// term: T depending on t and q, U, Φ and Q″.
     #[test]
     fn accelerations_every_term_four_routes() {
-        let e = EVERY;
-        let particles = crate::ParticleSystem::new(e)
-            .with_gravity([0.0, -e.g, 0.0])
-            .with_potential(e)
-            .with_dissipation(e)
-            .with_forces(e);
+        let (model, particles) = every_term();
         let energy = particles.energy_route();
-        let model = every_model();
         assert!(model.fused);
         let s = model.structure();
         assert!(s.time_dependent && s.dissipative && s.forced && !s.constant_mass);
