@@ -598,4 +598,32 @@ mod tests {
             }
         }
     }
+
+    /// Like every `*_into`, `potential_gradient_into` overwrites its output, on every route.
+    #[test]
+    fn potential_gradient_into_overwrites() {
+        let (model, particles) = every_term();
+        let energy = particles.energy_route();
+        let (t, q) = (0.4, [0.7, -0.3]);
+        // ∂U/∂q of U = m g (y + b x²) + ½ k (x² + y²) + κ x y.
+        let (m, bq, g, k, kappa) = (1.3, 0.6, 9.81, 2.5, 0.3);
+        let exact = [
+            m * g * 2.0 * bq * q[0] + k * q[0] + kappa * q[1],
+            m * g + k * q[1] + kappa * q[0],
+        ];
+        let prefilled = |f: &dyn Fn(&mut [f64])| {
+            let mut out = [1e3; 2];
+            f(&mut out);
+            out
+        };
+        for got in [
+            prefilled(&|out| model.potential_gradient_into(t, &q, out)),
+            prefilled(&|out| energy.potential_gradient_into(t, &q, out)),
+            prefilled(&|out| particles.potential_gradient_into(t, &q, out)),
+        ] {
+            for i in 0..2 {
+                assert_relative_eq!(got[i], exact[i], max_relative = 1e-14);
+            }
+        }
+    }
 }
