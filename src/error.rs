@@ -51,6 +51,17 @@ pub enum Error {
         why: String,
     },
 
+    /// A scene's argument is unknown, repeated, of the wrong kind, not finite, or missing.
+    #[error("{scene}: invalid argument {parameter}: {why}")]
+    SceneArgument {
+        /// The scene.
+        scene: &'static str,
+        /// The parameter, as given.
+        parameter: String,
+        /// What is wrong with it.
+        why: String,
+    },
+
     /// Newton's method did not converge.
     #[error(
         "Newton iteration did not converge after {iterations} iterations (residual {residual:e}, \

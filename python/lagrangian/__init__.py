@@ -53,7 +53,8 @@ from ._lagrangian import (
     TooManyStepsError,
     __version__,
 )
-from ._model import Equilibrium, Model, Solution, methods
+from ._model import Model, methods
+from ._solution import Equilibrium, Solution
 from ._sympy import from_sympy
 from ._workprec import WorkPrecision, work_precision
 

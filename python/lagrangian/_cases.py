@@ -1,8 +1,9 @@
 """The scenes of the standard report: initial states, spans, step sizes and exact solutions.
 
-Exact solutions are written out here from the closed forms (the seed's eq. 41–48 and §4, and
-Kepler's equation), so the report measures errors against the truth where the truth is known and
-against two independent high-order runs elsewhere.
+Exact solutions come from the Rust scenes through the binding (:meth:`SceneModel.exact
+<lagrangian.scenes.SceneModel.exact>`: the seed's eq. 41–48 and §4, and Kepler's equation), so
+the report measures errors against the truth where the truth is known and against two
+independent high-order runs elsewhere.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import numpy.typing as npt
 
 from . import scenes
 from ._model import Model
+from ._scene_model import SceneModel
 
 FloatArray = npt.NDArray[np.float64]
 Exact = Callable[[float], Tuple[FloatArray, FloatArray]]
@@ -50,59 +52,31 @@ class Scene:
 # -- exact solutions --------------------------------------------------------------------------
 
 
-def oscillator_exact(m: float, k: float, c: float, x0: float, v0: float) -> Exact:
-    """m ẍ + c ẋ + k x = 0 (seed §4): x = e^{−γt}(x0 f + (v0 + γ x0) g) with (f, g) =
-    (cos ω_d t, sin ω_d t / ω_d), (1, t) or (cosh βt, sinh βt / β)."""
-    gamma, w02 = c / (2 * m), k / m
-    beta2 = gamma * gamma - w02
+def _exact(model: SceneModel, q0: Sequence[float], qd0: Sequence[float]) -> Exact:
+    """The scene's exact motion from (q0, q̇0) at t = 0, as a function of t."""
+    start, rate = [float(x) for x in q0], [float(x) for x in qd0]
 
     def at(t: float) -> Tuple[FloatArray, FloatArray]:
-        if beta2 < 0:
-            wd = math.sqrt(-beta2)
-            f, g = math.cos(wd * t), math.sin(wd * t) / wd
-        elif beta2 > 0:
-            b = math.sqrt(beta2)
-            f, g = math.cosh(b * t), math.sinh(b * t) / b
-        else:
-            f, g = 1.0, t
-        decay = math.exp(-gamma * t)
-        x = decay * (x0 * f + (v0 + gamma * x0) * g)
-        v = decay * (v0 * f - (w02 * x0 + gamma * v0) * g)
-        return np.array([x]), np.array([v])
+        return model.exact(t, start, rate)
 
     return at
+
+
+def oscillator_exact(m: float, k: float, c: float, x0: float, v0: float) -> Exact:
+    """m ẍ + c ẋ + k x = 0 (seed §4), from x(0) = x0, ẋ(0) = v0."""
+    return _exact(scenes.damped_oscillator(m=m, k=k, c=c), [x0], [v0])
 
 
 def cylinder_exact(m: float, j: float, r: float, g: float, alpha: float, x0: float,
                    v0: float) -> Exact:
     """Rolling without slipping (seed eq. 48): ẍ = g sin α / (1 + J / (m r²)), constant."""
-    a = g * math.sin(alpha) / (1 + j / (m * r * r))
-
-    def at(t: float) -> Tuple[FloatArray, FloatArray]:
-        return np.array([x0 + v0 * t + 0.5 * a * t * t]), np.array([v0 + a * t])
-
-    return at
+    return _exact(scenes.rolling_cylinder(m=m, j=j, r=r, g=g, alpha=alpha), [x0], [v0])
 
 
 def kepler_exact(mu: float, a: float, e: float) -> Exact:
-    """The orbit from periapsis (a(1 − e), 0) moving in +y: Kepler's equation E − e sin E = n t
-    by Newton, q = a(cos E − e, √(1−e²) sin E), q̇ = a n (−sin E, √(1−e²) cos E)/(1 − e cos E)."""
-    n = math.sqrt(mu / a**3)
-    b = math.sqrt(1 - e * e)
-
-    def at(t: float) -> Tuple[FloatArray, FloatArray]:
-        mean = math.fmod(n * t, 2 * math.pi)
-        ecc = math.pi if e > 0.8 else mean + e * math.sin(mean)
-        for _ in range(100):
-            step = (ecc - e * math.sin(ecc) - mean) / (1 - e * math.cos(ecc))
-            ecc -= step
-            if abs(step) < 1e-16:
-                break
-        s, co = math.sin(ecc), math.cos(ecc)
-        rate = n / (1 - e * co)
-        return np.array([a * (co - e), a * b * s]), np.array([-a * s * rate, a * b * co * rate])
-
-    return at
+    """The orbit from periapsis (a(1 − e), 0) moving in +y (see :func:`kepler_periapsis`)."""
+    q0, qd0 = kepler_periapsis(mu, a, e)
+    return _exact(scenes.kepler(m=1.0, mu=mu), q0, qd0)
 
 
 def kepler_periapsis(mu: float, a: float, e: float) -> Tuple[Tuple[float, float], Tuple[float, float]]:
@@ -113,26 +87,9 @@ def kepler_periapsis(mu: float, a: float, e: float) -> Tuple[Tuple[float, float]
 
 def two_mass_exact(m1: float, m2: float, k1: float, k2: float, f1: float, f2: float,
                    omega: float, x0: Sequence[float], v0: Sequence[float]) -> Exact:
-    """M ẍ + K x = F cos Ω t (seed eq. 43–44): the forced response (K − Ω² M)⁻¹ F cos Ω t plus
-    the free vibration in the normal modes K v = ω² M v that matches the initial state."""
-    mass = np.diag([m1, m2])
-    stiff = np.array([[k1 + k2, -k2], [-k2, k2]])
-    forced = np.linalg.solve(stiff - omega**2 * mass, np.array([f1, f2]))
-    root = np.diag([1 / math.sqrt(m1), 1 / math.sqrt(m2)])
-    w2, modes = np.linalg.eigh(root @ stiff @ root)
-    shapes = root @ modes  # columns: mode shapes, M-orthonormal
-    w = np.sqrt(w2)
-    a = shapes.T @ mass @ (np.asarray(x0, dtype=float) - forced)
-    b = shapes.T @ mass @ np.asarray(v0, dtype=float)
-
-    def at(t: float) -> Tuple[FloatArray, FloatArray]:
-        x = shapes @ (a * np.cos(w * t) + b / w * np.sin(w * t)) + forced * math.cos(omega * t)
-        v = shapes @ (-a * w * np.sin(w * t) + b * np.cos(w * t)) - forced * omega * math.sin(
-            omega * t
-        )
-        return x, v
-
-    return at
+    """M ẍ + K x = F cos Ω t (seed eq. 43–44) from x(0) = x0, ẋ(0) = v0."""
+    model = scenes.forced_two_mass(m1=m1, m2=m2, k1=k1, k2=k2, f1=f1, f2=f2, omega=omega)
+    return _exact(model, x0, v0)
 
 
 # -- the report's scenes ----------------------------------------------------------------------

@@ -16,8 +16,14 @@ __all__ = [
     "StiffnessError",
     "TooManyStepsError",
     "NativeModel",
+    "check_options",
     "method_info",
     "methods",
+    "scene_catalog",
+    "scene_drawing",
+    "scene_exact",
+    "scene_model",
+    "scene_pivot",
     "__version__",
 ]
 
@@ -50,6 +56,16 @@ class NonFiniteError(LagrangianError):
 def methods() -> List[str]:
     """The integration method names: "auto" and the registry's."""
 
+def check_options(
+    t0: float,
+    t_end: float,
+    method: str = "auto",
+    dt: Optional[float] = None,
+    rtol: float = 1e-6,
+    atol: float = 1e-9,
+) -> None:
+    """Check a method and its step options as ``simulate`` does; raises ValueError."""
+
 def method_info(name: str) -> Tuple[str, Optional[bool], Optional[int]]:
     """(canonical name, adaptive, order) of a method name; raises ValueError if unknown."""
 
@@ -70,8 +86,6 @@ class NativeModel:
         dim: int = 0,
         masses: Optional[Sequence[int]] = None,
     ) -> "NativeModel": ...
-    @staticmethod
-    def scene(name: str, values: Sequence[float]) -> "NativeModel": ...
     def with_parameters(self, params: Sequence[float]) -> "NativeModel": ...
     @property
     def dof(self) -> int: ...
@@ -81,6 +95,10 @@ class NativeModel:
     def energy(self, t: float, q: Sequence[float], qd: Sequence[float]) -> float: ...
     def momenta(self, t: float, q: Sequence[float], qd: Sequence[float]) -> _FloatArray: ...
     def lagrangian(self, t: float, q: Sequence[float], qd: Sequence[float]) -> float: ...
+    def rhs(self, t: float, y: _FloatArray) -> _FloatArray:
+        """dy/dt = (q̇, q̈) at y = (q, q̇), shape (2n,) or (2n, k)."""
+    def jacobian(self, t: float, y: _FloatArray) -> _FloatArray:
+        """The 2n × 2n Jacobian of ``rhs`` by forward-mode AD."""
     @property
     def has_positions(self) -> bool: ...
     def positions(self, t: _FloatArray, q: _FloatArray) -> Optional[_FloatArray]:
@@ -109,3 +127,14 @@ class NativeModel:
         max_iterations: int = 100,
         max_step: float = ...,
     ) -> Tuple[_FloatArray, float, int, str, _FloatArray, _FloatArray]: ...
+
+# The scene registry (src/python/scenes.rs).
+def scene_catalog() -> List[Dict[str, Any]]: ...
+def scene_model(
+    name: str, arguments: Dict[str, Any]
+) -> Tuple[NativeModel, Dict[str, Any], List[str]]: ...
+def scene_drawing(name: str, arguments: Dict[str, Any]) -> Optional[Dict[str, Any]]: ...
+def scene_pivot(name: str, arguments: Dict[str, Any], t: _FloatArray) -> _FloatArray: ...
+def scene_exact(
+    name: str, arguments: Dict[str, Any], q0: Sequence[float], qd0: Sequence[float], t: float
+) -> Tuple[_FloatArray, _FloatArray]: ...

@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 import numbers
 import os
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -13,13 +12,23 @@ import numpy.typing as npt
 
 from . import _lagrangian
 from ._expr import Coordinate, Expr, ExprLike, Node, deserialize, serialize
+from ._solution import Equilibrium, Solution
+from ._validate import (
+    check_coordinates,
+    check_parameters,
+    check_symbols,
+    integer,
+    number,
+    real,
+    vector,
+)
 
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from matplotlib.figure import Figure  # type: ignore[import-not-found, unused-ignore]
+    from ._plot import Drawing
 
-__all__ = ["Model", "Solution", "Equilibrium", "methods"]
+__all__ = ["Model", "methods"]
 
 FloatArray = npt.NDArray[np.float64]
 ArrayLike = Union[Sequence[float], FloatArray]
@@ -36,153 +45,6 @@ def methods() -> List[str]:
     True
     """
     return list(_lagrangian.methods())
-
-
-class Solution:
-    """A trajectory from :meth:`Model.simulate`.
-
-    Attributes
-    ----------
-    t : numpy.ndarray, shape (n,)
-        Output times.
-    q, qd : numpy.ndarray, shape (n, dof)
-        Coordinates and velocities at those times.
-    energy : numpy.ndarray, shape (n,)
-        The energy function h = q̇·p − L (T + U for natural systems; conserved when nothing
-        drives or damps the system).
-    stats : dict
-        The method that ran (and why, for ``"auto"``) and the work it took: accepted and
-        rejected steps, right-hand-side and Jacobian evaluations, factorizations, Newton
-        failures.
-    names : tuple of str, optional
-        The coordinate names (from the model), used to label plots.
-    """
-
-    __slots__ = ("t", "q", "qd", "energy", "stats", "names")
-
-    t: FloatArray
-    q: FloatArray
-    qd: FloatArray
-    energy: FloatArray
-    stats: Dict[str, Any]
-    names: Optional[Tuple[str, ...]]
-
-    def __init__(
-        self,
-        t: FloatArray,
-        q: FloatArray,
-        qd: FloatArray,
-        energy: FloatArray,
-        stats: Dict[str, Any],
-        names: Optional[Sequence[str]] = None,
-    ) -> None:
-        self.t, self.q, self.qd, self.energy, self.stats = t, q, qd, energy, stats
-        self.names = None if names is None else tuple(str(n) for n in names)
-
-    def __len__(self) -> int:
-        return int(self.t.shape[0])
-
-    def __repr__(self) -> str:
-        span = f"[{float(self.t[0])!r}, {float(self.t[-1])!r}]" if len(self) else "[]"
-        return (
-            f"Solution(points={len(self)}, t={span}, method={self.stats['method']!r}, "
-            f"steps={self.stats['accepted_steps']})"
-        )
-
-    def plot(
-        self, path: Optional[PathLike] = None, *, title: Optional[str] = None
-    ) -> "Figure":
-        """A figure of the trajectory: the coordinates q, the velocities q̇ and the energy h
-        against t, in three stacked panels. The energy panel also shows the drift |h − h₀| on a
-        logarithmic right-hand axis, its maximum in the legend.
-
-        Needs matplotlib (``pip install lagrangian[plot]``); the figure is a
-        :class:`matplotlib.figure.Figure` not registered with ``pyplot``, so nothing is shown
-        unless asked for (a notebook displays it).
-
-        Parameters
-        ----------
-        path : str or path-like, optional
-            Also save the figure there; the suffix (``.png``, ``.svg``, ``.pdf``) picks the
-            format.
-        title : str, optional
-            A title above the panels.
-
-        Returns
-        -------
-        matplotlib.figure.Figure
-
-        Raises
-        ------
-        ValueError
-            For an empty solution or a path with another suffix.
-        ImportError
-            Without matplotlib.
-        """
-        from ._plot import plot_solution
-
-        return plot_solution(self, path, title=title)
-
-
-@dataclass(frozen=True)
-class Equilibrium:
-    """A static equilibrium from :meth:`Model.equilibrium` (principle of virtual work).
-
-    Attributes
-    ----------
-    q : numpy.ndarray
-        The equilibrium configuration.
-    stable : bool
-        Whether it is a strict minimum of the total potential (all eigenvalues of the stiffness
-        positive).
-    stability : str
-        ``"stable"``, ``"unstable"`` or ``"neutral"`` (some eigenvalue zero to tolerance).
-    eigenvalues : numpy.ndarray
-        Eigenvalues of the symmetric part of the stiffness K = ∂(∂U/∂q − Q)/∂q, ascending.
-    stiffness : numpy.ndarray
-        K itself.
-    residual : float
-        |∂U/∂q − Q| at ``q``.
-    iterations : int
-        Newton iterations taken.
-    """
-
-    q: FloatArray
-    stable: bool
-    stability: str
-    eigenvalues: FloatArray
-    stiffness: FloatArray
-    residual: float
-    iterations: int
-
-
-def _vector(what: str, value: object, n: int) -> FloatArray:
-    """``value`` as a float vector of length ``n``, or a ``ValueError`` that says why not."""
-    if isinstance(value, (str, bytes)):
-        raise ValueError(f"{what} must be a sequence of {n} numbers, got a string")
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as e:
-        raise ValueError(f"{what} must be a sequence of {n} numbers: {e}") from None
-    if arr.ndim == 0:
-        arr = arr.reshape(1)
-    if arr.ndim != 1 or arr.shape[0] != n:
-        raise ValueError(
-            f"{what} has shape {arr.shape} but the model has {n} coordinates"
-        )
-    bad = np.flatnonzero(~np.isfinite(arr))
-    if bad.size:
-        raise ValueError(f"{what}[{bad[0]}] = {arr[bad[0]]} is not finite")
-    return np.ascontiguousarray(arr)
-
-
-def _real(what: str, value: object) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{what} must be a real number, got {value!r}")
-    x = float(value)
-    if not math.isfinite(x):
-        raise ValueError(f"{what} = {x} is not finite")
-    return x
 
 
 _PART_NAMES = ("kinetic", "potential", "dissipation")
@@ -256,7 +118,6 @@ class Model:
         "_masses",
         "_parameters",
         "_native",
-        "_scene",
     )
 
     _coordinates: Tuple[Coordinate, ...]
@@ -268,7 +129,6 @@ class Model:
     _masses: Optional[Tuple[Expr, ...]]
     _parameters: Dict[str, Any]
     _native: Any
-    _scene: Optional[str]
 
     def __init__(
         self,
@@ -282,7 +142,7 @@ class Model:
         positions: Optional[Sequence[Sequence[ExprLike]]] = None,
         masses: Optional[Sequence[ExprLike]] = None,
     ) -> None:
-        coords = _check_coordinates(coordinates)
+        coords = check_coordinates(coordinates)
         dof = len(coords)
         t_ = None if kinetic is None else Expr.lift(kinetic)
         u_ = None if potential is None else Expr.lift(potential)
@@ -324,7 +184,7 @@ class Model:
                 "the model needs kinetic= (T) or positions= and masses= (the particle route)"
             )
 
-        values = _check_parameters(parameters)
+        values = check_parameters(parameters)
         names = {c.name for c in coords}
         used: Dict[str, None] = {}
         checks: List[Tuple[str, Expr, bool]] = []
@@ -341,7 +201,7 @@ class Model:
             for x in r:
                 checks.append((f"position of particle {j}", x, False))
         for what, e, velocities in checks:
-            _check_symbols(what, e, names, values, velocities, used)
+            check_symbols(what, e, names, values, velocities, used)
         for j, m in enumerate(mass or ()):
             for s in m.free_symbols():
                 if s.op != "param":
@@ -349,7 +209,7 @@ class Model:
                         f"the mass of particle {j} depends on {s!r}: masses are numbers and "
                         "parameters only"
                     )
-            _check_symbols(f"mass of particle {j}", m, names, values, False, used)
+            check_symbols(f"mass of particle {j}", m, names, values, False, used)
         unknown = [k for k in values if k not in used]
         if unknown:
             raise ValueError(
@@ -361,7 +221,6 @@ class Model:
         self._kinetic, self._potential, self._dissipation = t_, u_, r_
         self._forces, self._positions, self._masses = f_, pos, mass
         self._parameters = values
-        self._scene = None
         self._native = self._compile()
 
     def _compile(self) -> Any:
@@ -399,24 +258,6 @@ class Model:
             dim=dim,
             **{k: at(v) for k, v in slots.items()},
         )
-
-    @classmethod
-    def _from_native(
-        cls,
-        native: Any,
-        coordinates: Sequence[str],
-        parameters: Dict[str, Any],
-        scene: str,
-    ) -> "Model":
-        """A model backed by a Rust scene (see :mod:`lagrangian.scenes`)."""
-        self = cls.__new__(cls)
-        self._coordinates = tuple(Coordinate(n) for n in coordinates)
-        self._kinetic = self._potential = self._dissipation = None
-        self._forces = self._positions = self._masses = None
-        self._parameters = dict(parameters)
-        self._native = native
-        self._scene = scene
-        return self
 
     # -- description -------------------------------------------------------------------
     @property
@@ -498,19 +339,12 @@ class Model:
             values.
         """
         if not self.has_positions:
-            if self._scene is not None:
-                raise ValueError(
-                    f"the scene {self._scene} has no particle positions: it cannot be drawn"
-                )
-            raise ValueError(
-                "this model has no positions: it is stated by its energies (kinetic=…); state it "
-                "by positions=… and masses=… (the particle route) to draw it"
-            )
+            raise ValueError(self._no_positions())
         n = self.dof
         times = np.asarray(t, dtype=np.float64)
         if times.ndim == 0:
-            at = np.array([_real("t", t)])
-            one = self._native.positions(at, _vector("q", q, n).reshape(1, n))
+            at = np.array([real("t", t)])
+            one = self._native.positions(at, vector("q", q, n).reshape(1, n))
             return np.asarray(one[0], dtype=np.float64)
         if times.ndim != 1:
             raise ValueError(f"t must be a number or one-dimensional, got shape {times.shape}")
@@ -578,11 +412,7 @@ class Model:
         """
         from . import _plot
 
-        drawing: Optional[_plot.Drawing] = None
-        if chain is None and self._scene is not None:
-            from . import scenes
-
-            drawing = scenes._drawing(self._scene, self._parameters)
+        drawing = self._drawing() if chain is None else None
         return _plot.animate(
             self, sol, path, fps=fps, max_frames=max_frames, trail=trail, drawing=drawing,
             chain=bool(chain),
@@ -614,15 +444,24 @@ class Model:
                 f"unknown parameter {unknown[0]!r}; the model's parameters are "
                 f"{', '.join(self._parameters) or 'none'}"
             )
-        if self._scene is not None:
-            from . import scenes
+        return self._rebound(values)
 
-            merged = {**self._parameters, **values}
-            made: Model = getattr(scenes, self._scene)(**merged)
-            return made
+    def _no_positions(self) -> str:
+        """Why :meth:`positions` has nothing to give."""
+        return (
+            "this model has no positions: it is stated by its energies (kinetic=…); state it "
+            "by positions=… and masses=… (the particle route) to draw it"
+        )
+
+    def _drawing(self) -> "Optional[Drawing]":
+        """How :meth:`animate` draws the model beyond points with trails (``None``: points)."""
+        return None
+
+    def _rebound(self, values: Mapping[str, float]) -> "Model":
+        """The model with the (known) parameters ``values`` changed."""
         new = dict(self._parameters)
         for k, v in values.items():
-            new[k] = _real(f"parameter {k!r}", v)
+            new[k] = real(f"parameter {k!r}", v)
         other = Model.__new__(Model)
         for slot in Model.__slots__:
             object.__setattr__(other, slot, getattr(self, slot))
@@ -634,9 +473,9 @@ class Model:
     def _state(self, t: float, q: object, qd: object) -> Tuple[float, List[float], List[float]]:
         n = self.dof
         return (
-            _real("t", t),
-            _vector("q", q, n).tolist(),
-            _vector("qd", qd, n).tolist(),
+            real("t", t),
+            vector("q", q, n).tolist(),
+            vector("qd", qd, n).tolist(),
         )
 
     def accelerations(self, t: float, q: ArrayLike, qd: ArrayLike) -> FloatArray:
@@ -658,6 +497,59 @@ class Model:
     def lagrangian(self, t: float, q: ArrayLike, qd: ArrayLike) -> float:
         """The Lagrangian L = T − U at (t, q, q̇)."""
         return float(self._native.lagrangian(*self._state(t, q, qd)))
+
+    def rhs(self, t: float, y: ArrayLike) -> FloatArray:
+        """The first-order right-hand side dy/dt = (q̇, q̈) at y = (q, q̇), in SciPy's
+        ``fun(t, y)`` convention: the model itself can be given to
+        :func:`scipy.integrate.solve_ivp`, its events and its ``vectorized=True`` mode.
+
+        >>> import lagrangian as lg
+        >>> osc = lg.scenes.damped_oscillator(m=2.0, k=8.0, c=0.4)
+        >>> osc.rhs(0.0, [1.0, 0.5]).tolist()
+        [0.5, -4.1]
+        >>> osc.rhs(0.0, [[1.0, 0.0], [0.5, 1.0]]).tolist()  # two states, one per column
+        [[0.5, 1.0], [-4.1, -0.2]]
+
+        Parameters
+        ----------
+        t : float
+            The time.
+        y : array_like, shape (2·dof,) or (2·dof, k)
+            The state (q, q̇), or k states as columns.
+
+        Returns
+        -------
+        numpy.ndarray
+            dy/dt, of the shape of ``y``.
+
+        Raises
+        ------
+        ValueError
+            For another shape or a non-finite entry.
+        SingularMassMatrixError
+            Where the mass matrix cannot be inverted.
+        """
+        return np.asarray(self._native.rhs(t, np.asarray(y, dtype=np.float64)))
+
+    def jacobian(self, t: float, y: ArrayLike) -> FloatArray:
+        """The Jacobian ∂(dy/dt)/∂y of :meth:`rhs` at y = (q, q̇), shape (2·dof, 2·dof), by
+        forward-mode automatic differentiation (exact to rounding, no finite differences):
+        ``[[0, I], [∂q̈/∂q, ∂q̈/∂q̇]]``. SciPy's ``jac(t, y)`` for the implicit methods
+        (``Radau``, ``BDF``, ``LSODA``).
+
+        >>> import lagrangian as lg
+        >>> osc = lg.scenes.damped_oscillator(m=2.0, k=8.0, c=0.4)
+        >>> osc.jacobian(0.0, [1.0, 0.5]).tolist()
+        [[0.0, 1.0], [-4.0, -0.2]]
+
+        Parameters
+        ----------
+        t : float
+            The time.
+        y : array_like, shape (2·dof,)
+            The state (q, q̇); the errors are those of :meth:`rhs`.
+        """
+        return np.asarray(self._native.jacobian(t, np.asarray(y, dtype=np.float64)))
 
     def simulate(
         self,
@@ -717,41 +609,31 @@ class Model:
         LagrangianError
             When the mathematics fails (subclasses say how).
         """
+        # The options are validated in Rust (one message each); here only their types.
         n = self.dof
-        q0v = _vector("q0", q0, n).tolist()
-        qd0v = _vector("qd0", qd0, n).tolist()
+        q0v = vector("q0", q0, n).tolist()
+        qd0v = vector("qd0", qd0, n).tolist()
         if not isinstance(method, str):
             raise TypeError(f"method must be a string such as 'dop853', got {method!r}")
-        _lagrangian.method_info(method)
         kwargs: Dict[str, Any] = {
-            "t0": _real("t0", t0),
+            "t0": real("t0", t0),
             "method": method,
-            "rtol": _real("rtol", rtol),
-            "atol": _real("atol", atol),
+            "rtol": number("rtol", rtol),
+            "atol": number("atol", atol),
         }
         if dt is not None:
-            kwargs["dt"] = _real("dt", dt)
+            kwargs["dt"] = number("dt", dt)
         if t_eval is not None:
             times = np.ascontiguousarray(np.asarray(t_eval, dtype=np.float64))
             if times.ndim != 1:
                 raise ValueError(f"t_eval must be one-dimensional, got shape {times.shape}")
             kwargs["t_eval"] = times
         if max_steps is not None:
-            if isinstance(max_steps, bool) or not isinstance(max_steps, numbers.Integral):
-                raise TypeError(f"max_steps must be an integer, got {max_steps!r}")
-            if max_steps < 1:
-                raise ValueError(f"max_steps = {max_steps}: at least one step is needed")
-            kwargs["max_steps"] = int(max_steps)
+            kwargs["max_steps"] = integer("max_steps", max_steps)
         if output_every is not None:
-            if isinstance(output_every, bool) or not isinstance(output_every, numbers.Integral):
-                raise TypeError(f"output_every must be an integer, got {output_every!r}")
-            if output_every < 1:
-                raise ValueError(f"output_every = {output_every}: keep every k-th step, k ≥ 1")
-            if t_eval is not None:
-                raise ValueError("give t_eval or output_every, not both")
-            kwargs["every"] = int(output_every)
+            kwargs["every"] = integer("output_every", output_every)
         t, q, qd, energy, stats = self._native.simulate(
-            q0v, qd0v, _real("t_end", t_end), **kwargs
+            q0v, qd0v, real("t_end", t_end), **kwargs
         )
         return Solution(
             t, q, qd, energy, dict(stats), names=[c.name for c in self._coordinates]
@@ -790,7 +672,7 @@ class Model:
             When no equilibrium is found from this guess.
         """
         n = self.dof
-        guess = _vector("q_guess", q_guess, n).tolist()
+        guess = vector("q_guess", q_guess, n).tolist()
         load_spec = None
         params: List[float] = []
         if loads is not None:
@@ -803,7 +685,7 @@ class Model:
             used: Dict[str, None] = {}
             names = {c.name for c in self._coordinates}
             for i, e in enumerate(exprs):
-                _check_symbols(f"load on {self._coordinates[i].name}", e, names, numeric, True, used)
+                check_symbols(f"load on {self._coordinates[i].name}", e, names, numeric, True, used)
             nodes, roots = serialize(exprs)
             order = list(used)
             load_spec = (_to_raw(nodes, self._coordinates, order), roots)
@@ -815,7 +697,7 @@ class Model:
         step = float(max_step)
         if not step > 0:
             raise ValueError(f"max_step = {max_step} must be > 0")
-        at = _real("t", t)
+        at = real("t", t)
         try:
             found = self._native.equilibrium(
                 guess,
@@ -840,9 +722,6 @@ class Model:
 
     # -- Python protocol ---------------------------------------------------------------
     def __repr__(self) -> str:
-        if self._scene is not None:
-            args = ", ".join(f"{k}={v!r}" for k, v in self._parameters.items())
-            return f"lagrangian.scenes.{self._scene}({args})"
         parts = [f"coordinates=[{', '.join(c.name for c in self._coordinates)}]"]
         if self._kinetic is not None:
             parts.append(f"kinetic={self._kinetic!r}")
@@ -864,8 +743,6 @@ class Model:
         return "Model(" + ", ".join(parts) + ")"
 
     def __reduce__(self) -> Tuple[Any, ...]:
-        if self._scene is not None:
-            return (_scene_from_state, (self._scene, dict(self._parameters)))
         roots: List[Expr] = []
         layout: Dict[str, Any] = {}
 
@@ -925,75 +802,6 @@ def _model_from_state(state: Dict[str, Any]) -> Model:
     )
 
 
-def _scene_from_state(name: str, parameters: Dict[str, Any]) -> Model:
-    from . import scenes
-
-    made: Model = getattr(scenes, name)(**parameters)
-    return made
-
-
-def _check_coordinates(coordinates: object) -> Tuple[Coordinate, ...]:
-    if isinstance(coordinates, Expr) or not isinstance(coordinates, (list, tuple)):
-        raise TypeError(
-            "coordinates must be a list of coordinates from lagrangian.coordinates(...)"
-        )
-    coords = tuple(coordinates)
-    if not coords:
-        raise ValueError("a model needs at least one coordinate")
-    for c in coords:
-        if not isinstance(c, Coordinate):
-            raise TypeError(
-                f"{c!r} is not a coordinate: make coordinates with lagrangian.coordinates(...)"
-            )
-    names = [c.name for c in coords]
-    if len(set(names)) != len(names):
-        raise ValueError(f"repeated coordinate names in {names}")
-    return coords
-
-
-def _check_parameters(parameters: Optional[Mapping[str, float]]) -> Dict[str, float]:
-    if parameters is None:
-        return {}
-    if not isinstance(parameters, Mapping):
-        raise TypeError("parameters must be a mapping of names to numbers")
-    values: Dict[str, float] = {}
-    for k, v in parameters.items():
-        name = k.name if isinstance(k, Expr) and k.op == "param" else k
-        if not isinstance(name, str):
-            raise TypeError(f"parameter names must be strings, got {k!r}")
-        values[name] = _real(f"parameter {name!r}", v)
-    return values
-
-
-def _check_symbols(
-    what: str,
-    e: Expr,
-    coordinates: Any,
-    values: Mapping[str, Any],
-    velocities: bool,
-    used: Dict[str, None],
-) -> None:
-    for s in e.free_symbols():
-        if s.op in ("q", "qd"):
-            name = s.args[0]
-            if name not in coordinates:
-                raise ValueError(
-                    f"{s!r} in the {what} is not a coordinate of this model "
-                    f"(coordinates: {', '.join(sorted(coordinates))})"
-                )
-            if s.op == "qd" and not velocities:
-                raise ValueError(
-                    f"the {what} depends on the velocity {s!r}: velocity-dependent terms belong "
-                    "in the kinetic energy (or the forces)"
-                )
-        elif s.op == "param":
-            name = s.args[0]
-            if name not in values:
-                raise ValueError(
-                    f"parameter {name!r} in the {what} has no value: pass "
-                    f"parameters={{{name!r}: ...}}"
-                )
-            used.setdefault(name, None)
 
 
 def _to_raw(

@@ -22,7 +22,8 @@ import numpy.typing as npt
 if TYPE_CHECKING:
     from matplotlib.figure import Figure  # type: ignore[import-not-found, unused-ignore]
 
-    from ._model import Model, Solution
+    from ._model import Model
+    from ._solution import Solution
 
 __all__ = ["Drawing", "plot_solution", "animate"]
 

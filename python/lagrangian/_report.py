@@ -19,8 +19,11 @@ import numpy as np
 
 from . import _lagrangian
 from ._cases import Scene, report_scenes
-from ._model import Model, Solution
-from ._workprec import _UNSUPPORTED, Reference, Row, WorkPrecision, state_error, work_precision
+from ._measure import UNSUPPORTED, Reference, state_error
+from ._model import Model
+from ._scipy import IMPLICIT_METHODS, SCIPY_METHODS, run_scipy, scipy_available
+from ._solution import Solution
+from ._workprec import Row, WorkPrecision, work_precision
 
 __all__ = ["Settings", "run_report", "equal_error_ratios", "long_run_energy"]
 
@@ -60,16 +63,17 @@ def _fixed_step_methods() -> List[str]:
 # -- peers -----------------------------------------------------------------------------------
 
 
-def peer_rows(scene: Scene, reference: Reference, tolerances: Sequence[float]) -> WorkPrecision:
-    """SciPy's ``solve_ivp`` (RK45, DOP853, Radau, LSODA) with a hand-written NumPy right-hand
-    side, measured against the same reference."""
-    from ._peers import SCIPY_METHODS, numpy_rhs, run_scipy
-
-    rhs = numpy_rhs(scene.scene, **scene.params)
+def peer_rows(model: Model, scene: Scene, reference: Reference,
+              tolerances: Sequence[float]) -> WorkPrecision:
+    """SciPy's ``solve_ivp`` (RK45, DOP853, Radau, LSODA) on the model's own right-hand side
+    :meth:`Model.rhs` (and :meth:`Model.jacobian` for Radau and LSODA), measured against the same
+    reference. Needs SciPy."""
     rows: List[Row] = []
     for method in SCIPY_METHODS:
+        jac = model.jacobian if method in IMPLICIT_METHODS else None
         for tol in tolerances:
-            run = run_scipy(rhs, scene.q0, scene.qd0, scene.t_end, method, tol, tol)
+            run = run_scipy(model.rhs, scene.q0, scene.qd0, scene.t_end, method, tol, tol,
+                            jac=jac)
             name = f"scipy {method}"
             if not run.success:
                 rows.append(Row(name, tol, None, None, None, None, run.steps, run.nfev,
@@ -155,7 +159,7 @@ def long_run_energy(model: Model, q0: Sequence[float], qd0: Sequence[float], dt:
             sol = model.simulate(q0, qd0, span, output_every=every, **kwargs)
             seconds = time.perf_counter() - start
         except (_lagrangian.LagrangianError, ValueError) as e:
-            if _UNSUPPORTED in str(e):
+            if UNSUPPORTED in str(e):
                 continue
             out.append({"method": method, "failure": f"{type(e).__name__}: {e}"})
             continue
@@ -189,11 +193,7 @@ def run_report(out: Path, *, quick: bool = False, scenes: Optional[Sequence[str]
         if unknown:
             raise ValueError(f"unknown scenes {sorted(unknown)}; known: {[s.key for s in chosen]}")
         chosen = [s for s in chosen if s.key in scenes]
-    have_scipy = False
-    if peers:
-        from ._peers import scipy_available
-
-        have_scipy = scipy_available()
+    have_scipy = peers and scipy_available()
     data: Dict[str, Any] = {
         "quick": quick, "settings": asdict(settings), "version": _lagrangian.__version__,
         "machine": f"{platform.machine()} {platform.system()}, Python {platform.python_version()}",
@@ -203,6 +203,10 @@ def run_report(out: Path, *, quick: bool = False, scenes: Optional[Sequence[str]
           f"lagrangian {_lagrangian.__version__}; {data['machine']}. Errors are relative "
           "final-state errors ‖x − x_ref‖/‖x_ref‖ of x = (q, q̇); times are medians of "
           f"{settings.repeats} run(s) on this machine — compare ratios, not absolute times.", ""]
+    if peers and not have_scipy:
+        data["peers_note"] = "SciPy is not installed: the SciPy rows are skipped"
+        md += [f"{data['peers_note']} (`pip install lagrangian[peers]` adds them).", ""]
+        progress(data["peers_note"])
     for scene in chosen:
         progress(f"work–precision: {scene.title}")
         model = scene.model()
@@ -215,7 +219,7 @@ def run_report(out: Path, *, quick: bool = False, scenes: Optional[Sequence[str]
         wanted = settings.peer_scenes is None or scene.key in settings.peer_scenes
         if have_scipy and scene.peers and wanted:
             progress(f"  SciPy peers: {scene.title}")
-            theirs = peer_rows(scene, wp.reference, settings.peer_tolerances)
+            theirs = peer_rows(model, scene, wp.reference, settings.peer_tolerances)
             entry["peers"] = theirs.to_dict()
             entry["equal_error"] = equal_error_ratios(wp, theirs)
         wp.plot(str(out / f"{scene.key}.png"), peers=theirs)
@@ -225,7 +229,8 @@ def run_report(out: Path, *, quick: bool = False, scenes: Optional[Sequence[str]
                   if wp.reference.agreement is not None else ""), "",
                _table_without_unsupported(wp), ""]
         if theirs is not None:
-            md += ["SciPy `solve_ivp` with a NumPy right-hand side, same reference:", "",
+            md += ["SciPy `solve_ivp` on the model's own right-hand side (`model.rhs`; "
+                   "`model.jacobian` for Radau and LSODA), same reference:", "",
                    _table_without_unsupported(theirs), ""]
             ratios = entry["equal_error"]
             if ratios:
@@ -279,7 +284,7 @@ def _table_without_unsupported(wp: WorkPrecision) -> str:
     rows: List[Row] = []
     seen = set()
     for r in wp.rows:
-        if r.failure and _UNSUPPORTED in r.failure:
+        if r.failure and UNSUPPORTED in r.failure:
             if r.method not in seen:
                 seen.add(r.method)
             continue

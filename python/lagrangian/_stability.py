@@ -26,7 +26,7 @@ import numpy as np
 from . import _lagrangian, scenes
 from ._cases import kepler_exact, kepler_periapsis, oscillator_exact
 from ._model import Model
-from ._workprec import _FINAL_ONLY, _UNSUPPORTED, Reference, _computed_reference, state_error
+from ._measure import FINAL_ONLY, UNSUPPORTED, Reference, computed_reference, state_error
 
 __all__ = ["Case", "Outcome", "StabilityMatrix", "stability_cases", "run_stability"]
 
@@ -256,7 +256,7 @@ def _reference(case: Case) -> Tuple[Optional[Reference], str]:
     make, q0, qd0, t_end = case.base if case.base is not None else (
         case.make, case.q0, case.qd0, case.t_end)
     try:
-        ref = _computed_reference(make(), np.asarray(q0, dtype=float), np.asarray(qd0, dtype=float),
+        ref = computed_reference(make(), np.asarray(q0, dtype=float), np.asarray(qd0, dtype=float),
                                   0.0, t_end, 20_000_000)
     except (_lagrangian.LagrangianError, ValueError) as e:
         return None, f"none ({type(e).__name__})"
@@ -313,7 +313,7 @@ def _halved_change(case: Case, model: Model, method: str, q: np.ndarray,
     in the case's measure; ``None`` when the halved run fails."""
     try:
         sol = model.simulate(case.q0, case.qd0, case.t_end, method=method, dt=case.dt / 2,
-                             max_steps=2 * case.max_steps, output_every=_FINAL_ONLY)
+                             max_steps=2 * case.max_steps, output_every=FINAL_ONLY)
     except (_lagrangian.LagrangianError, ValueError):
         return None
     q2, qd2 = np.asarray(sol.q[-1]), np.asarray(sol.qd[-1])
@@ -331,7 +331,7 @@ def run_case(case: Case, methods: Sequence[str], reference: Optional[Reference],
     for method in methods:
         adaptive = bool(_lagrangian.method_info(method)[1])
         kwargs: Dict[str, Any] = dict(method=method, max_steps=case.max_steps,
-                                      output_every=_FINAL_ONLY)
+                                      output_every=FINAL_ONLY)
         if adaptive:
             kwargs.update(rtol=case.rtol, atol=case.rtol)
         else:
@@ -340,7 +340,7 @@ def run_case(case: Case, methods: Sequence[str], reference: Optional[Reference],
         try:
             sol = model.simulate(case.q0, case.qd0, case.t_end, **kwargs)
         except (_lagrangian.LagrangianError, ValueError) as e:
-            if _UNSUPPORTED in str(e):
+            if UNSUPPORTED in str(e):
                 out.append(Outcome(case.key, method, "n/a", detail=f"{type(e).__name__}: {e}"))
             else:
                 out.append(Outcome(case.key, method, "error", detail=f"{type(e).__name__}: {e}"))

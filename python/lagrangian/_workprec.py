@@ -8,75 +8,33 @@ against a reference and the wall time, and returns the rows with a log–log plo
 from __future__ import annotations
 
 import json
-import math
 import statistics
 import time
 from dataclasses import asdict, dataclass
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterator, List, Optional, Sequence, Tuple, Union, overload
 
 import numpy as np
-import numpy.typing as npt
 
 from . import _lagrangian
-from ._model import Model, Solution, _real, _vector
+from ._measure import (
+    FINAL_ONLY,
+    UNSUPPORTED,
+    Reference,
+    computed_reference,
+    failure,
+    final_state,
+    state_error,
+)
+from ._model import Model
+from ._validate import number, real, vector
 
 __all__ = ["Reference", "Row", "WorkPrecision", "work_precision", "state_error"]
 
-FloatArray = npt.NDArray[np.float64]
 ExactSolution = Callable[[float], Tuple[Any, Any]]
 ReferenceLike = Union[None, ExactSolution, Tuple[Sequence[float], Sequence[float]]]
 
-# Keep only the initial and the final state of a timed run.
-_FINAL_ONLY = 1 << 62
 # Samples of the energy along a run (the maximum of |E − E0| is taken over them).
 _ENERGY_SAMPLES = 20_000
-# How the error of a method that cannot integrate the system begins.
-_UNSUPPORTED = "cannot integrate this system"
-# The two computed references: different high-order methods at tight tolerances.
-_REFERENCE_RUNS = (("dop853", 1e-13), ("radau5", 1e-12))
-
-
-def state_error(q: FloatArray, qd: FloatArray, q_ref: FloatArray, qd_ref: FloatArray) -> float:
-    """The relative distance ‖x − x_ref‖₂ / ‖x_ref‖₂ of the states x = (q, q̇) (absolute when
-    the reference state is zero)."""
-    diff = math.hypot(float(np.linalg.norm(q - q_ref)), float(np.linalg.norm(qd - qd_ref)))
-    size = math.hypot(float(np.linalg.norm(q_ref)), float(np.linalg.norm(qd_ref)))
-    return diff / size if size > 0.0 else diff
-
-
-@dataclass(frozen=True)
-class Reference:
-    """The state the errors are measured against.
-
-    Attributes
-    ----------
-    q, qd : numpy.ndarray
-        Reference coordinates and velocities at ``t_end``.
-    kind : str
-        ``"exact"`` (given by the caller) or ``"computed"``.
-    description : str
-        How it was obtained.
-    agreement : float or None
-        For computed references: the relative distance between the two reference runs (the
-        smallest error the rows can resolve); ``None`` for an exact reference or when only one
-        reference run succeeded.
-    alternate : tuple of (method, q, qd) or None
-        The second reference run, used for the rows of the first reference's own method.
-    """
-
-    q: FloatArray
-    qd: FloatArray
-    kind: str
-    description: str
-    agreement: Optional[float] = None
-    method: Optional[str] = None
-    alternate: Optional[Tuple[str, FloatArray, FloatArray]] = None
-
-    def against(self, method: str) -> Tuple[FloatArray, FloatArray]:
-        """The reference state for rows of ``method``: never a run of that same method."""
-        if self.method == method and self.alternate is not None:
-            return self.alternate[1], self.alternate[2]
-        return self.q, self.qd
 
 
 @dataclass(frozen=True)
@@ -119,8 +77,22 @@ class Row:
         return f"tol={self.tolerance:.0e}" if self.tolerance is not None else f"dt={self.dt:.3g}"
 
 
-class WorkPrecision:
-    """The rows of :func:`work_precision` with the reference they were measured against."""
+class WorkPrecision(Sequence[Row]):
+    """The rows of :func:`work_precision` with the reference they were measured against.
+
+    It is the sequence of its rows: ``len(wp)``, ``for row in wp``, ``wp[0]``, ``wp[-1]``; a
+    slice ``wp[1:3]`` is a :class:`WorkPrecision` of those rows with the same reference and
+    title.
+
+    >>> import lagrangian as lg
+    >>> osc = lg.scenes.damped_oscillator(m=1.0, k=1.0, c=0.0)
+    >>> wp = lg.work_precision(osc, [1.0], [0.0], 1.0, methods=["rk4"], dts=[0.1, 0.01],
+    ...                        repeats=1, reference=([0.5403023058681398], [-0.8414709848078965]))
+    >>> len(wp), wp[0].setting, [r.dt for r in wp]
+    (2, 'dt=0.1', [0.1, 0.01])
+    >>> wp[1:]
+    WorkPrecision('', rows=1, methods=['rk4'])
+    """
 
     def __init__(self, rows: List[Row], reference: Reference, title: str = "") -> None:
         self.rows = rows
@@ -129,6 +101,23 @@ class WorkPrecision:
 
     def __repr__(self) -> str:
         return f"WorkPrecision({self.title!r}, rows={len(self.rows)}, methods={self.methods})"
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    def __iter__(self) -> Iterator[Row]:
+        return iter(self.rows)
+
+    @overload
+    def __getitem__(self, index: int) -> Row: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> "WorkPrecision": ...
+
+    def __getitem__(self, index: Union[int, slice]) -> Union[Row, "WorkPrecision"]:
+        if isinstance(index, slice):
+            return WorkPrecision(self.rows[index], self.reference, self.title)
+        return self.rows[index]
 
     @property
     def methods(self) -> List[str]:
@@ -228,48 +217,6 @@ def _format_seconds(s: Optional[float]) -> str:
     return f"{s * 1e6:.0f} µs"
 
 
-def _failure(e: Exception) -> str:
-    return f"{type(e).__name__}: {e}"
-
-
-def _final(sol: Solution) -> Tuple[FloatArray, FloatArray]:
-    return np.asarray(sol.q[-1]), np.asarray(sol.qd[-1])
-
-
-def _computed_reference(
-    model: Model, q0: FloatArray, qd0: FloatArray, t0: float, t_end: float, max_steps: int
-) -> Reference:
-    runs: List[Tuple[str, FloatArray, FloatArray]] = []
-    notes: List[str] = []
-    for method, tol in _REFERENCE_RUNS:
-        try:
-            sol = model.simulate(
-                q0, qd0, t_end, t0=t0, method=method, rtol=tol, atol=tol,
-                output_every=_FINAL_ONLY, max_steps=max_steps,
-            )
-        except (_lagrangian.LagrangianError, ValueError) as e:
-            notes.append(f"{method} at tol {tol:.0e} failed ({_failure(e)})")
-            continue
-        q, qd = _final(sol)
-        runs.append((method, q, qd))
-        notes.append(f"{method} at rtol = atol = {tol:.0e} ({sol.stats['accepted_steps']} steps)")
-    if not runs:
-        raise _lagrangian.ConvergenceError(
-            "no reference could be computed: " + "; ".join(notes)
-            + " — pass reference=(q_end, qd_end) or an exact solution"
-        )
-    (method, q, qd) = runs[0]
-    agreement = None
-    alternate = None
-    if len(runs) > 1:
-        alternate = runs[1]
-        agreement = state_error(alternate[1], alternate[2], q, qd)
-    return Reference(
-        q=q, qd=qd, kind="computed", description="; ".join(notes), agreement=agreement,
-        method=method, alternate=alternate,
-    )
-
-
 def _given_reference(reference: ReferenceLike, n: int, t_end: float) -> Reference:
     if callable(reference):
         q, qd = reference(t_end)
@@ -283,7 +230,7 @@ def _given_reference(reference: ReferenceLike, n: int, t_end: float) -> Referenc
             ) from None
         how = "given final state"
     return Reference(
-        q=_vector("reference q", q, n), qd=_vector("reference qd", qd, n), kind="exact",
+        q=vector("reference q", q, n), qd=vector("reference qd", qd, n), kind="exact",
         description=how,
     )
 
@@ -357,9 +304,9 @@ def work_precision(
         method without ``dts``, wrong state lengths).
     """
     n = model.dof
-    q0v = _vector("q0", q0, n)
-    qd0v = _vector("qd0", qd0, n)
-    t0f, t_endf = _real("t0", t0), _real("t_end", t_end)
+    q0v = vector("q0", q0, n)
+    qd0v = vector("qd0", qd0, n)
+    t0f, t_endf = real("t0", t0), real("t_end", t_end)
     if t_endf == t0f:
         raise ValueError(f"t_end = t0 = {t0f}: the time span is empty")
     if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
@@ -367,12 +314,9 @@ def work_precision(
     names = list(methods) if methods is not None else [m for m in _lagrangian.methods() if m != "auto"]
     if not names:
         raise ValueError("methods is empty")
-    tols = [_real("tolerance", x) for x in tolerances]
-    steps = [_real("dt", x) for x in dts]
-    for what, values in (("tolerances", tols), ("dts", steps)):
-        bad = [x for x in values if not x > 0.0]
-        if bad:
-            raise ValueError(f"{what} must be > 0, got {bad[0]}")
+    tols = [number("tolerance", x) for x in tolerances]
+    steps = [number("dt", x) for x in dts]
+    span_sign = 1.0 if t_endf > t0f else -1.0
     plan: List[Tuple[str, Optional[float], Optional[float]]] = []
     for name in names:
         canonical, adaptive, _order = _lagrangian.method_info(name)
@@ -381,20 +325,24 @@ def work_precision(
         if adaptive:
             if not tols:
                 raise ValueError(f"{canonical} is adaptive: give tolerances")
+            for level in tols:
+                # The checks `simulate` makes (in Rust, one message each), before any run.
+                _lagrangian.check_options(t0f, t_endf, canonical, rtol=level, atol=level)
             plan += [(canonical, tol, None) for tol in tols]
         else:
             if not steps:
                 raise ValueError(f"{canonical} takes fixed steps: give dts")
+            for step in steps:
+                _lagrangian.check_options(t0f, t_endf, canonical, dt=span_sign * step)
             plan += [(canonical, None, dt) for dt in steps]
 
     ref = (
-        _computed_reference(model, q0v, qd0v, t0f, t_endf, max_steps)
+        computed_reference(model, q0v, qd0v, t0f, t_endf, max_steps)
         if reference is None
         else _given_reference(reference, n, t_endf)
     )
     structure = model.structure
     conserved = bool(structure["conservative"]) and not bool(structure["time_dependent"])
-    span_sign = 1.0 if t_endf > t0f else -1.0
     rows: List[Row] = []
     unsupported = set()
     for method, tol, dt in plan:
@@ -410,10 +358,10 @@ def work_precision(
             sol = None
             for _ in range(repeats):
                 start = time.perf_counter()
-                sol = model.simulate(q0v, qd0v, t_endf, output_every=_FINAL_ONLY, **kwargs)
+                sol = model.simulate(q0v, qd0v, t_endf, output_every=FINAL_ONLY, **kwargs)
                 times.append(time.perf_counter() - start)
             assert sol is not None
-            q, qd = _final(sol)
+            q, qd = final_state(sol)
             q_ref, qd_ref = ref.against(method)
             energy_error = None
             if conserved:
@@ -429,8 +377,8 @@ def work_precision(
                 )
             )
         except (_lagrangian.LagrangianError, ValueError) as e:
-            if _UNSUPPORTED in str(e):
+            if UNSUPPORTED in str(e):
                 # One row says it; the other settings would fail the same way.
                 unsupported.add(method)
-            rows.append(Row(method, tol, dt, None, None, None, 0, 0, _failure(e)))
+            rows.append(Row(method, tol, dt, None, None, None, 0, 0, failure(e)))
     return WorkPrecision(rows, ref, title)

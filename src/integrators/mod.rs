@@ -65,6 +65,8 @@ mod symplectic;
 mod tableau;
 mod variational;
 
+#[cfg(feature = "python")]
+pub(crate) use newton::acceleration_jacobian;
 pub use options::{Options, Output};
 pub use solution::{Solution, Statistics};
 pub use symplectic::SymplecticTableau;
@@ -471,15 +473,7 @@ fn solve_inner<S: Dynamics + ?Sized>(
                 .collect(),
         });
     }
-    if options.dt.is_none() && method.is_adaptive() == Some(false) {
-        return Err(Error::InvalidInput {
-            what: "dt",
-            why: format!(
-                "{} is a fixed-step method: give a step with Options::fixed(dt)",
-                method.name()
-            ),
-        });
-    }
+    options.check_method(method)?;
     if let (Some(dt), Some(true), true) = (options.dt, method.is_explicit(), check_stability) {
         stability::check(system, t0, q0, qd0, dt, method)?;
     }

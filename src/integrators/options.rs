@@ -1,5 +1,8 @@
-//! The options of [`solve`](super::solve): step control, limits and output.
+//! The options of [`solve`](super::solve): step control, limits and output, and their one
+//! validation: every option is checked here (the Python binding only converts types), so each
+//! invalid value has one message wherever it comes from.
 
+use super::Method;
 use crate::error::{Error, Result};
 
 /// Which states the [`Solution`](super::Solution) keeps.
@@ -79,6 +82,34 @@ impl Options {
         }
     }
 
+    /// Fixed steps of `dt` stated with their direction, as the Python API states them: a
+    /// negative `dt` integrates backwards, so its sign must be that of `t_end − t0`.
+    ///
+    /// ```
+    /// use lagrangian::integrators::Options;
+    /// assert_eq!(Options::fixed_towards(-0.1, (1.0, 0.0)).unwrap().dt, Some(0.1));
+    /// assert!(Options::fixed_towards(0.1, (1.0, 0.0)).is_err());
+    /// ```
+    pub fn fixed_towards(dt: f64, (t0, t_end): (f64, f64)) -> Result<Self> {
+        if !dt.is_finite() || dt == 0.0 {
+            return bad(
+                "dt",
+                format!("dt = {dt}: the step must be finite and non-zero"),
+            );
+        }
+        if (t_end - t0) * dt < 0.0 {
+            return bad(
+                "dt",
+                format!(
+                    "t_end = {t_end} lies {} t0 = {t0} but dt = {dt} steps the other way: give \
+                     dt the sign of t_end − t0 (a negative dt integrates backwards)",
+                    if t_end < t0 { "before" } else { "after" }
+                ),
+            );
+        }
+        Ok(Self::fixed(dt.abs()))
+    }
+
     /// Error-controlled steps with these tolerances.
     pub fn adaptive(rtol: f64, atol: f64) -> Self {
         Self {
@@ -126,22 +157,21 @@ impl Options {
 
     /// Check every option against the span `t0 → t_end`.
     pub(crate) fn validate(&self, t0: f64, t_end: f64) -> Result<()> {
-        let bad = |what: &'static str, why: String| Err(Error::InvalidInput { what, why });
         if let Some(dt) = self.dt
             && !(dt.is_finite() && dt > 0.0)
         {
-            return bad("dt", format!("{dt}: the fixed step must be finite and > 0"));
+            return bad(
+                "dt",
+                format!("dt = {dt}: the fixed step must be finite and > 0"),
+            );
         }
         for (what, v) in [("rtol", self.rtol), ("atol", self.atol)] {
-            if !(v.is_finite() && v >= 0.0) {
-                return bad(what, format!("{v}: tolerances must be finite and ≥ 0"));
+            if !(v.is_finite() && v > 0.0) {
+                return bad(
+                    what,
+                    format!("{what} = {v}: tolerances must be finite and > 0"),
+                );
             }
-        }
-        if self.dt.is_none() && self.rtol == 0.0 && self.atol == 0.0 {
-            return bad(
-                "rtol",
-                "rtol and atol are both 0: no step can meet them".into(),
-            );
         }
         for (what, v) in [
             ("initial_step", self.initial_step),
@@ -150,27 +180,38 @@ impl Options {
             if let Some(h) = v
                 && !(h.is_finite() && h > 0.0)
             {
-                return bad(what, format!("{h}: a step size must be finite and > 0"));
+                return bad(
+                    what,
+                    format!("{what} = {h}: a step size must be finite and > 0"),
+                );
             }
         }
         if !(self.min_step.is_finite() && self.min_step >= 0.0) {
             return bad(
                 "min_step",
-                format!("{}: must be finite and ≥ 0", self.min_step),
+                format!("min_step = {}: must be finite and ≥ 0", self.min_step),
             );
         }
         if self.max_steps == 0 {
-            return bad("max_steps", "0: at least one step is needed".into());
+            return bad(
+                "max_steps",
+                "max_steps = 0: at least one step is needed".into(),
+            );
         }
         if self.stiffness_check == Some(0) {
             return bad(
                 "stiffness_check",
-                "Some(0): give an interval ≥ 1, or None to switch the test off".into(),
+                "stiffness_check = 0: give an interval ≥ 1, or none to switch the test off".into(),
             );
         }
         match &self.output {
             Output::Steps => {}
-            Output::Every(0) => return bad("output", "Every(0): k must be ≥ 1".into()),
+            Output::Every(0) => {
+                return bad(
+                    "output",
+                    "every 0th step: keep every k-th step with k ≥ 1".into(),
+                );
+            }
             Output::Every(_) => {}
             Output::Times(times) => {
                 let dir = (t_end - t0).signum();
@@ -199,5 +240,75 @@ impl Options {
             }
         }
         Ok(())
+    }
+
+    /// Check that `method` can run with these options: a fixed-step method needs `dt`.
+    pub(crate) fn check_method(&self, method: Method) -> Result<()> {
+        if self.dt.is_none() && method.is_adaptive() == Some(false) {
+            return bad(
+                "dt",
+                format!(
+                    "{} takes fixed steps: pass dt (Options::fixed(dt) in Rust, dt=… in Python)",
+                    method.name()
+                ),
+            );
+        }
+        Ok(())
+    }
+}
+
+/// The error of an invalid option.
+fn bad<T>(what: &'static str, why: String) -> Result<T> {
+    Err(Error::InvalidInput { what, why })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn why(r: Result<impl std::fmt::Debug>) -> String {
+        r.unwrap_err().to_string()
+    }
+
+    #[test]
+    fn fixed_towards_sign_of_the_span() {
+        assert_eq!(
+            Options::fixed_towards(0.1, (0.0, 1.0)).unwrap().dt,
+            Some(0.1)
+        );
+        assert_eq!(
+            Options::fixed_towards(-0.1, (0.0, -1.0)).unwrap().dt,
+            Some(0.1)
+        );
+        assert!(why(Options::fixed_towards(-0.1, (0.0, 1.0))).contains("after t0"));
+        assert!(why(Options::fixed_towards(0.1, (0.0, -1.0))).contains("before t0"));
+        assert!(why(Options::fixed_towards(0.0, (0.0, 1.0))).contains("dt = 0"));
+        assert!(why(Options::fixed_towards(f64::NAN, (0.0, 1.0))).contains("dt = NaN"));
+    }
+
+    #[test]
+    fn validate_one_message_per_option() {
+        let check = |o: Options| why(o.validate(0.0, 1.0));
+        assert_eq!(
+            check(Options::adaptive(0.0, 1e-9)),
+            "invalid rtol: rtol = 0: tolerances must be finite and > 0"
+        );
+        assert_eq!(
+            check(Options::adaptive(1e-6, -1.0)),
+            "invalid atol: atol = -1: tolerances must be finite and > 0"
+        );
+        assert_eq!(
+            check(Options::default().with_max_steps(0)),
+            "invalid max_steps: max_steps = 0: at least one step is needed"
+        );
+        assert!(check(Options::default().with_output(Output::Every(0))).contains("k ≥ 1"));
+    }
+
+    #[test]
+    fn check_method_fixed_step_needs_dt() {
+        let adaptive = Options::default();
+        assert!(why(adaptive.check_method(Method::Rk4)).contains("rk4 takes fixed steps: pass dt"));
+        assert!(adaptive.check_method(Method::Dop853).is_ok());
+        assert!(Options::fixed(0.1).check_method(Method::Rk4).is_ok());
     }
 }

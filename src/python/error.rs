@@ -64,6 +64,7 @@ impl From<Error> for PyErr {
         match e {
             Error::DimensionMismatch { .. }
             | Error::InvalidInput { .. }
+            | Error::SceneArgument { .. }
             | Error::UnsupportedMethod { .. } => PyValueError::new_err(msg),
             Error::SingularMassMatrix { .. } => SingularMassMatrixError::new_err(msg),
             Error::NonFinite { .. } => NonFiniteError::new_err(msg),

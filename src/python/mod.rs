@@ -2,9 +2,11 @@
 //!
 //! The user's energies are compiled once to a [`crate::tape`] and evaluated over the same dual
 //! numbers as a Rust model, so no Python runs while a model is integrated. This module holds the
-//! compiled model ([`PyModel`], `NativeModel` in Python), the exception classes and the method
-//! registry; the expression language, argument checking and docstrings of the public API live in
-//! `python/lagrangian/`.
+//! compiled model ([`PyModel`], `NativeModel` in Python) and the method registry; the exception
+//! classes are in [`error`], the model as a first-order system for SciPy (`rhs`, `jacobian`) in
+//! [`first_order`], the models themselves in [`model`]. Options are converted here from Python's
+//! conventions and validated by [`Options`] itself. The expression language, argument checking
+//! and docstrings of the public API live in `python/lagrangian/`.
 //!
 //! Every entry point releases nothing half-done: inputs are checked before any work, a failure
 //! is a typed exception (see [`error`]), a panic is caught and reported as `LagrangianError`,
@@ -12,14 +14,19 @@
 //! every 20 ms through [`crate::integrators::solve_with_interrupt`].
 
 mod error;
+mod first_order;
 mod model;
+mod scenes;
 
 use crate::integrators::{Method, Options, Output, solve_with_interrupt};
 use crate::{Dynamics, Error, Stability, StaticsOptions, equilibrium};
 use error::panic_error;
 use model::{AnyModel, Compiled, RawNode, Spec, WithLoads};
 use numpy::ndarray::{Array2, Array3};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{
+    IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayDyn, PyReadonlyArray1, PyReadonlyArray2,
+    PyReadonlyArrayDyn,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
@@ -48,6 +55,52 @@ fn check_vector(what: &str, v: &[f64], n: usize) -> PyResult<()> {
         )));
     }
     Ok(())
+}
+
+/// A count from Python's signed integers: `ValueError` for a negative one (zero and up are
+/// validated with the options).
+fn count(what: &str, v: i64) -> PyResult<usize> {
+    usize::try_from(v)
+        .map_err(|_| PyValueError::new_err(format!("{what} = {v}: a count cannot be negative")))
+}
+
+/// How a run steps, as Python states it: a signed fixed `dt`, or tolerances.
+struct Step {
+    dt: Option<f64>,
+    rtol: f64,
+    atol: f64,
+}
+
+/// The method and options of a run over `span` from Python's arguments (a signed `dt`, counts
+/// as signed integers, `t_eval` or `every`), validated by [`Options`]' own checks.
+fn run_options(
+    span: (f64, f64),
+    method: &str,
+    step: Step,
+    max_steps: Option<i64>,
+    output: (Option<Vec<f64>>, Option<i64>),
+) -> PyResult<(Method, Options)> {
+    let method = Method::from_str(method)?;
+    let mut options = match step.dt {
+        Some(dt) => Options::fixed_towards(dt, span)?,
+        None => Options::adaptive(step.rtol, step.atol),
+    };
+    if let Some(max_steps) = max_steps {
+        options.max_steps = count("max_steps", max_steps)?;
+    }
+    options.output = match output {
+        (Some(_), Some(_)) => {
+            return Err(PyValueError::new_err(
+                "give t_eval or output_every, not both",
+            ));
+        }
+        (Some(times), None) => Output::Times(times),
+        (None, Some(k)) => Output::Every(count("output_every", k)?),
+        (None, None) => Output::Steps,
+    };
+    options.validate(span.0, span.1)?;
+    options.check_method(method)?;
+    Ok((method, options))
 }
 
 /// `ValueError` unless `x` is finite.
@@ -117,17 +170,6 @@ impl PyModel {
             Ok(Self {
                 model: Arc::new(model),
                 compiled: Some(Arc::new(compiled)),
-            })
-        })
-    }
-
-    /// The Rust scene `name`, its constructor's arguments in order.
-    #[staticmethod]
-    fn scene(name: &str, values: Vec<f64>) -> PyResult<Self> {
-        guard(|| {
-            Ok(Self {
-                model: Arc::new(model::scene(name, &values)?),
-                compiled: None,
             })
         })
     }
@@ -229,6 +271,27 @@ impl PyModel {
         })
     }
 
+    /// dy/dt = (q̇, q̈) of the first-order system y = (q, q̇) at (t, y): SciPy's `fun(t, y)`;
+    /// y of shape (2n,) or (2n, k) (`vectorized=True`).
+    fn rhs<'py>(
+        &self,
+        py: Python<'py>,
+        t: f64,
+        y: PyReadonlyArrayDyn<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        guard(|| Ok(first_order::rhs(&*self.model, t, y.as_array())?.into_pyarray(py)))
+    }
+
+    /// The 2n × 2n Jacobian of `rhs` at (t, y) by forward-mode AD: SciPy's `jac(t, y)`.
+    fn jacobian<'py>(
+        &self,
+        py: Python<'py>,
+        t: f64,
+        y: PyReadonlyArrayDyn<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| Ok(first_order::jacobian(&*self.model, t, y.as_array())?.into_pyarray(py)))
+    }
+
     /// Whether the model has particles to draw (the particle route, or a scene with positions).
     #[getter]
     fn has_positions(&self) -> bool {
@@ -290,77 +353,22 @@ impl PyModel {
         rtol: f64,
         atol: f64,
         t_eval: Option<PyReadonlyArray1<'py, f64>>,
-        max_steps: Option<usize>,
-        every: Option<usize>,
+        max_steps: Option<i64>,
+        every: Option<i64>,
     ) -> PyResult<Bound<'py, PyTuple>> {
         let n = self.model.dof();
         check_vector("q0", &q0, n)?;
         check_vector("qd0", &qd0, n)?;
         check_finite("t0", t0)?;
         check_finite("t_end", t_end)?;
-        let method = Method::from_str(method)?;
-        if t_end == t0 {
-            return Err(PyValueError::new_err(format!(
-                "t_end = t0 = {t0}: the time span is empty"
-            )));
-        }
-        let mut options = match dt {
-            Some(dt) => {
-                check_finite("dt", dt)?;
-                if dt == 0.0 {
-                    return Err(PyValueError::new_err("dt = 0: the step must be non-zero"));
-                }
-                if (t_end - t0) * dt < 0.0 {
-                    return Err(PyValueError::new_err(format!(
-                        "t_end = {t_end} lies {} t0 = {t0} but dt = {dt} steps the other way: \
-                         give dt the sign of t_end − t0 (a negative dt integrates backwards)",
-                        if t_end < t0 { "before" } else { "after" }
-                    )));
-                }
-                Options::fixed(dt.abs())
-            }
-            None => {
-                for (what, v) in [("rtol", rtol), ("atol", atol)] {
-                    if !(v.is_finite() && v > 0.0) {
-                        return Err(PyValueError::new_err(format!(
-                            "{what} = {v}: tolerances must be finite and > 0"
-                        )));
-                    }
-                }
-                if method.is_adaptive() == Some(false) {
-                    return Err(PyValueError::new_err(format!(
-                        "{} takes fixed steps: pass dt=…",
-                        method.name()
-                    )));
-                }
-                Options::adaptive(rtol, atol)
-            }
-        };
-        if let Some(max_steps) = max_steps {
-            if max_steps == 0 {
-                return Err(PyValueError::new_err(
-                    "max_steps = 0: at least one step is needed",
-                ));
-            }
-            options.max_steps = max_steps;
-        }
-        match (t_eval, every) {
-            (Some(_), Some(_)) => {
-                return Err(PyValueError::new_err(
-                    "give t_eval or output_every, not both",
-                ));
-            }
-            (Some(times), None) => {
-                options.output = Output::Times(times.as_array().iter().copied().collect());
-            }
-            (None, Some(0)) => {
-                return Err(PyValueError::new_err(
-                    "output_every = 0: keep every k-th step with k ≥ 1",
-                ));
-            }
-            (None, Some(k)) => options.output = Output::Every(k),
-            (None, None) => {}
-        }
+        let times = t_eval.map(|t| t.as_array().iter().copied().collect());
+        let (method, options) = run_options(
+            (t0, t_end),
+            method,
+            Step { dt, rtol, atol },
+            max_steps,
+            (times, every),
+        )?;
         let model = self.model.clone();
         let pending: Mutex<Option<PyErr>> = Mutex::new(None);
         let outcome = py.detach(|| {
@@ -513,6 +521,28 @@ fn method_info(name: &str) -> PyResult<(&'static str, Option<bool>, Option<usize
     Ok((m.name(), m.is_adaptive(), m.order()))
 }
 
+/// Check a method and its step options as `simulate` checks them, without running: the same
+/// `ValueError`, for callers that plan many runs (work–precision).
+#[pyfunction]
+#[pyo3(signature = (t0, t_end, method="auto", dt=None, rtol=1e-6, atol=1e-9))]
+fn check_options(
+    t0: f64,
+    t_end: f64,
+    method: &str,
+    dt: Option<f64>,
+    rtol: f64,
+    atol: f64,
+) -> PyResult<()> {
+    run_options(
+        (t0, t_end),
+        method,
+        Step { dt, rtol, atol },
+        None,
+        (None, None),
+    )
+    .map(|_| ())
+}
+
 /// The compiled core of the `lagrangian` package.
 #[pymodule(name = "_lagrangian")]
 mod lagrangian_module {
@@ -522,7 +552,9 @@ mod lagrangian_module {
         StiffnessError, TooManyStepsError,
     };
     #[pymodule_export]
-    use super::{PyModel, method_info, methods};
+    use super::scenes::{scene_catalog, scene_drawing, scene_exact, scene_model, scene_pivot};
+    #[pymodule_export]
+    use super::{PyModel, check_options, method_info, methods};
     use pyo3::prelude::*;
 
     #[pymodule_init]

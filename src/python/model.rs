@@ -2,73 +2,65 @@
 //! that each integrator is compiled once for all of them (the variant is one predictable branch
 //! per evaluation).
 
-use crate::scenes::{
-    BallInSphere, ChargedParticle, DampedOscillator, DifferentialPulley, DoublePendulum,
-    DrivenPendulum, ElasticPendulum, ForcedTwoMass, HenonHeiles, Kepler, Lever, NPendulum,
-    RadialDamping, RhombusLink, RollingCylinder, SimplePendulum, SpringRhombus, TwoSprings,
-};
+use crate::scenes::registry::{Arguments, Drawn, Positions, Scene, scenes};
+use crate::scenes::*;
 use crate::tape::{Binary, EnergyModel, Function, Graph, Inputs, Node, Tape, TapeParticles, Unary};
-use crate::{Dynamics, Error, ParticleSystem, Particles, Result, Scalar, Structure, System};
+use crate::{Dynamics, Error, ParticleSystem, Result, Scalar, Structure};
 use std::sync::Arc;
 
 /// A model stated in Python by particle positions and masses (the particle route).
 pub(crate) type TapeParticleSystem =
     ParticleSystem<TapeParticles, Option<Function>, Option<Function>, Option<Function>>;
 
-/// Every system a Python `Model` can stand for.
-#[derive(Debug)]
-pub(crate) enum AnyModel {
-    Energy(EnergyModel),
-    Particles(TapeParticleSystem),
-    SimplePendulum(System<SimplePendulum, SimplePendulum>),
-    DoublePendulum(System<DoublePendulum, DoublePendulum>),
-    NPendulum(System<NPendulum, NPendulum>),
-    ForcedTwoMass(System<ForcedTwoMass, ForcedTwoMass, (), ForcedTwoMass>),
-    RollingCylinder(System<RollingCylinder, RollingCylinder>),
-    BallInSphere(System<BallInSphere, BallInSphere>),
-    DampedOscillator(System<DampedOscillator, DampedOscillator, DampedOscillator>),
-    Kepler(System<Kepler, Kepler>),
-    ElasticPendulum(System<ElasticPendulum, ElasticPendulum>),
-    DampedElasticPendulum(System<ElasticPendulum, ElasticPendulum, RadialDamping>),
-    HenonHeiles(System<HenonHeiles, HenonHeiles>),
-    DrivenPendulum(System<DrivenPendulum, DrivenPendulum>),
-    ChargedParticle(System<ChargedParticle, ChargedParticle>),
-    Lever(ParticleSystem<Lever, (), (), (), Lever>),
-    DifferentialPulley(
-        ParticleSystem<DifferentialPulley, DifferentialPulley, (), (), DifferentialPulley>,
-    ),
-    RhombusLink(ParticleSystem<RhombusLink, (), (), (), RhombusLink>),
-    SpringRhombus(ParticleSystem<SpringRhombus, SpringRhombus>),
-    TwoSprings(System<TwoSprings, TwoSprings, (), TwoSprings>),
-}
+/// The enum over the tape models and every scene of the registry, its dispatch macro `each!`,
+/// and the scenes' construction and positions, all from the one list in
+/// [`crate::scenes::registry`].
+macro_rules! any_model {
+    ($($scene:ident,)*) => {
+        /// Every system a Python `Model` can stand for.
+        #[derive(Debug)]
+        pub(crate) enum AnyModel {
+            Energy(EnergyModel),
+            Particles(TapeParticleSystem),
+            $($scene(<$scene as Scene>::System),)*
+        }
 
-/// `$body` with `$s` bound to the system inside whichever variant `$model` is.
-macro_rules! each {
-    ($model:expr, $s:ident => $body:expr) => {
-        match $model {
-            AnyModel::Energy($s) => $body,
-            AnyModel::Particles($s) => $body,
-            AnyModel::SimplePendulum($s) => $body,
-            AnyModel::DoublePendulum($s) => $body,
-            AnyModel::NPendulum($s) => $body,
-            AnyModel::ForcedTwoMass($s) => $body,
-            AnyModel::RollingCylinder($s) => $body,
-            AnyModel::BallInSphere($s) => $body,
-            AnyModel::DampedOscillator($s) => $body,
-            AnyModel::Kepler($s) => $body,
-            AnyModel::ElasticPendulum($s) => $body,
-            AnyModel::DampedElasticPendulum($s) => $body,
-            AnyModel::HenonHeiles($s) => $body,
-            AnyModel::DrivenPendulum($s) => $body,
-            AnyModel::ChargedParticle($s) => $body,
-            AnyModel::Lever($s) => $body,
-            AnyModel::DifferentialPulley($s) => $body,
-            AnyModel::RhombusLink($s) => $body,
-            AnyModel::SpringRhombus($s) => $body,
-            AnyModel::TwoSprings($s) => $body,
+        /// `$body` with `$s` bound to the system inside whichever variant `$model` is.
+        macro_rules! each {
+            ($model:expr, $s:ident => $body:expr) => {
+                match $model {
+                    AnyModel::Energy($s) => $body,
+                    AnyModel::Particles($s) => $body,
+                    $(AnyModel::$scene($s) => $body,)*
+                }
+            };
+        }
+
+        impl AnyModel {
+            /// The scene of these checked arguments.
+            pub(crate) fn scene(args: &Arguments) -> Result<Self> {
+                let name = args.info().name;
+                $(
+                    if name == <$scene as Scene>::INFO.name {
+                        return Ok(AnyModel::$scene(<$scene as Scene>::build(args)?));
+                    }
+                )*
+                Err(bad(format!("the scene {name} has no variant")))
+            }
+
+            /// The particles' positions at the states (t_i, q_i) (`q` row after row) as
+            /// (count, dim, values), or `None` for a system stated by its energies only.
+            pub(crate) fn positions(&self, t: &[f64], q: &[f64]) -> Option<Positions> {
+                match self {
+                    AnyModel::Energy(_) => None,
+                    AnyModel::Particles(s) => s.positions(t, q),
+                    $(AnyModel::$scene(s) => s.positions(t, q),)*
+                }
+            }
         }
     };
 }
+scenes!(any_model);
 
 impl Dynamics for AnyModel {
     fn dof(&self) -> usize {
@@ -115,53 +107,10 @@ impl Dynamics for AnyModel {
     }
 }
 
-/// Positions of `p` at `rows` states (t_i, q_i), `q` row after row: (count, dim, flat values).
-fn positions_of<P: Particles>(p: &P, t: &[f64], q: &[f64]) -> (usize, usize, Vec<f64>) {
-    let (n, width) = (p.dof(), p.coordinates_len());
-    let mut r = vec![0.0; t.len() * width];
-    for (i, (&ti, out)) in t.iter().zip(r.chunks_exact_mut(width)).enumerate() {
-        p.positions(ti, &q[i * n..(i + 1) * n], out);
-    }
-    (p.count(), p.dim(), r)
-}
-
 impl AnyModel {
-    /// The particles' positions at the states (t_i, q_i) (`q` row after row) as (count, dim,
-    /// values), or `None` for a system stated by its energies only.
-    pub(crate) fn positions(&self, t: &[f64], q: &[f64]) -> Option<(usize, usize, Vec<f64>)> {
-        Some(match self {
-            AnyModel::Particles(s) => positions_of(&s.particles, t, q),
-            AnyModel::SimplePendulum(s) => positions_of(&s.kinetic, t, q),
-            AnyModel::DoublePendulum(s) => positions_of(&s.kinetic, t, q),
-            AnyModel::NPendulum(s) => positions_of(&s.kinetic, t, q),
-            AnyModel::RollingCylinder(s) => positions_of(&s.kinetic, t, q),
-            AnyModel::BallInSphere(s) => positions_of(&s.kinetic, t, q),
-            AnyModel::Kepler(s) => positions_of(&s.kinetic, t, q),
-            AnyModel::ElasticPendulum(s) => positions_of(&s.kinetic, t, q),
-            AnyModel::DampedElasticPendulum(s) => positions_of(&s.kinetic, t, q),
-            AnyModel::HenonHeiles(s) => positions_of(&s.kinetic, t, q),
-            AnyModel::DrivenPendulum(s) => positions_of(&s.kinetic, t, q),
-            AnyModel::ChargedParticle(s) => positions_of(&s.kinetic, t, q),
-            AnyModel::Lever(s) => positions_of(&s.particles, t, q),
-            AnyModel::DifferentialPulley(s) => positions_of(&s.particles, t, q),
-            AnyModel::RhombusLink(s) => positions_of(&s.particles, t, q),
-            AnyModel::SpringRhombus(s) => positions_of(&s.particles, t, q),
-            AnyModel::Energy(_)
-            | AnyModel::ForcedTwoMass(_)
-            | AnyModel::DampedOscillator(_)
-            | AnyModel::TwoSprings(_) => return None,
-        })
-    }
-
     /// Whether [`positions`](Self::positions) has anything to report.
     pub(crate) fn has_positions(&self) -> bool {
-        !matches!(
-            self,
-            AnyModel::Energy(_)
-                | AnyModel::ForcedTwoMass(_)
-                | AnyModel::DampedOscillator(_)
-                | AnyModel::TwoSprings(_)
-        )
+        self.positions(&[], &[]).is_some()
     }
 }
 
@@ -453,125 +402,4 @@ pub(crate) fn loads(
         .collect::<Result<Vec<_>>>()?;
     let tape = Tape::new(&g, &roots, Inputs::kinetic(dof, params.len()), "loads")?;
     Function::new(Arc::new(tape), params)
-}
-
-/// The Rust scene `name` with its constructor's arguments in order (see `python/lagrangian/
-/// scenes.py`).
-pub(crate) fn scene(name: &str, v: &[f64]) -> Result<AnyModel> {
-    let expect = |n: usize| -> Result<()> {
-        if v.len() == n {
-            Ok(())
-        } else {
-            Err(Error::DimensionMismatch {
-                what: "scene arguments",
-                expected: n,
-                got: v.len(),
-            })
-        }
-    };
-    if let Some(x) = v.iter().find(|x| !x.is_finite()) {
-        return Err(Error::InvalidInput {
-            what: "scene arguments",
-            why: format!("{name}: the value {x} is not finite"),
-        });
-    }
-    Ok(match name {
-        "simple_pendulum" => {
-            expect(3)?;
-            AnyModel::SimplePendulum(SimplePendulum::new(v[0], v[1], v[2]).system())
-        }
-        "double_pendulum" => {
-            expect(5)?;
-            AnyModel::DoublePendulum(DoublePendulum::new(v[0], v[1], v[2], v[3], v[4]).system())
-        }
-        "n_pendulum" => {
-            // g, then the masses, then the lengths.
-            if v.len() < 3 || v.len().is_multiple_of(2) {
-                return Err(Error::InvalidInput {
-                    what: "scene arguments",
-                    why: "n_pendulum needs g and as many lengths as masses (at least one)".into(),
-                });
-            }
-            let n = (v.len() - 1) / 2;
-            let (masses, lengths) = v[1..].split_at(n);
-            AnyModel::NPendulum(NPendulum::new(masses.to_vec(), lengths.to_vec(), v[0]).system())
-        }
-        "forced_two_mass" => {
-            expect(7)?;
-            AnyModel::ForcedTwoMass(
-                ForcedTwoMass::new(v[0], v[1], v[2], v[3])
-                    .with_forcing(v[4], v[5], v[6])
-                    .system(),
-            )
-        }
-        "rolling_cylinder" => {
-            expect(5)?;
-            AnyModel::RollingCylinder(RollingCylinder::new(v[0], v[1], v[2], v[3], v[4]).system())
-        }
-        "ball_in_sphere" => {
-            expect(5)?;
-            AnyModel::BallInSphere(BallInSphere::new(v[0], v[1], v[2], v[3], v[4]).system())
-        }
-        "damped_oscillator" => {
-            expect(3)?;
-            AnyModel::DampedOscillator(DampedOscillator::new(v[0], v[1], v[2]).system())
-        }
-        "kepler" => {
-            expect(2)?;
-            AnyModel::Kepler(Kepler::new(v[0], v[1]).system())
-        }
-        "elastic_pendulum" => {
-            expect(5)?;
-            let p = ElasticPendulum::new(v[0], v[1], v[2], v[3]);
-            if v[4] == 0.0 {
-                AnyModel::ElasticPendulum(p.system())
-            } else {
-                AnyModel::DampedElasticPendulum(p.damped(v[4]))
-            }
-        }
-        "henon_heiles" => {
-            expect(0)?;
-            AnyModel::HenonHeiles(HenonHeiles::new().system())
-        }
-        "driven_pendulum" => {
-            expect(5)?;
-            AnyModel::DrivenPendulum(DrivenPendulum::new(v[0], v[1], v[2], v[3], v[4]).system())
-        }
-        "charged_particle" => {
-            expect(5)?;
-            AnyModel::ChargedParticle(
-                ChargedParticle::new(v[0], v[1], v[2])
-                    .with_electric_field(v[3], v[4])
-                    .system(),
-            )
-        }
-        "lever" => {
-            expect(4)?;
-            AnyModel::Lever(Lever::new(v[0], v[1], v[2], v[3]).particles())
-        }
-        "differential_pulley" => {
-            expect(5)?;
-            AnyModel::DifferentialPulley(
-                DifferentialPulley::new(v[0], v[1], v[2], v[3], v[4]).particles(),
-            )
-        }
-        "rhombus_link" => {
-            expect(3)?;
-            AnyModel::RhombusLink(RhombusLink::new(v[0], v[1], v[2]).particles())
-        }
-        "spring_rhombus" => {
-            expect(5)?;
-            AnyModel::SpringRhombus(SpringRhombus::new(v[0], v[1], v[2], v[3], v[4]).particles())
-        }
-        "two_springs" => {
-            expect(6)?;
-            AnyModel::TwoSprings(TwoSprings::new(v[0], v[1], v[2], v[3], v[4], v[5]).system())
-        }
-        other => {
-            return Err(Error::InvalidInput {
-                what: "scene",
-                why: format!("unknown scene {other:?}"),
-            });
-        }
-    })
 }

@@ -1,5 +1,6 @@
 //! A ball rolling inside a hollow sphere, in a vertical plane (seed Fig. 8, eq. 49–53).
 
+use super::registry::{Arguments, Coordinates, Drawing, Parameter, Route, Scene, SceneInfo};
 use super::rigid_disc;
 use crate::error::{Error, Result};
 use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
@@ -172,6 +173,38 @@ impl Potential for BallInSphere {
     }
     fn depends_on_time(&self) -> bool {
         false
+    }
+}
+
+impl Scene for BallInSphere {
+    type System = System<Self, Self>;
+    const INFO: SceneInfo = SceneInfo {
+        name: "ball_in_sphere",
+        doc: "A ball of radius ``r2`` rolling inside a sphere of radius ``r1`` (seed eq. \
+              49–53); coordinate ``theta`` from the bottom.",
+        parameters: &[
+            Parameter::number("m", 1.0, "mass of the ball"),
+            Parameter::number("j", 0.016, "moment of inertia of the ball (⅖ m r₂² solid)"),
+            Parameter::number("r1", 1.0, "radius of the sphere"),
+            Parameter::number("r2", 0.2, "radius of the ball"),
+            Parameter::number("g", 9.81, "gravitational acceleration"),
+        ],
+        coordinates: Coordinates::Fixed(&["theta"]),
+        route: Route::Energy,
+        exact: false,
+    };
+    fn build(a: &Arguments) -> Result<Self::System> {
+        let n = |k| a.number(k);
+        Ok(Self::new(n("m"), n("j"), n("r1"), n("r2"), n("g")).system())
+    }
+    fn drawing(a: &Arguments) -> Option<Drawing> {
+        Some(Drawing {
+            bodies: vec![[0, 1, 2]],
+            circles: vec![[0.0, 0.0, a.number("r1")]],
+            marks: vec![[0.0, 0.0]],
+            trail: Some(vec![0]),
+            ..Drawing::default()
+        })
     }
 }
 

@@ -1,6 +1,9 @@
 //! A charged particle in the plane, in a uniform magnetic field normal to it and an optional
 //! uniform electric field in it: the reference problem for a velocity-dependent Lagrangian.
 
+use super::registry::{
+    Arguments, Coordinates, Parameter, Route, Scene, SceneInfo, State, exact_planar,
+};
 use crate::error::{Error, Result};
 use crate::{CartesianForces, KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
 
@@ -193,5 +196,37 @@ impl CartesianForces for LorentzForce {
     }
     fn is_present(&self) -> bool {
         self.e != 0.0 && (self.b != 0.0 || self.ex != 0.0 || self.ey != 0.0)
+    }
+}
+
+impl Scene for ChargedParticle {
+    type System = System<Self, Self>;
+    const INFO: SceneInfo = SceneInfo {
+        name: "charged_particle",
+        doc: "A charge ``e`` of mass ``m`` in a magnetic field ``b`` normal to the plane and an \
+              electric field (``ex``, ``ey``); coordinates ``x``, ``y``.",
+        parameters: &[
+            Parameter::number("m", 1.0, "mass"),
+            Parameter::number("e", 1.0, "charge"),
+            Parameter::number("b", 1.0, "magnetic field normal to the plane"),
+            Parameter::number("ex", 0.0, "electric field, x component"),
+            Parameter::number("ey", 0.0, "electric field, y component"),
+        ],
+        coordinates: Coordinates::Fixed(&["x", "y"]),
+        route: Route::Energy,
+        exact: true,
+    };
+    fn build(a: &Arguments) -> Result<Self::System> {
+        Ok(Self::of(a).system())
+    }
+    fn exact(a: &Arguments, q0: &[f64], qd0: &[f64], t: f64) -> Result<State> {
+        exact_planar(q0, qd0, |q0, v0| Self::of(a).exact_solution(q0, v0, t))
+    }
+}
+
+impl ChargedParticle {
+    fn of(a: &Arguments) -> Self {
+        let n = |k| a.number(k);
+        Self::new(n("m"), n("e"), n("b")).with_electric_field(n("ex"), n("ey"))
     }
 }

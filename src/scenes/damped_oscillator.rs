@@ -1,6 +1,9 @@
 //! The viscously damped oscillator: the one-coordinate case of Rayleigh's dissipation function
 //! (seed §4, eq. 54–55).
 
+use super::registry::{
+    Arguments, Coordinates, Drawn, Parameter, Positions, Route, Scene, SceneInfo, State,
+};
 use crate::error::{Error, Result};
 use crate::{Dissipation, KineticEnergy, Potential, Scalar, System};
 
@@ -128,5 +131,42 @@ impl Dissipation for DampedOscillator {
     }
     fn is_present(&self) -> bool {
         self.c != 0.0
+    }
+}
+
+impl Scene for DampedOscillator {
+    type System = System<Self, Self, Self>;
+    const INFO: SceneInfo = SceneInfo {
+        name: "damped_oscillator",
+        doc: "m ẍ + c ẋ + k x = 0 from Rayleigh's Φ = ½ c ẋ² (seed eq. 54–55); coordinate \
+              ``x``.",
+        parameters: &[
+            Parameter::number("m", 1.0, "mass"),
+            Parameter::number("k", 4.0, "spring stiffness"),
+            Parameter::number("c", 0.4, "damping coefficient"),
+        ],
+        coordinates: Coordinates::Fixed(&["x"]),
+        route: Route::Energy,
+        exact: true,
+    };
+    fn build(a: &Arguments) -> Result<Self::System> {
+        Ok(Self::of(a).system())
+    }
+    fn exact(a: &Arguments, q0: &[f64], qd0: &[f64], t: f64) -> Result<State> {
+        let (x, v) = Self::of(a).exact_solution(q0[0], qd0[0], t)?;
+        Ok((vec![x], vec![v]))
+    }
+}
+
+impl DampedOscillator {
+    fn of(a: &Arguments) -> Self {
+        Self::new(a.number("m"), a.number("k"), a.number("c"))
+    }
+}
+
+/// A mass on a spring along a line: nothing to draw.
+impl<U, R, Q> Drawn for System<DampedOscillator, U, R, Q> {
+    fn positions(&self, _t: &[f64], _q: &[f64]) -> Option<Positions> {
+        None
     }
 }

@@ -1,6 +1,8 @@
 //! A pendulum whose pivot is driven vertically (Kapitza's pendulum when the drive is fast): the
 //! reference problem for explicitly time-dependent kinetic energy.
 
+use super::registry::{Arguments, Coordinates, Drawing, Parameter, Route, Scene, SceneInfo};
+use crate::error::Result;
 use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
 
 /// A point mass m on a massless rod of length l whose pivot moves as y_p(t) = a cos ω t, in
@@ -102,5 +104,39 @@ impl Particles for DrivenPendulum {
     }
     fn depends_on_time(&self) -> bool {
         self.drives()
+    }
+}
+
+impl Scene for DrivenPendulum {
+    type System = System<Self, Self>;
+    const INFO: SceneInfo = SceneInfo {
+        name: "driven_pendulum",
+        doc: "A pendulum whose pivot moves as a cos ω t (T depends on t); coordinate ``theta``.",
+        parameters: &[
+            Parameter::number("m", 1.0, "bob mass"),
+            Parameter::number("l", 1.0, "rod length"),
+            Parameter::number("g", 9.81, "gravitational acceleration"),
+            Parameter::number("a", 0.1, "pivot amplitude"),
+            Parameter::number("omega", 20.0, "pivot angular frequency ω"),
+        ],
+        coordinates: Coordinates::Fixed(&["theta"]),
+        route: Route::Energy,
+        exact: false,
+    };
+    fn build(a: &Arguments) -> Result<Self::System> {
+        Ok(Self::of(a).system())
+    }
+    fn drawing(_: &Arguments) -> Option<Drawing> {
+        Some(Drawing::chain(1, true))
+    }
+    fn pivot(a: &Arguments, t: f64) -> [f64; 2] {
+        [0.0, Self::of(a).pivot(t)]
+    }
+}
+
+impl DrivenPendulum {
+    fn of(a: &Arguments) -> Self {
+        let n = |k| a.number(k);
+        Self::new(n("m"), n("l"), n("g"), n("a"), n("omega"))
     }
 }

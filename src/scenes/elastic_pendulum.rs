@@ -1,5 +1,7 @@
 //! The spring (elastic) pendulum in polar coordinates, optionally with a radial dashpot.
 
+use super::registry::{Arguments, Coordinates, Drawing, Parameter, Route, Scene, SceneInfo};
+use crate::error::Result;
 use crate::{Dissipation, KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
 
 /// A mass m on a spring of stiffness k and natural length l₀, swinging in gravity g along −y;
@@ -145,5 +147,32 @@ impl Dissipation for RadialDamping {
     }
     fn is_present(&self) -> bool {
         self.c != 0.0
+    }
+}
+
+impl Scene for ElasticPendulum {
+    /// The damped system, whose dashpot is absent (not evaluated, not dissipative) at c = 0.
+    type System = System<Self, Self, RadialDamping>;
+    const INFO: SceneInfo = SceneInfo {
+        name: "elastic_pendulum",
+        doc: "A mass on a spring (stiffness ``k``, natural length ``l0``) swinging in gravity, \
+              with an optional radial dashpot ``c``; coordinates ``r``, ``theta``.",
+        parameters: &[
+            Parameter::number("m", 1.0, "bob mass"),
+            Parameter::number("k", 40.0, "spring stiffness"),
+            Parameter::number("l0", 1.0, "natural length of the spring"),
+            Parameter::number("g", 9.81, "gravitational acceleration"),
+            Parameter::number("c", 0.0, "radial damping coefficient"),
+        ],
+        coordinates: Coordinates::Fixed(&["r", "theta"]),
+        route: Route::Energy,
+        exact: false,
+    };
+    fn build(a: &Arguments) -> Result<Self::System> {
+        let n = |k| a.number(k);
+        Ok(Self::new(n("m"), n("k"), n("l0"), n("g")).damped(n("c")))
+    }
+    fn drawing(_: &Arguments) -> Option<Drawing> {
+        Some(Drawing::chain(1, false))
     }
 }

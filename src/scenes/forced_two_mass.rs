@@ -1,6 +1,10 @@
 //! Two masses coupled by springs, driven harmonically: the forced two-degree-of-freedom system of
 //! the seed (Fig. 5, eq. 41–44).
 
+use super::registry::{
+    Arguments, Coordinates, Drawn, Parameter, Positions, Route, Scene, SceneInfo, State,
+    exact_planar,
+};
 use crate::error::{Error, Result};
 use crate::{GeneralizedForces, KineticEnergy, Potential, Scalar, System};
 
@@ -203,5 +207,46 @@ impl GeneralizedForces for ForcedTwoMass {
     }
     fn is_present(&self) -> bool {
         self.f1 != 0.0 || self.f2 != 0.0
+    }
+}
+
+impl Scene for ForcedTwoMass {
+    type System = System<Self, Self, (), Self>;
+    const INFO: SceneInfo = SceneInfo {
+        name: "forced_two_mass",
+        doc: "Two masses on springs k₁ (ground–m₁) and k₂ (m₁–m₂), forced by fᵢ cos Ω t (seed \
+              eq. 41–44); coordinates ``x1``, ``x2``.",
+        parameters: &[
+            Parameter::number("m1", 1.0, "first mass"),
+            Parameter::number("m2", 0.5, "second mass"),
+            Parameter::number("k1", 10.0, "stiffness of the spring from the ground to m₁"),
+            Parameter::number("k2", 5.0, "stiffness of the spring from m₁ to m₂"),
+            Parameter::number("f1", 0.0, "forcing amplitude on m₁"),
+            Parameter::number("f2", 0.0, "forcing amplitude on m₂"),
+            Parameter::number("omega", 0.0, "forcing angular frequency Ω"),
+        ],
+        coordinates: Coordinates::Fixed(&["x1", "x2"]),
+        route: Route::Energy,
+        exact: true,
+    };
+    fn build(a: &Arguments) -> Result<Self::System> {
+        Ok(Self::of(a).system())
+    }
+    fn exact(a: &Arguments, q0: &[f64], qd0: &[f64], t: f64) -> Result<State> {
+        exact_planar(q0, qd0, |x0, v0| Self::of(a).exact_solution(x0, v0, t))
+    }
+}
+
+impl ForcedTwoMass {
+    fn of(a: &Arguments) -> Self {
+        let n = |k| a.number(k);
+        Self::new(n("m1"), n("m2"), n("k1"), n("k2")).with_forcing(n("f1"), n("f2"), n("omega"))
+    }
+}
+
+/// Masses on springs along a line: nothing to draw.
+impl<U, R, Q> Drawn for System<ForcedTwoMass, U, R, Q> {
+    fn positions(&self, _t: &[f64], _q: &[f64]) -> Option<Positions> {
+        None
     }
 }

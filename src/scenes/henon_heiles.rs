@@ -1,6 +1,8 @@
 //! The Hénon–Heiles system: a separable two-degree-of-freedom Hamiltonian with regular and
 //! chaotic orbits, the standard test of long-time symplectic integration.
 
+use super::registry::{Arguments, Coordinates, Route, Scene, SceneInfo};
+use crate::error::Result;
 use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
 
 /// A unit mass in the plane, coordinates (x, y).
@@ -80,5 +82,20 @@ impl Particles for HenonHeiles {
     }
     fn depends_on_time(&self) -> bool {
         false
+    }
+}
+
+impl Scene for HenonHeiles {
+    type System = System<Self, Self>;
+    const INFO: SceneInfo = SceneInfo {
+        name: "henon_heiles",
+        doc: "The Hénon–Heiles system; coordinates ``x``, ``y``.",
+        parameters: &[],
+        coordinates: Coordinates::Fixed(&["x", "y"]),
+        route: Route::Energy,
+        exact: false,
+    };
+    fn build(_: &Arguments) -> Result<Self::System> {
+        Ok(Self::new().system())
     }
 }

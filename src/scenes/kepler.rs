@@ -1,6 +1,9 @@
 //! The planar Kepler problem in Cartesian coordinates: the reference problem for long-time
 //! energy and angular-momentum behaviour of integrators.
 
+use super::registry::{
+    Arguments, Coordinates, Drawing, Parameter, Route, Scene, SceneInfo, State, exact_planar,
+};
 use crate::error::{Error, Result};
 use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
 use std::f64::consts::PI;
@@ -80,6 +83,53 @@ impl Kepler {
         let b = (1.0 - e * e).sqrt();
         let rate = a * n / (1.0 - e * c);
         Ok(([a * (c - e), a * b * s], [-s * rate, b * c * rate]))
+    }
+
+    /// The exact state (q, q̇) at time `t` of the bound orbit through (`q0`, `v0`) at t = 0:
+    /// the orbit's elements from the state (a from the energy, the eccentricity vector e, the
+    /// eccentric anomaly E₀ from cos E₀ ∝ 1 − r/a and sin E₀ ∝ q·v/√(μ a)), then
+    /// [`Kepler::exact_state`] at the time since periapsis, turned to the periapsis direction
+    /// (and mirrored for a clockwise orbit). A circular orbit takes its periapsis at `q0`.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] unless the orbit is bound (negative energy), not radial (non-zero
+    /// angular momentum), μ > 0 and the inputs are finite.
+    pub fn exact_from(&self, q0: [f64; 2], v0: [f64; 2], t: f64) -> Result<([f64; 2], [f64; 2])> {
+        let mu = self.mu;
+        let r = q0[0].hypot(q0[1]);
+        let v2 = v0[0] * v0[0] + v0[1] * v0[1];
+        let h = q0[0] * v0[1] - q0[1] * v0[0];
+        let energy = 0.5 * v2 - mu / r;
+        if !(mu.is_finite() && mu > 0.0 && r > 0.0 && energy < 0.0 && h != 0.0) {
+            return Err(Error::InvalidInput {
+                what: "orbit",
+                why: format!(
+                    "the exact solution needs a bound, non-radial orbit about μ = {mu} > 0; \
+                     got q0 = {q0:?}, v0 = {v0:?}"
+                ),
+            });
+        }
+        let a = -mu / (2.0 * energy);
+        let rv = q0[0] * v0[0] + q0[1] * v0[1];
+        let ev = [
+            ((v2 - mu / r) * q0[0] - rv * v0[0]) / mu,
+            ((v2 - mu / r) * q0[1] - rv * v0[1]) / mu,
+        ];
+        let e = ev[0].hypot(ev[1]);
+        // e cos E₀ and e sin E₀; for a circle the periapsis is q0 itself (E₀ = 0).
+        let (periapsis, anomaly, e) = if e < 1e-12 {
+            (q0[1].atan2(q0[0]), 0.0, 0.0)
+        } else {
+            let anomaly = (rv / (mu * a).sqrt()).atan2(1.0 - r / a);
+            (ev[1].atan2(ev[0]), anomaly, e.min(1.0 - f64::EPSILON))
+        };
+        let n = (mu / (a * a * a)).sqrt();
+        let since = (anomaly - e * anomaly.sin()) / n;
+        let (q, v) = self.exact_state(a, e, t + since)?;
+        let turn = if h < 0.0 { -1.0 } else { 1.0 };
+        let (s, c) = periapsis.sin_cos();
+        let rotate = |p: [f64; 2]| [c * p[0] - s * turn * p[1], s * p[0] + c * turn * p[1]];
+        Ok((rotate(q), rotate(v)))
     }
 
     /// The orbital period 2π √(a³/μ) (Kepler's third law).
@@ -175,5 +225,36 @@ impl Particles for Kepler {
     }
     fn depends_on_time(&self) -> bool {
         false
+    }
+}
+
+impl Scene for Kepler {
+    type System = System<Self, Self>;
+    const INFO: SceneInfo = SceneInfo {
+        name: "kepler",
+        doc: "A body of mass ``m`` around a centre of gravitational parameter ``mu``; \
+              coordinates ``x``, ``y``.",
+        parameters: &[
+            Parameter::number("m", 1.0, "mass of the body"),
+            Parameter::number("mu", 1.0, "gravitational parameter μ = G M of the centre"),
+        ],
+        coordinates: Coordinates::Fixed(&["x", "y"]),
+        route: Route::Energy,
+        exact: true,
+    };
+    fn build(a: &Arguments) -> Result<Self::System> {
+        Ok(Self::new(a.number("m"), a.number("mu")).system())
+    }
+    fn drawing(_: &Arguments) -> Option<Drawing> {
+        Some(Drawing {
+            marks: vec![[0.0, 0.0]],
+            ..Drawing::default()
+        })
+    }
+    fn exact(a: &Arguments, q0: &[f64], qd0: &[f64], t: f64) -> Result<State> {
+        let kepler = Self::new(a.number("m"), a.number("mu"));
+        exact_planar(q0, qd0, |q0, v0| {
+            kepler.exact_from(q0, v0, t).map(|(q, v)| [q, v])
+        })
     }
 }

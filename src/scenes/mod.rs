@@ -1,7 +1,8 @@
 //! Ready-made, parametrised systems: every system of the seed document and the usual reference
 //! problems. Each scene is a plain struct of parameters that implements the energy traits, with
 //! a `system()` constructor (and `particles()` where the particle route applies) and, for tests
-//! and benches, its hand-derived closed-form accelerations.
+//! and benches, its hand-derived closed-form accelerations. Each also implements
+//! [`registry::Scene`], its one declaration for the catalog and the Python binding.
 
 mod ball_in_sphere;
 mod charged_particle;
@@ -12,9 +13,10 @@ mod forced_two_mass;
 mod henon_heiles;
 mod kepler;
 mod pendulum;
+pub mod registry;
 mod rigid_disc;
 mod rolling_cylinder;
-mod statics;
+mod virtual_work;
 
 pub use ball_in_sphere::{BallInSphere, elliptic_k};
 pub use charged_particle::{ChargedParticle, LorentzForce};
@@ -25,5 +27,6 @@ pub use forced_two_mass::ForcedTwoMass;
 pub use henon_heiles::HenonHeiles;
 pub use kepler::Kepler;
 pub use pendulum::{DoublePendulum, NPendulum, SimplePendulum};
+pub use registry::{Arguments, Drawing, Scene, SceneInfo, catalog};
 pub use rolling_cylinder::RollingCylinder;
-pub use statics::{DifferentialPulley, Lever, RhombusLink, SpringRhombus, TwoSprings};
+pub use virtual_work::{DifferentialPulley, Lever, RhombusLink, SpringRhombus, TwoSprings};

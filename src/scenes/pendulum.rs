@@ -1,6 +1,8 @@
 //! Plane pendulums: simple, double, and the N-link chain, all hanging in gravity g along −y.
 //! Angles are measured from the downward vertical.
 
+use super::registry::{Arguments, Coordinates, Drawing, Parameter, Route, Scene, SceneInfo};
+use crate::error::{Error, Result};
 use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
 
 /// A point mass m on a massless rod of length l: T = ½ m l² θ̇², U = −m g l cos θ.
@@ -312,5 +314,92 @@ impl Particles for NPendulum {
     }
     fn depends_on_time(&self) -> bool {
         false
+    }
+}
+
+impl Scene for SimplePendulum {
+    type System = System<Self, Self>;
+    const INFO: SceneInfo = SceneInfo {
+        name: "simple_pendulum",
+        doc: "A point mass ``m`` on a rod of length ``l`` in gravity ``g``; coordinate θ \
+              (``theta``) from the downward vertical. T = ½ m l² θ̇², U = −m g l cos θ.",
+        parameters: &[
+            Parameter::number("m", 1.0, "bob mass"),
+            Parameter::number("l", 1.0, "rod length"),
+            Parameter::number("g", 9.81, "gravitational acceleration"),
+        ],
+        coordinates: Coordinates::Fixed(&["theta"]),
+        route: Route::Energy,
+        exact: false,
+    };
+    fn build(a: &Arguments) -> Result<Self::System> {
+        Ok(Self::new(a.number("m"), a.number("l"), a.number("g")).system())
+    }
+    fn drawing(_: &Arguments) -> Option<Drawing> {
+        Some(Drawing::chain(1, false))
+    }
+}
+
+impl Scene for DoublePendulum {
+    type System = System<Self, Self>;
+    const INFO: SceneInfo = SceneInfo {
+        name: "double_pendulum",
+        doc: "Two point masses on massless rods, coordinates (θ₁, θ₂) = (``th1``, ``th2``) \
+              from the downward vertical.",
+        parameters: &[
+            Parameter::number("m1", 1.0, "upper bob mass"),
+            Parameter::number("m2", 1.0, "lower bob mass"),
+            Parameter::number("l1", 1.0, "upper rod length"),
+            Parameter::number("l2", 1.0, "lower rod length"),
+            Parameter::number("g", 9.81, "gravitational acceleration"),
+        ],
+        coordinates: Coordinates::Fixed(&["th1", "th2"]),
+        route: Route::Energy,
+        exact: false,
+    };
+    fn build(a: &Arguments) -> Result<Self::System> {
+        let n = |k| a.number(k);
+        Ok(Self::new(n("m1"), n("m2"), n("l1"), n("l2"), n("g")).system())
+    }
+    fn drawing(_: &Arguments) -> Option<Drawing> {
+        Some(Drawing::chain(2, false))
+    }
+}
+
+impl Scene for NPendulum {
+    type System = System<Self, Self>;
+    const INFO: SceneInfo = SceneInfo {
+        name: "n_pendulum",
+        doc: "A chain of N point masses on rods, coordinates ``th1`` … ``thN`` from the \
+              vertical; N is the number of ``masses`` (one length per mass).",
+        parameters: &[
+            Parameter::list("masses", &[1.0, 1.0, 1.0], "bob masses, top to bottom"),
+            Parameter::list("lengths", &[1.0, 1.0, 1.0], "rod lengths, top to bottom"),
+            Parameter::number("g", 9.81, "gravitational acceleration"),
+        ],
+        coordinates: Coordinates::Numbered {
+            prefix: "th",
+            per: "masses",
+        },
+        route: Route::Energy,
+        exact: false,
+    };
+    fn build(a: &Arguments) -> Result<Self::System> {
+        let (masses, lengths) = (a.list("masses"), a.list("lengths"));
+        if masses.is_empty() || masses.len() != lengths.len() {
+            return Err(Error::SceneArgument {
+                scene: Self::INFO.name,
+                parameter: "lengths".into(),
+                why: format!(
+                    "one length per mass (at least one): got {} masses and {} lengths",
+                    masses.len(),
+                    lengths.len()
+                ),
+            });
+        }
+        Ok(Self::new(masses.to_vec(), lengths.to_vec(), a.number("g")).system())
+    }
+    fn drawing(a: &Arguments) -> Option<Drawing> {
+        Some(Drawing::chain(a.list("masses").len(), false))
     }
 }

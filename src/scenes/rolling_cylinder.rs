@@ -1,6 +1,8 @@
 //! A cylinder rolling without slipping down an incline (seed Fig. 7, eq. 45–48).
 
+use super::registry::{Arguments, Coordinates, Drawing, Parameter, Route, Scene, SceneInfo, State};
 use super::rigid_disc;
+use crate::error::Result;
 use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
 
 /// A cylinder of mass m, moment of inertia J about its axis and radius r rolling without
@@ -115,6 +117,53 @@ impl Particles for RollingCylinder {
     }
     fn depends_on_time(&self) -> bool {
         false
+    }
+}
+
+impl Scene for RollingCylinder {
+    type System = System<Self, Self>;
+    const INFO: SceneInfo = SceneInfo {
+        name: "rolling_cylinder",
+        doc: "A cylinder rolling without slipping down a slope of angle ``alpha`` (seed eq. \
+              45–48); coordinate ``x`` along the slope.",
+        parameters: &[
+            Parameter::number("m", 1.0, "mass"),
+            Parameter::number(
+                "j",
+                0.005,
+                "moment of inertia about the axis (½ m r² solid)",
+            ),
+            Parameter::number("r", 0.1, "radius"),
+            Parameter::number("g", 9.81, "gravitational acceleration"),
+            Parameter::number("alpha", 0.3, "slope angle (radians)"),
+        ],
+        coordinates: Coordinates::Fixed(&["x"]),
+        route: Route::Energy,
+        exact: true,
+    };
+    fn build(a: &Arguments) -> Result<Self::System> {
+        Ok(Self::of(a).system())
+    }
+    fn drawing(a: &Arguments) -> Option<Drawing> {
+        // The slope is the line through −r n, n = (sin α, cos α), along (cos α, −sin α).
+        let (r, (sa, ca)) = (a.number("r"), a.number("alpha").sin_cos());
+        Some(Drawing {
+            bodies: vec![[0, 1, 2]],
+            lines: vec![[-r * sa, -r * ca, ca, -sa]],
+            trail: Some(vec![0]),
+            ..Drawing::default()
+        })
+    }
+    fn exact(a: &Arguments, q0: &[f64], qd0: &[f64], t: f64) -> Result<State> {
+        let (x, v) = Self::of(a).exact_solution(q0[0], qd0[0], t);
+        Ok((vec![x], vec![v]))
+    }
+}
+
+impl RollingCylinder {
+    fn of(a: &Arguments) -> Self {
+        let n = |k| a.number(k);
+        Self::new(n("m"), n("j"), n("r"), n("g"), n("alpha"))
     }
 }
 

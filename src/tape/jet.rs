@@ -2,15 +2,17 @@
 //!
 //! [`Arith`] is what an instruction needs. It is implemented for every [`Scalar`] (through the
 //! transparent wrapper [`Num`]) and, for the dual numbers the engine's derivative passes use on
-//! `f64` states — num-dual's `DualSVec64<K>` (gradients) and `HyperDualSVec64<M, N>` (mass matrix
-//! and mixed terms) — by plain-array "jets" [`First`] and [`Second`].
+//! `f64` states — num-dual's `DualSVec64<K>` (gradients) and `HyperDualVec64<M, N>` (mass matrix
+//! and mixed terms), in the shapes `eval.rs` lists — by plain-array "jets" [`First`] and
+//! [`Second`].
 //!
-//! Why the jets: num-dual stores each derivative part as an `Option`, which compiled Rust models
-//! optimise away (the seeding is visible to the compiler after inlining), but an interpreter
-//! cannot: every instruction would branch on the tags and move the values through memory in
-//! pieces of different widths, and the loads that follow stall on the stores. Measured on the
-//! double pendulum, evaluating T over `DualSVec64<2>` cost 15 ns per instruction that way and a few
-//! ns as a jet. The jets compute the same numbers (dense, every part present).
+//! Why the jets: num-dual stores each derivative part of those types as an `Option`, which
+//! compiled Rust models optimise away (the seeding is visible to the compiler after inlining),
+//! but an interpreter cannot: every instruction would branch on the tags and move the values
+//! through memory in pieces of different widths, and the loads that follow stall on the stores
+//! (on the double pendulum, several times the cost of the same instruction as a jet). The jets
+//! compute the same numbers (dense, every part present). `f64`, `Dual64` and `Dual2_64` have no
+//! `Option` parts and keep their own arithmetic.
 
 use crate::Scalar;
 use nalgebra::{Const, SMatrix, SVector};

@@ -120,7 +120,7 @@ def test_stubs_match_the_extension_module(tmp_path):
 
 @pytest.mark.parametrize(
     "module", ["lagrangian", "lagrangian._expr", "lagrangian._model", "lagrangian._sympy",
-               "lagrangian.scenes", "lagrangian._workprec", "lagrangian._peers"]
+               "lagrangian.scenes", "lagrangian._workprec", "lagrangian._scipy"]
 )
 def test_docstring_examples_run(module):
     import doctest
@@ -128,5 +128,7 @@ def test_docstring_examples_run(module):
 
     if module == "lagrangian._sympy":
         pytest.importorskip("sympy")
+    if module == "lagrangian._scipy":
+        pytest.importorskip("scipy")
     result = doctest.testmod(importlib.import_module(module))
     assert result.attempted > 0 and result.failed == 0

@@ -1,19 +1,26 @@
-"""The SciPy peers of the comparison report: the hand-written NumPy right-hand sides agree with
-the Rust scenes' accelerations, and ``run_scipy`` integrates them to the exact solution."""
+"""The SciPy peers of the benchmarks (``benches/peers.py``): the hand-written NumPy right-hand
+sides agree with the Rust scenes' accelerations, and ``run_scipy`` (``lagrangian._scipy``, which
+the report runs on ``Model.rhs``) integrates them to the exact solution."""
 
 import dataclasses
 import doctest
 import inspect
 import math
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 import lagrangian as lg
-from lagrangian import _peers
-from lagrangian._peers import NUMPY_SCENES, SCIPY_METHODS, numpy_rhs, run_scipy, scipy_available
+from lagrangian import _scipy
+from lagrangian._scipy import SCIPY_METHODS, run_scipy, scipy_available
+
+# The hand-written comparators live with the benchmarks, not in the package.
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benches"))
+import peers as _peers  # noqa: E402
+from peers import NUMPY_SCENES, numpy_rhs  # noqa: E402
 
 # One parameter set per case, every parameter away from special values (1, 0) so that a
 # misplaced parameter shows; defaulted parameters are left out in some cases so that the
@@ -301,7 +308,8 @@ def test_run_scipy_without_scipy_names_the_install(monkeypatch):
         run_scipy(f, [1.0], [0.0], 1.0, "RK45", 1e-6, 1e-9)
 
 
-def test_peers_docstring_examples_run():
+@pytest.mark.parametrize("module", [_peers, _scipy], ids=["benches.peers", "lagrangian._scipy"])
+def test_peers_docstring_examples_run(module):
     pytest.importorskip("scipy")
-    result = doctest.testmod(_peers)
+    result = doctest.testmod(module)
     assert result.attempted > 0 and result.failed == 0

@@ -172,3 +172,32 @@ def test_unknown_scene_is_a_usage_error() -> None:
         capture_output=True, text=True, timeout=120,
     )
     assert done.returncode == 2 and "unknown scenes" in done.stderr
+
+
+def test_report_without_scipy_skips_the_scipy_rows_with_a_note(tmp_path: Path) -> None:
+    # A fresh install without the `peers` extra: a None entry in sys.modules makes the import
+    # of SciPy fail as if it were not installed.
+    script = (
+        "import sys; sys.modules['scipy'] = None; sys.modules['scipy.integrate'] = None\n"
+        "from lagrangian.__main__ import main\n"
+        f"sys.exit(main(['report', '--quick', '--no-stability', '--scenes', 'double_pendulum', "
+        f"'--out', {str(tmp_path)!r}]))\n"
+    )
+    env = dict(os.environ, MPLBACKEND="Agg")
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          env=env, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert "SciPy is not installed" in (tmp_path / "README.md").read_text()
+    data = json.loads((tmp_path / "report.json").read_text())
+    assert [s["key"] for s in data["scenes"]] == ["double_pendulum"]
+    assert "peers" not in data["scenes"][0] and "SciPy is not installed" in data["peers_note"]
+
+
+def test_report_scipy_rows_run_on_the_model_rhs(report: Dict[str, Any]) -> None:
+    pytest.importorskip("scipy")
+    text = (Path(report["_folder"]) / "README.md").read_text()
+    assert "model's own right-hand side (`model.rhs`" in text
+    for key in ("double_pendulum", "forced_two_mass"):
+        scene = next(s for s in report["scenes"] if s["key"] == key)
+        radau = [r for r in scene["peers"]["rows"] if r["method"] == "scipy Radau"]
+        assert radau and all(r["error"] is not None and r["error"] < 1e-2 for r in radau)

@@ -150,3 +150,234 @@ def test_elastic_pendulum_accelerations():
         (-2 * rd * thd - g * math.sin(th)) / r,
     ]
     assert_allclose(model.accelerations(0.0, [r, th], [rd, thd]), want, rtol=1e-12)
+
+
+# -- the registry: defaults, signatures, argument checks, exact solutions ---------------------
+
+import inspect
+import pickle
+from pathlib import Path
+
+import pytest
+
+from lagrangian import _lagrangian
+from lagrangian.scenes import SceneModel
+
+CATALOG = {s["name"]: s for s in lg.scenes.catalog()}
+EXACT = sorted(name for name, s in CATALOG.items() if s["exact"])
+
+# A state of each scene with an exact solution, away from special cases (a general Kepler orbit:
+# not at periapsis, clockwise, the periapsis off the axes).
+EXACT_STATES = {
+    "forced_two_mass": ([0.1, -0.05], [0.3, 0.0]),
+    "rolling_cylinder": ([0.2], [0.5]),
+    "damped_oscillator": ([1.0], [-0.3]),
+    "kepler": ([0.3, -0.8], [-0.9, -0.4]),
+    "charged_particle": ([0.1, 0.2], [1.0, -0.5]),
+}
+
+
+def test_catalog_is_the_scenes():
+    assert list(CATALOG) == lg.scenes.__all__
+    assert set(EXACT) == set(EXACT_STATES)
+    for name, entry in CATALOG.items():
+        assert entry["route"] in ("energy", "particle"), name
+        assert entry["doc"], name
+
+
+@pytest.mark.parametrize("name", sorted(CATALOG))
+def test_scene_defaults_build(name):
+    model = getattr(lg.scenes, name)()
+    assert isinstance(model, SceneModel) and isinstance(model, lg.Model)
+    assert model.scene == name
+    entry = CATALOG[name]
+    assert list(model.parameters) == [p[0] for p in entry["parameters"]]
+    for pname, kind, default, _ in entry["parameters"]:
+        assert model.parameters[pname] == default, pname
+    n = model.dof
+    q = [0.3] * n
+    if name == "elastic_pendulum":
+        q = [1.1, 0.3]
+    if name not in ("lever", "rhombus_link", "differential_pulley"):  # massless: statics only
+        assert np.all(np.isfinite(model.accelerations(0.0, q, [0.1] * n)))
+    assert model.has_exact == entry["exact"]
+
+
+@pytest.mark.parametrize("name", sorted(CATALOG))
+def test_scene_signature_and_docstring(name):
+    entry = CATALOG[name]
+    f = getattr(lg.scenes, name)
+    params = inspect.signature(f).parameters
+    assert list(params) == [p[0] for p in entry["parameters"]]
+    for pname, kind, default, doc in entry["parameters"]:
+        want = tuple(default) if kind == "list" else default
+        assert params[pname].default == want
+        assert f"{pname} :" in f.__doc__
+    assert f.__doc__.startswith(entry["doc"])
+    assert f.__name__ == name
+
+
+def test_scene_positional_and_keyword_arguments_agree():
+    a = lg.scenes.forced_two_mass(1.0, 2.0, 30.0, 20.0, 3.0, -1.0, 4.5)
+    b = lg.scenes.forced_two_mass(m1=1.0, m2=2.0, k1=30.0, k2=20.0, f1=3.0, f2=-1.0, omega=4.5)
+    assert a.parameters == b.parameters
+    assert lg.scenes.double_pendulum(m2=2.0).parameters == dict(
+        m1=1.0, m2=2.0, l1=1.0, l2=1.0, g=9.81
+    )
+
+
+def test_scene_arguments_checked_by_name():
+    with pytest.raises(TypeError, match="mass"):
+        lg.scenes.kepler(mass=1.0)  # type: ignore[call-arg]
+    with pytest.raises(TypeError, match="multiple values for argument 'm'"):
+        lg.scenes.kepler(1.0, m=2.0)  # type: ignore[misc]
+    with pytest.raises(TypeError, match="too many"):
+        lg.scenes.kepler(1.0, 1.0, 1.0)  # type: ignore[call-arg]
+    with pytest.raises(ValueError, match="kepler: invalid argument mu: the value NaN is not finite"):
+        lg.scenes.kepler(mu=math.nan)
+    with pytest.raises(ValueError, match="invalid argument masses.*not finite"):
+        lg.scenes.n_pendulum(masses=[1.0, math.inf], lengths=[1.0, 1.0])
+    with pytest.raises(ValueError, match="invalid argument g: is a number, not a list"):
+        lg.scenes.n_pendulum(g=[9.81])  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="invalid argument masses: is a list"):
+        lg.scenes.n_pendulum(masses=1.0)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="argument m must be a real number"):
+        lg.scenes.simple_pendulum(m="1")  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="argument m must be a real number"):
+        lg.scenes.simple_pendulum(m=True)
+    # The binding checks names too, for callers that skip the Python signature.
+    with pytest.raises(ValueError, match="invalid argument mass: unknown parameter; the "
+                       "parameters are m, mu"):
+        _lagrangian.scene_model("kepler", {"mass": 1.0})
+    with pytest.raises(ValueError, match='unknown scene "nope"; the scenes are simple_pendulum, '):
+        _lagrangian.scene_model("nope", {})
+
+
+def test_n_pendulum_lists_from_numpy_and_tuples():
+    a = lg.scenes.n_pendulum(np.array([1.0, 2.0]), (1.0, 0.5))
+    assert a.parameters == {"masses": [1.0, 2.0], "lengths": [1.0, 0.5], "g": 9.81}
+    assert [c.name for c in a.coordinates] == ["th1", "th2"]
+
+
+@pytest.mark.parametrize("name", EXACT)
+def test_exact_solves_the_equations_of_motion(name):
+    # The exact q at t agrees with a tight run of the model's own equations to 1e-9.
+    model = getattr(lg.scenes, name)()
+    q0, qd0 = EXACT_STATES[name]
+    q, qd = model.exact(0.0, q0, qd0)
+    assert_allclose(q, q0, atol=1e-14)
+    assert_allclose(qd, qd0, atol=1e-14)
+    t = np.linspace(0.0, 3.0, 7)
+    sol = model.simulate(q0, qd0, 3.0, method="dop853", rtol=1e-13, atol=1e-15, t_eval=t)
+    for i, ti in enumerate(t):
+        q, qd = model.exact(float(ti), q0, qd0)
+        assert_allclose(q, sol.q[i], rtol=0, atol=1e-9)
+        assert_allclose(qd, sol.qd[i], rtol=0, atol=1e-9)
+
+
+def test_exact_matches_closed_forms():
+    # Rolling cylinder, seed eq. 48: x = x0 + v0 t + ½ a t².
+    m, j, r, g, alpha = 2.0, 0.09, 0.3, 9.81, 0.4
+    a = g * math.sin(alpha) / (1 + j / (m * r * r))
+    q, qd = lg.scenes.rolling_cylinder(m=m, j=j, r=r, g=g, alpha=alpha).exact(1.5, [0.2], [0.5])
+    assert_allclose(q, [0.2 + 0.5 * 1.5 + 0.5 * a * 1.5**2], rtol=1e-15)
+    assert_allclose(qd, [0.5 + a * 1.5], rtol=1e-15)
+    # Damped oscillator, seed §4, under-damped from rest.
+    m, k, c = 2.0, 8.0, 0.6
+    gamma, w0 = c / (2 * m), math.sqrt(k / m)
+    wd = math.sqrt(w0 * w0 - gamma * gamma)
+    t = 1.3
+    q, _ = lg.scenes.damped_oscillator(m=m, k=k, c=c).exact(t, [1.0], [0.0])
+    want = math.exp(-gamma * t) * (math.cos(wd * t) + gamma / wd * math.sin(wd * t))
+    assert_allclose(q, [want], rtol=1e-13)
+    # Kepler from periapsis: after one period the body is back; after half, at apoapsis.
+    mu, a_, e = 1.0, 1.0, 0.6
+    rp = a_ * (1 - e)
+    q0, v0 = [rp, 0.0], [0.0, math.sqrt(mu * (1 + e) / rp)]
+    period = 2 * math.pi * math.sqrt(a_**3 / mu)
+    kepler = lg.scenes.kepler(mu=mu)
+    assert_allclose(kepler.exact(period, q0, v0)[0], q0, atol=1e-13)
+    assert_allclose(kepler.exact(0.5 * period, q0, v0)[0], [-a_ * (1 + e), 0.0], atol=1e-13)
+    # Charged particle without E: a circle about q0 + (v_y, −v_x)/ω_c.
+    cp = lg.scenes.charged_particle(m=1.0, e=2.0, b=0.5)
+    q, _ = cp.exact(0.5 * math.pi, [0.0, 0.0], [1.0, 0.0])
+    assert_allclose(q, [1.0, -1.0], atol=1e-15)
+
+
+def test_exact_refused_where_unknown():
+    with pytest.raises(ValueError, match="double_pendulum has no exact solution"):
+        lg.scenes.double_pendulum().exact(1.0, [0.1, 0.2], [0.0, 0.0])
+    kepler = lg.scenes.kepler()
+    with pytest.raises(ValueError, match="bound"):
+        kepler.exact(1.0, [1.0, 0.0], [0.0, 2.0])  # escape speed exceeded
+    with pytest.raises(ValueError, match=r"q0 has shape \(1,\) but the model has 2 coordinates"):
+        kepler.exact(1.0, [1.0], [0.0, 1.0])
+    with pytest.raises(ValueError, match="q0 has length 1, expected 2"):
+        _lagrangian.scene_exact("kepler", {}, [1.0], [0.0, 1.0], 1.0)
+    with pytest.raises(ValueError, match="resonance"):
+        # m = k = 1: ω² = (3 ± √5)/2, the lower ω = (√5 − 1)/2.
+        w = (math.sqrt(5.0) - 1.0) / 2.0
+        lg.scenes.forced_two_mass(m1=1.0, m2=1.0, k1=1.0, k2=1.0, f1=1.0, omega=w).exact(
+            1.0, [0.0, 0.0], [0.0, 0.0]
+        )
+
+
+@pytest.mark.parametrize("name", sorted(CATALOG))
+def test_scene_pickles_and_rebinds(name):
+    model = getattr(lg.scenes, name)()
+    again = pickle.loads(pickle.dumps(model))
+    assert type(again) is SceneModel
+    assert repr(again) == repr(model) and again.parameters == model.parameters
+    if model.parameters:
+        key = next(iter(model.parameters))
+        value = model.parameters[key]
+        moved = model.with_parameters(**{key: value})
+        assert type(moved) is SceneModel and moved.parameters == model.parameters
+
+
+@pytest.mark.parametrize("name", sorted(CATALOG))
+def test_scene_drawing_refers_to_its_particles(name):
+    model = getattr(lg.scenes, name)()
+    drawing = model._drawing()
+    if not model.has_positions:
+        with pytest.raises(ValueError, match=f"the scene {name} has no particle positions"):
+            model.positions(0.0, [0.1] * model.dof)
+        return
+    count = model.positions(0.0, [0.2] * model.dof).shape[0]
+    if drawing is None:
+        return
+    used = [i for rod in drawing.rods for i in rod] + [i for b in drawing.bodies for i in b]
+    used += list(drawing.trail or ())
+    assert all(-1 <= i < count for i in used), (name, used, count)
+    if drawing.pivot is not None:
+        t = np.array([0.0, 0.1])
+        assert drawing.pivot(t).shape == (2, 2)
+
+
+def test_driven_pendulum_pivot_moves_as_the_rust_scene():
+    model = lg.scenes.driven_pendulum(a=0.2, omega=3.0)
+    drawing = model._drawing()
+    assert drawing is not None and drawing.pivot is not None
+    t = np.array([0.0, 0.4, 1.1])
+    assert_allclose(drawing.pivot(t), np.stack([0 * t, 0.2 * np.cos(3.0 * t)], axis=1),
+                    rtol=1e-15)
+    # The bob hangs l below the pivot.
+    assert_allclose(model.positions(0.4, [0.0]), [[0.0, 0.2 * math.cos(1.2) - 1.0]], atol=1e-15)
+
+
+def test_stub_matches_catalog():
+    # python/lagrangian/scenes.pyi is generated from the registry (see its docstring).
+    stub = Path(lg.scenes.__file__).with_name("scenes.pyi")
+    assert stub.read_text(encoding="utf-8") == lg.scenes._stub()
+
+
+def test_elastic_pendulum_dashpot_absent_at_zero():
+    # One system type for both: at c = 0 the dashpot is absent, not a zero term.
+    assert not lg.scenes.elastic_pendulum().structure["dissipative"]
+    assert lg.scenes.elastic_pendulum().structure["conservative"]
+    damped = lg.scenes.elastic_pendulum(c=0.3)
+    assert damped.structure["dissipative"]
+    r, th, rd, thd = 1.2, 0.5, 0.3, -0.7
+    free = lg.scenes.elastic_pendulum().accelerations(0.0, [r, th], [rd, thd])
+    assert_allclose(damped.accelerations(0.0, [r, th], [rd, thd]), free - [0.3 * rd, 0.0],
+                    rtol=1e-13)

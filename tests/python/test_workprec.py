@@ -11,8 +11,9 @@ import pytest
 
 import lagrangian as lg
 from lagrangian._cases import kepler_exact, kepler_periapsis, oscillator_exact, report_scenes
+from lagrangian._measure import Reference, state_error
 from lagrangian._report import _time_to_reach, equal_error_ratios
-from lagrangian._workprec import Reference, Row, WorkPrecision, state_error
+from lagrangian._workprec import Row, WorkPrecision
 
 
 def damped() -> lg.Model:
@@ -147,3 +148,57 @@ def test_report_scenes_exact_solutions_solve_their_equations() -> None:
             h = 1e-5
             accel = (scene.exact(t + h)[1] - scene.exact(t - h)[1]) / (2 * h)
             np.testing.assert_allclose(accel, model.accelerations(t, q, qd), rtol=1e-7, atol=1e-7)
+
+
+def _small_work_precision() -> WorkPrecision:
+    osc = lg.scenes.damped_oscillator(m=1.0, k=1.0, c=0.0)
+    return lg.work_precision(osc, [1.0], [0.0], 1.0, methods=["dop853", "rk4"],
+                             tolerances=[1e-6, 1e-9], dts=[0.1, 0.01], repeats=1,
+                             reference=([math.cos(1.0)], [-math.sin(1.0)]), title="osc")
+
+
+def test_work_precision_len_iteration_and_indexing_are_its_rows() -> None:
+    wp = _small_work_precision()
+    assert len(wp) == len(wp.rows) == 4
+    assert list(wp) == wp.rows
+    assert [r.setting for r in wp] == ["tol=1e-06", "tol=1e-09", "dt=0.1", "dt=0.01"]
+    assert wp[0] is wp.rows[0] and wp[-1] is wp.rows[-1]
+    assert wp[2].method == "rk4" and wp[2].dt == 0.1
+    with pytest.raises(IndexError):
+        wp[4]
+    assert wp.rows[1] in wp and list(reversed(wp)) == wp.rows[::-1]
+
+
+def test_work_precision_slice_keeps_reference_and_title() -> None:
+    wp = _small_work_precision()
+    part = wp[2:]
+    assert isinstance(part, WorkPrecision)
+    assert part.rows == wp.rows[2:] and part.reference is wp.reference and part.title == "osc"
+    assert part.methods == ["rk4"] and len(wp[::2]) == 2 and len(wp[5:]) == 0
+    assert repr(part) == "WorkPrecision('osc', rows=2, methods=['rk4'])"
+    assert repr(wp) == "WorkPrecision('osc', rows=4, methods=['dop853', 'rk4'])"
+
+
+def test_options_have_one_message_from_simulate_and_work_precision() -> None:
+    # The options are validated once, in Rust: the same value gets the same message wherever it
+    # is given.
+    m = damped()
+    with pytest.raises(ValueError) as direct:
+        m.simulate([1.0], [0.0], 1.0, method="dop853", rtol=-1e-6, atol=-1e-6)
+    with pytest.raises(ValueError) as planned:
+        lg.work_precision(m, [1.0], [0.0], 1.0, methods=["dop853"], tolerances=[-1e-6])
+    assert str(direct.value) == str(planned.value) == (
+        "invalid rtol: rtol = -0.000001: tolerances must be finite and > 0")
+    with pytest.raises(ValueError) as direct:
+        m.simulate([1.0], [0.0], 1.0, method="rk4", dt=0.0)
+    with pytest.raises(ValueError) as planned:
+        lg.work_precision(m, [1.0], [0.0], 1.0, methods=["rk4"], dts=[0.0])
+    assert str(direct.value) == str(planned.value)
+    with pytest.raises(ValueError, match="max_steps = 0: at least one step is needed"):
+        m.simulate([1.0], [0.0], 1.0, max_steps=0)
+    with pytest.raises(ValueError, match="max_steps = -3: a count cannot be negative"):
+        m.simulate([1.0], [0.0], 1.0, max_steps=-3)
+    with pytest.raises(ValueError, match="k ≥ 1"):
+        m.simulate([1.0], [0.0], 1.0, output_every=0)
+    with pytest.raises(TypeError, match="max_steps must be an integer"):
+        m.simulate([1.0], [0.0], 1.0, max_steps=2.5)  # type: ignore[arg-type]

@@ -1,4 +1,5 @@
-"""Peers for the comparison report: hand-written NumPy right-hand sides and a SciPy runner.
+"""Peers for the benchmarks: hand-written NumPy right-hand sides of the scenes, a third statement
+of their physics kept with the benchmarks (the product's report runs SciPy on ``Model.rhs``).
 
 Every scene of :mod:`lagrangian.scenes` that moves (the statics scenes do not) has here the
 first-order right-hand side a SciPy user would write by hand: the state is y = (q, q̇), and
@@ -9,23 +10,24 @@ systems unpack ``y.tolist()`` into Python floats and use :mod:`math` (about twic
 NumPy scalars), the chain is vectorised. Nothing here uses the Rust engine, so the runs measure
 SciPy plus a Python right-hand side.
 
-:func:`run_scipy` integrates such a right-hand side with ``scipy.integrate.solve_ivp`` and keeps
-only the final state, for the error-versus-cost comparison with ``Model.simulate``.
+:func:`run_scipy` (from :mod:`lagrangian._scipy`, re-exported here) integrates such a right-hand
+side with ``scipy.integrate.solve_ivp`` and keeps only the final state, for the error-versus-cost
+comparison with ``Model.simulate``. Import this file with ``benches/`` on ``sys.path``;
+``python3 benches/peers.py [repeats]`` prints SciPy on these right-hand sides against SciPy on
+``Model.rhs``.
 """
 
 from __future__ import annotations
 
 import inspect
 import math
-import statistics
-import time
-from dataclasses import dataclass
-from typing import Any, Callable, Dict, List, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Sequence, Tuple
 
 import numpy as np
 import numpy.typing as npt
 
-from ._model import _real
+from lagrangian._scipy import SCIPY_METHODS, PeerRun, run_scipy, scipy_available
+from lagrangian._validate import real as _real
 
 __all__ = [
     "NUMPY_SCENES",
@@ -38,11 +40,6 @@ __all__ = [
 
 FloatArray = npt.NDArray[np.float64]
 Rhs = Callable[[float, FloatArray], FloatArray]
-StateLike = Union[Sequence[float], FloatArray]
-
-SCIPY_METHODS: Tuple[str, ...] = ("RK45", "DOP853", "Radau", "LSODA")
-"""The ``solve_ivp`` methods :func:`run_scipy` accepts: two explicit Runge–Kutta pairs, an
-implicit Runge–Kutta method and the stiffness-switching LSODA."""
 
 
 # -- parameter checks --------------------------------------------------------------------------
@@ -327,166 +324,28 @@ def numpy_rhs(scene: str, **params: Any) -> Rhs:
     return builder(**params)
 
 
-# -- SciPy -------------------------------------------------------------------------------------
+def _compare(repeats: int = 3) -> None:
+    """SciPy on the hand-written NumPy right-hand side against SciPy on ``Model.rhs`` (and
+    ``Model.jacobian`` for the implicit methods), double pendulum, rtol = atol = 1e-8."""
+    import lagrangian as lg
+    from lagrangian._scipy import IMPLICIT_METHODS
+
+    params = dict(m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81)
+    model = lg.scenes.double_pendulum(**params)
+    hand = numpy_rhs("double_pendulum", **params)
+    print("double pendulum, q0 = (1.0, 0.5), t_end = 10, rtol = atol = 1e-8\n")
+    print("| method | NumPy RHS | model.rhs | ratio | evaluations (NumPy / model) |")
+    print("|---|---|---|---|---|")
+    for method in SCIPY_METHODS:
+        jac = model.jacobian if method in IMPLICIT_METHODS else None
+        a = run_scipy(hand, [1.0, 0.5], [0.0, 0.0], 10.0, method, 1e-8, 1e-8, repeats=repeats)
+        b = run_scipy(model.rhs, [1.0, 0.5], [0.0, 0.0], 10.0, method, 1e-8, 1e-8,
+                      repeats=repeats, jac=jac)
+        print(f"| {method} | {a.seconds * 1e3:.1f} ms | {b.seconds * 1e3:.1f} ms | "
+              f"{b.seconds / a.seconds:.2f} | {a.nfev} / {b.nfev} |")
 
 
-def scipy_available() -> bool:
-    """Whether ``scipy.integrate`` can be imported (SciPy is an optional dependency)."""
-    try:
-        import scipy.integrate  # type: ignore[import-untyped]  # noqa: F401
-    except ImportError:
-        return False
-    return True
+if __name__ == "__main__":
+    import sys
 
-
-@dataclass(frozen=True)
-class PeerRun:
-    """One ``scipy.integrate.solve_ivp`` run to a final time, from :func:`run_scipy`.
-
-    Attributes
-    ----------
-    method : str
-        The ``solve_ivp`` method.
-    rtol, atol : float
-        The tolerances it was given.
-    t : float
-        The time reached: ``t_end`` on success, earlier when the solver gave up.
-    q, qd : numpy.ndarray
-        The state at ``t``.
-    seconds : float
-        The median wall time of the repeated ``solve_ivp`` calls (the right-hand side's Python
-        cost included; building it and checking the arguments excluded).
-    nfev, njev : int
-        Right-hand-side and Jacobian evaluations of one run (finite-difference Jacobians of
-        Radau and LSODA count in ``nfev`` too, as SciPy reports them).
-    steps : int
-        Accepted steps, ``len(sol.t) - 1``: no ``t_eval`` is passed, so ``sol.t`` holds the
-        initial time and every accepted step.
-    success : bool
-        ``solve_ivp``'s ``success``.
-    message : str
-        ``solve_ivp``'s ``message``.
-    """
-
-    method: str
-    rtol: float
-    atol: float
-    t: float
-    q: FloatArray
-    qd: FloatArray
-    seconds: float
-    nfev: int
-    njev: int
-    steps: int
-    success: bool
-    message: str
-
-
-def _state(what: str, value: object) -> FloatArray:
-    arr = np.array(value, dtype=np.float64, ndmin=1)
-    if arr.ndim != 1:
-        raise ValueError(f"{what} must be a flat sequence of numbers, got shape {arr.shape}")
-    bad = np.flatnonzero(~np.isfinite(arr))
-    if bad.size:
-        raise ValueError(f"{what}[{bad[0]}] = {arr[bad[0]]} is not finite")
-    return arr
-
-
-def run_scipy(
-    rhs: Rhs,
-    q0: StateLike,
-    qd0: StateLike,
-    t_end: float,
-    method: str,
-    rtol: float,
-    atol: float,
-    t0: float = 0.0,
-    repeats: int = 1,
-) -> PeerRun:
-    """Integrate y = (q, q̇) from ``t0`` to ``t_end`` with ``scipy.integrate.solve_ivp``.
-
-    Only the final state is kept: no ``t_eval``, no dense output, the last column of ``sol.y``.
-    The run is repeated ``repeats`` times and the median wall time reported; the counts and the
-    state come from the last run (``solve_ivp`` is deterministic, so all runs agree).
-
-    Parameters
-    ----------
-    rhs : callable
-        ``f(t, y) -> dy/dt``, e.g. from :func:`numpy_rhs`.
-    q0, qd0 : sequence of float
-        Initial coordinates and velocities, of equal length.
-    t_end : float
-        Final time.
-    method : str
-        One of :data:`SCIPY_METHODS`.
-    rtol, atol : float
-        ``solve_ivp``'s tolerances (positive).
-    t0 : float, optional
-        Initial time.
-    repeats : int, optional
-        Number of timed runs (at least 1).
-
-    Returns
-    -------
-    PeerRun
-        The final state, median time and counts. A solve that fails (``success`` False, e.g.
-        the step size underflowed) is returned as such, with the state where it stopped.
-
-    Raises
-    ------
-    ImportError
-        If SciPy is not installed.
-    ValueError
-        For an unknown method, q0 and qd0 of different lengths, non-finite values,
-        non-positive tolerances or ``repeats`` < 1.
-
-    Examples
-    --------
-    >>> run = run_scipy(numpy_rhs("damped_oscillator", m=1.0, k=1.0, c=0.0), [1.0], [0.0],
-    ...                 t_end=math.pi, method="DOP853", rtol=1e-10, atol=1e-12)
-    >>> run.success, round(float(run.q[0]), 8)
-    (True, -1.0)
-    """
-    try:
-        from scipy.integrate import solve_ivp
-    except ImportError as e:
-        raise ImportError(
-            f"run_scipy needs SciPy, which is not installed ({e}); pip install scipy"
-        ) from e
-    if method not in SCIPY_METHODS:
-        raise ValueError(f"method {method!r} is not one of {', '.join(SCIPY_METHODS)}")
-    q = _state("q0", q0)
-    qd = _state("qd0", qd0)
-    if q.size == 0 or q.size != qd.size:
-        raise ValueError(
-            f"q0 and qd0 need the same, non-zero length: got {q.size} and {qd.size}"
-        )
-    t0, t_end = _real("t0", t0), _real("t_end", t_end)
-    rtol, atol = _real("rtol", rtol), _real("atol", atol)
-    if not (rtol > 0.0 and atol > 0.0):
-        raise ValueError(f"rtol = {rtol} and atol = {atol} must be positive")
-    if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
-        raise ValueError(f"repeats = {repeats!r} must be an integer ≥ 1")
-    n = q.size
-    y0 = np.concatenate([q, qd])
-    times: List[float] = []
-    sol: Any = None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        sol = solve_ivp(rhs, (t0, t_end), y0, method=method, rtol=rtol, atol=atol)
-        times.append(time.perf_counter() - start)
-    y_end = np.array(sol.y[:, -1], dtype=np.float64)
-    return PeerRun(
-        method=method,
-        rtol=rtol,
-        atol=atol,
-        t=float(sol.t[-1]),
-        q=y_end[:n],
-        qd=y_end[n:],
-        seconds=statistics.median(times),
-        nfev=int(sol.nfev),
-        njev=int(sol.njev),
-        steps=len(sol.t) - 1,
-        success=bool(sol.success),
-        message=str(sol.message),
-    )
+    _compare(int(sys.argv[1]) if len(sys.argv) > 1 else 3)

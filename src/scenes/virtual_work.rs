@@ -6,6 +6,10 @@
 //! massless: these scenes are for statics, and their accelerations fail with
 //! [`SingularMassMatrix`](crate::Error::SingularMassMatrix), as they should.
 
+use super::registry::{
+    Arguments, Coordinates, Drawing, Drawn, Parameter, Positions, Route, Scene, SceneInfo,
+};
+use crate::error::Result;
 use crate::{
     CartesianForces, GeneralizedForces, KineticEnergy, ParticleSystem, Particles, Potential,
     Scalar, System,
@@ -477,5 +481,145 @@ impl GeneralizedForces for TwoSprings {
     }
     fn depends_on_time(&self) -> bool {
         false
+    }
+}
+
+impl Scene for Lever {
+    type System = ParticleSystem<Self, (), (), (), Self>;
+    const INFO: SceneInfo = SceneInfo {
+        name: "lever",
+        doc: "Seed §3.2 example 1: a lever with a vertical force ``p`` on arm ``l1`` and a \
+              horizontal force ``q`` on arm ``l2``; coordinate ``theta``. Statics only \
+              (massless).",
+        parameters: &[
+            Parameter::number("l1", 1.3, "arm carrying the vertical force"),
+            Parameter::number("l2", 0.6, "arm carrying the horizontal force"),
+            Parameter::number("p", 4.0, "vertical force"),
+            Parameter::number("q", 9.0, "horizontal force"),
+        ],
+        coordinates: Coordinates::Fixed(&["theta"]),
+        route: Route::Particle,
+        exact: false,
+    };
+    fn build(a: &Arguments) -> Result<Self::System> {
+        let n = |k| a.number(k);
+        Ok(Self::new(n("l1"), n("l2"), n("p"), n("q")).particles())
+    }
+    fn drawing(_: &Arguments) -> Option<Drawing> {
+        Some(Drawing {
+            rods: vec![(-1, 0), (-1, 1)],
+            marks: vec![[0.0, 0.0]],
+            ..Drawing::default()
+        })
+    }
+}
+
+impl Scene for DifferentialPulley {
+    type System = ParticleSystem<Self, Self, (), (), Self>;
+    const INFO: SceneInfo = SceneInfo {
+        name: "differential_pulley",
+        doc: "Seed §3.2 example 2: a chain block with sheaves ``r1`` > ``r2``, effort ``p``, \
+              load ``q`` and a spring balance ``k``; coordinate ``theta``. Statics only.",
+        parameters: &[
+            Parameter::number("r1", 0.2, "radius of the larger sheave"),
+            Parameter::number("r2", 0.17, "radius of the smaller sheave"),
+            Parameter::number("p", 35.0, "effort on the hand chain"),
+            Parameter::number("q", 800.0, "load"),
+            Parameter::number("k", 0.0, "stiffness of the spring balance"),
+        ],
+        coordinates: Coordinates::Fixed(&["theta"]),
+        route: Route::Particle,
+        exact: false,
+    };
+    fn build(a: &Arguments) -> Result<Self::System> {
+        let n = |k| a.number(k);
+        Ok(Self::new(n("r1"), n("r2"), n("p"), n("q"), n("k")).particles())
+    }
+    fn drawing(a: &Arguments) -> Option<Drawing> {
+        Some(Drawing {
+            circles: vec![[0.0, 0.0, a.number("r1")], [0.0, 0.0, a.number("r2")]],
+            marks: vec![[0.0, 0.0]],
+            ..Drawing::default()
+        })
+    }
+}
+
+impl Scene for RhombusLink {
+    type System = ParticleSystem<Self, (), (), (), Self>;
+    const INFO: SceneInfo = SceneInfo {
+        name: "rhombus_link",
+        doc: "Seed §3.2 example 3: four links ``l`` with forces ``p`` (vertical) and ``q`` \
+              (horizontal); coordinate ``theta`` (half of ∠BCD). Statics only.",
+        parameters: &[
+            Parameter::number("l", 0.8, "link length"),
+            Parameter::number("p", 3.0, "vertical force"),
+            Parameter::number("q", 5.0, "horizontal force"),
+        ],
+        coordinates: Coordinates::Fixed(&["theta"]),
+        route: Route::Particle,
+        exact: false,
+    };
+    fn build(a: &Arguments) -> Result<Self::System> {
+        Ok(Self::new(a.number("l"), a.number("p"), a.number("q")).particles())
+    }
+    fn drawing(_: &Arguments) -> Option<Drawing> {
+        Some(Drawing {
+            rods: vec![(0, 1), (1, 2), (2, 3), (3, 0)],
+            ..Drawing::default()
+        })
+    }
+}
+
+impl Scene for SpringRhombus {
+    type System = ParticleSystem<Self, Self>;
+    const INFO: SceneInfo = SceneInfo {
+        name: "spring_rhombus",
+        doc: "Seed §3.2 example 4: a rhombus of links ``a`` with a spring ``k`` (natural \
+              length 2 ``l0``) and a hanging mass ``m``; coordinate ``theta``.",
+        parameters: &[
+            Parameter::number("a", 0.7, "link length"),
+            Parameter::number("k", 300.0, "spring stiffness"),
+            Parameter::number("l0", 0.5, "half the natural length of the spring"),
+            Parameter::number("m", 3.0, "hanging mass"),
+            Parameter::number("g", 9.81, "gravitational acceleration"),
+        ],
+        coordinates: Coordinates::Fixed(&["theta"]),
+        route: Route::Particle,
+        exact: false,
+    };
+    fn build(a: &Arguments) -> Result<Self::System> {
+        let n = |k| a.number(k);
+        Ok(Self::new(n("a"), n("k"), n("l0"), n("m"), n("g")).particles())
+    }
+}
+
+impl Scene for TwoSprings {
+    type System = System<Self, Self, (), Self>;
+    const INFO: SceneInfo = SceneInfo {
+        name: "two_springs",
+        doc: "Seed §3.2 example 5: two masses on two springs with loads ``f1``, ``f2``; \
+              coordinates ``x1``, ``x2``.",
+        parameters: &[
+            Parameter::number("m1", 1.5, "first mass"),
+            Parameter::number("m2", 0.5, "second mass"),
+            Parameter::number("k1", 40.0, "stiffness of the spring from the ground to m₁"),
+            Parameter::number("k2", 25.0, "stiffness of the spring from m₁ to m₂"),
+            Parameter::number("f1", 2.0, "load on m₁"),
+            Parameter::number("f2", -3.0, "load on m₂"),
+        ],
+        coordinates: Coordinates::Fixed(&["x1", "x2"]),
+        route: Route::Energy,
+        exact: false,
+    };
+    fn build(a: &Arguments) -> Result<Self::System> {
+        let n = |k| a.number(k);
+        Ok(Self::new(n("m1"), n("m2"), n("k1"), n("k2"), n("f1"), n("f2")).system())
+    }
+}
+
+/// Masses on springs along a line: nothing to draw.
+impl<U, R, Q> Drawn for System<TwoSprings, U, R, Q> {
+    fn positions(&self, _t: &[f64], _q: &[f64]) -> Option<Positions> {
+        None
     }
 }

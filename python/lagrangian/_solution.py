@@ -1,0 +1,137 @@
+"""The results of a model: a trajectory (``Solution``, from ``Model.simulate``) and a static
+equilibrium (``Equilibrium``, from ``Model.equilibrium``)."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Dict, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure  # type: ignore[import-not-found, unused-ignore]
+
+__all__ = ["Solution", "Equilibrium"]
+
+FloatArray = npt.NDArray[np.float64]
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+class Solution:
+    """A trajectory from :meth:`Model.simulate`.
+
+    Attributes
+    ----------
+    t : numpy.ndarray, shape (n,)
+        Output times.
+    q, qd : numpy.ndarray, shape (n, dof)
+        Coordinates and velocities at those times.
+    energy : numpy.ndarray, shape (n,)
+        The energy function h = q̇·p − L (T + U for natural systems; conserved when nothing
+        drives or damps the system).
+    stats : dict
+        The method that ran (and why, for ``"auto"``) and the work it took: accepted and
+        rejected steps, right-hand-side and Jacobian evaluations, factorizations, Newton
+        failures.
+    names : tuple of str, optional
+        The coordinate names (from the model), used to label plots.
+    """
+
+    __slots__ = ("t", "q", "qd", "energy", "stats", "names")
+
+    t: FloatArray
+    q: FloatArray
+    qd: FloatArray
+    energy: FloatArray
+    stats: Dict[str, Any]
+    names: Optional[Tuple[str, ...]]
+
+    def __init__(
+        self,
+        t: FloatArray,
+        q: FloatArray,
+        qd: FloatArray,
+        energy: FloatArray,
+        stats: Dict[str, Any],
+        names: Optional[Sequence[str]] = None,
+    ) -> None:
+        self.t, self.q, self.qd, self.energy, self.stats = t, q, qd, energy, stats
+        self.names = None if names is None else tuple(str(n) for n in names)
+
+    def __len__(self) -> int:
+        return int(self.t.shape[0])
+
+    def __repr__(self) -> str:
+        span = f"[{float(self.t[0])!r}, {float(self.t[-1])!r}]" if len(self) else "[]"
+        return (
+            f"Solution(points={len(self)}, t={span}, method={self.stats['method']!r}, "
+            f"steps={self.stats['accepted_steps']})"
+        )
+
+    def plot(
+        self, path: Optional[PathLike] = None, *, title: Optional[str] = None
+    ) -> "Figure":
+        """A figure of the trajectory: the coordinates q, the velocities q̇ and the energy h
+        against t, in three stacked panels. The energy panel also shows the drift |h − h₀| on a
+        logarithmic right-hand axis, its maximum in the legend.
+
+        Needs matplotlib (``pip install lagrangian[plot]``); the figure is a
+        :class:`matplotlib.figure.Figure` not registered with ``pyplot``, so nothing is shown
+        unless asked for (a notebook displays it).
+
+        Parameters
+        ----------
+        path : str or path-like, optional
+            Also save the figure there; the suffix (``.png``, ``.svg``, ``.pdf``) picks the
+            format.
+        title : str, optional
+            A title above the panels.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+
+        Raises
+        ------
+        ValueError
+            For an empty solution or a path with another suffix.
+        ImportError
+            Without matplotlib.
+        """
+        from ._plot import plot_solution
+
+        return plot_solution(self, path, title=title)
+
+
+@dataclass(frozen=True)
+class Equilibrium:
+    """A static equilibrium from :meth:`Model.equilibrium` (principle of virtual work).
+
+    Attributes
+    ----------
+    q : numpy.ndarray
+        The equilibrium configuration.
+    stable : bool
+        Whether it is a strict minimum of the total potential (all eigenvalues of the stiffness
+        positive).
+    stability : str
+        ``"stable"``, ``"unstable"`` or ``"neutral"`` (some eigenvalue zero to tolerance).
+    eigenvalues : numpy.ndarray
+        Eigenvalues of the symmetric part of the stiffness K = ∂(∂U/∂q − Q)/∂q, ascending.
+    stiffness : numpy.ndarray
+        K itself.
+    residual : float
+        |∂U/∂q − Q| at ``q``.
+    iterations : int
+        Newton iterations taken.
+    """
+
+    q: FloatArray
+    stable: bool
+    stability: str
+    eigenvalues: FloatArray
+    stiffness: FloatArray
+    residual: float
+    iterations: int

@@ -1,0 +1,141 @@
+"""Checking what the user gives: state vectors, numbers, coordinates, parameters and the symbols
+of expressions. Each check raises ``TypeError`` or ``ValueError`` with a message that says what
+to give instead; the integrator options are not checked here but in Rust (one message each)."""
+
+from __future__ import annotations
+
+import math
+import numbers
+from typing import Any, Dict, Mapping, Optional, Tuple
+
+import numpy as np
+import numpy.typing as npt
+
+from ._expr import Coordinate, Expr
+
+__all__ = [
+    "FloatArray",
+    "check_coordinates",
+    "check_parameters",
+    "check_symbols",
+    "integer",
+    "number",
+    "real",
+    "vector",
+]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+def vector(what: str, value: object, n: int) -> FloatArray:
+    """``value`` as a float vector of length ``n``, or a ``ValueError`` that says why not."""
+    if isinstance(value, (str, bytes)):
+        raise ValueError(f"{what} must be a sequence of {n} numbers, got a string")
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{what} must be a sequence of {n} numbers: {e}") from None
+    if arr.ndim == 0:
+        arr = arr.reshape(1)
+    if arr.ndim != 1 or arr.shape[0] != n:
+        raise ValueError(
+            f"{what} has shape {arr.shape} but the model has {n} coordinates"
+        )
+    bad = np.flatnonzero(~np.isfinite(arr))
+    if bad.size:
+        raise ValueError(f"{what}[{bad[0]}] = {arr[bad[0]]} is not finite")
+    return np.ascontiguousarray(arr)
+
+
+def real(what: str, value: object) -> float:
+    """``value`` as a finite float: ``TypeError`` for a non-number, ``ValueError`` if not finite."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{what} must be a real number, got {value!r}")
+    x = float(value)
+    if not math.isfinite(x):
+        raise ValueError(f"{what} = {x} is not finite")
+    return x
+
+
+def check_coordinates(coordinates: object) -> Tuple[Coordinate, ...]:
+    """The model's coordinates as a tuple: distinct ``Coordinate`` objects, at least one."""
+    if isinstance(coordinates, Expr) or not isinstance(coordinates, (list, tuple)):
+        raise TypeError(
+            "coordinates must be a list of coordinates from lagrangian.coordinates(...)"
+        )
+    coords = tuple(coordinates)
+    if not coords:
+        raise ValueError("a model needs at least one coordinate")
+    for c in coords:
+        if not isinstance(c, Coordinate):
+            raise TypeError(
+                f"{c!r} is not a coordinate: make coordinates with lagrangian.coordinates(...)"
+            )
+    names = [c.name for c in coords]
+    if len(set(names)) != len(names):
+        raise ValueError(f"repeated coordinate names in {names}")
+    return coords
+
+
+def check_parameters(parameters: Optional[Mapping[str, float]]) -> Dict[str, float]:
+    """Parameter values by name (a ``Parameter`` key is read as its name), each finite."""
+    if parameters is None:
+        return {}
+    if not isinstance(parameters, Mapping):
+        raise TypeError("parameters must be a mapping of names to numbers")
+    values: Dict[str, float] = {}
+    for k, v in parameters.items():
+        name = k.name if isinstance(k, Expr) and k.op == "param" else k
+        if not isinstance(name, str):
+            raise TypeError(f"parameter names must be strings, got {k!r}")
+        values[name] = real(f"parameter {name!r}", v)
+    return values
+
+
+def check_symbols(
+    what: str,
+    e: Expr,
+    coordinates: Any,
+    values: Mapping[str, Any],
+    velocities: bool,
+    used: Dict[str, None],
+) -> None:
+    """Check the free symbols of ``e`` (the ``what`` of a model): coordinates of the model,
+    velocities only where ``velocities``, parameters with a value; record the parameters in
+    ``used``."""
+    for s in e.free_symbols():
+        if s.op in ("q", "qd"):
+            name = s.args[0]
+            if name not in coordinates:
+                raise ValueError(
+                    f"{s!r} in the {what} is not a coordinate of this model "
+                    f"(coordinates: {', '.join(sorted(coordinates))})"
+                )
+            if s.op == "qd" and not velocities:
+                raise ValueError(
+                    f"the {what} depends on the velocity {s!r}: velocity-dependent terms belong "
+                    "in the kinetic energy (or the forces)"
+                )
+        elif s.op == "param":
+            name = s.args[0]
+            if name not in values:
+                raise ValueError(
+                    f"parameter {name!r} in the {what} has no value: pass "
+                    f"parameters={{{name!r}: ...}}"
+                )
+            used.setdefault(name, None)
+
+
+def number(what: str, value: object) -> float:
+    """``value`` as a float, checking its type only (``TypeError`` for a non-number): for the
+    options, whose values are validated in Rust."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{what} must be a real number, got {value!r}")
+    return float(value)
+
+
+def integer(what: str, value: object) -> int:
+    """``value`` as an int, checking its type only (``TypeError`` for a non-integer)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{what} must be an integer, got {value!r}")
+    return int(value)
