@@ -55,69 +55,60 @@ pub(crate) fn gradient<const C: usize, D: Scalar, F>(
 ) where
     F: Fn(Grad<D, C>, &[Grad<D, C>], &[Grad<D, C>]) -> Grad<D, C>,
 {
-    // A copy of the body with the length known at compile time for the common n == C case.
-    if q.len() == C {
-        gradient_n::<C, D, F>(C, t, q, qd, wrt, sign, f, out)
-    } else {
-        gradient_n::<C, D, F>(q.len(), t, q, qd, wrt, sign, f, out)
-    }
-}
-
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn gradient_n<const C: usize, D: Scalar, F>(
-    n: usize,
-    t: D,
-    q: &[D],
-    qd: &[D],
-    wrt: Wrt,
-    sign: f64,
-    f: F,
-    out: &mut [D],
-) where
-    F: Fn(Grad<D, C>, &[Grad<D, C>], &[Grad<D, C>]) -> Grad<D, C>,
-{
-    let (q, qd, out) = (&q[..n], &qd[..n], &mut out[..n]);
-    let tt = grad_const::<D, C>(t);
-    let zero = grad_const::<D, C>(D::zero());
-    with_buf::<_, C, _>(
-        n,
-        zero,
+    with_len::<C, _>(
+        q.len(),
         #[inline(always)]
-        |qs| {
+        |n| {
+            let (q, qd, out) = (&q[..n], &qd[..n], &mut out[..n]);
+            let tt = grad_const::<D, C>(t);
+            let zero = grad_const::<D, C>(D::zero());
             with_buf::<_, C, _>(
                 n,
                 zero,
                 #[inline(always)]
-                |qds| {
-                    let (seeded, fixed, x_fixed, x_seeded) = match wrt {
-                        Wrt::Position => (qs, qds, qd, q),
-                        Wrt::Velocity => (qds, qs, q, qd),
-                    };
-                    for (l, &x) in fixed.iter_mut().zip(x_fixed) {
-                        *l = grad_const(x);
-                    }
-                    for start in (0..n).step_by(C) {
-                        let end = (start + C).min(n);
-                        for (i, (l, &x)) in seeded.iter_mut().zip(x_seeded).enumerate() {
-                            *l = if (start..end).contains(&i) {
-                                grad_seed(x, i - start)
-                            } else {
-                                grad_const(x)
+                |qs| {
+                    with_buf::<_, C, _>(
+                        n,
+                        zero,
+                        #[inline(always)]
+                        |qds| {
+                            let (seeded, fixed, x_fixed, x_seeded) = match wrt {
+                                Wrt::Position => (qs, qds, qd, q),
+                                Wrt::Velocity => (qds, qs, q, qd),
                             };
-                        }
-                        let v = match wrt {
-                            Wrt::Position => f(tt, seeded, fixed),
-                            Wrt::Velocity => f(tt, fixed, seeded),
-                        };
-                        for i in start..end {
-                            out[i] += grad_part(&v, i - start) * sign;
-                        }
-                    }
+                            for (l, &x) in fixed.iter_mut().zip(x_fixed) {
+                                *l = grad_const(x);
+                            }
+                            for start in (0..n).step_by(C) {
+                                let end = (start + C).min(n);
+                                for (i, (l, &x)) in seeded.iter_mut().zip(x_seeded).enumerate() {
+                                    *l = if (start..end).contains(&i) {
+                                        grad_seed(x, i - start)
+                                    } else {
+                                        grad_const(x)
+                                    };
+                                }
+                                let v = match wrt {
+                                    Wrt::Position => f(tt, seeded, fixed),
+                                    Wrt::Velocity => f(tt, fixed, seeded),
+                                };
+                                for i in start..end {
+                                    out[i] += grad_part(&v, i - start) * sign;
+                                }
+                            }
+                        },
+                    )
                 },
             )
         },
     )
+}
+
+/// `body(n)`, with a copy of the body where n is known at compile time for the common n == C
+/// case.
+#[inline(always)]
+fn with_len<const C: usize, R>(n: usize, body: impl FnOnce(usize) -> R) -> R {
+    if n == C { body(C) } else { body(n) }
 }
 
 /// What [`inertia`] should fill.
