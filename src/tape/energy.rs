@@ -263,6 +263,12 @@ mod tests {
         fn sqr(&mut self, a: usize) -> usize {
             self.0.powi(a, 2).unwrap()
         }
+        fn sum(&mut self, terms: &[usize]) -> usize {
+            terms[1..].iter().fold(terms[0], |s, &x| self.add(s, x))
+        }
+        fn prod(&mut self, factors: &[usize]) -> usize {
+            factors[1..].iter().fold(factors[0], |p, &x| self.mul(p, x))
+        }
         fn function(&self, root: usize, inputs: Inputs, params: &[f64]) -> Function {
             self.outputs(&[root], inputs, params)
         }
@@ -447,68 +453,59 @@ mod tests {
             b.0.velocity(1),
             b.0.time(),
         );
-        let cs: Vec<usize> = [
-            a,
-            w,
-            bq,
-            0.5 * m,
-            m * g,
-            0.5 * k,
-            kappa,
-            0.5 * c,
-            0.5 * c2,
-            f,
-            nu,
-            -d,
-        ]
-        .iter()
-        .map(|&v| b.c(v))
-        .collect();
-        let [ca, cw, cb, chm, cmg, chk, ckap, chc, chc2, cf, cnu, cmd] = cs[..] else {
+        let cs: Vec<usize> = [a, w, bq, 2.0 * bq, 0.5 * m, m * g, 0.5 * k, kappa]
+            .into_iter()
+            .chain([0.5 * c, 0.5 * c2, f, nu, -d])
+            .map(|v| b.c(v))
+            .collect();
+        let [
+            ca,
+            cw,
+            cb,
+            c2b,
+            chm,
+            cmg,
+            chk,
+            ckap,
+            chc,
+            chc2,
+            cf,
+            cnu,
+            cmd,
+        ] = cs[..]
+        else {
             unreachable!()
         };
+        let wt = b.prod(&[cw, t]);
+        let (swt, cwt) = (b.un(Unary::Sin, wt), b.un(Unary::Cos, wt));
+        let (x2, y2, vx2, vy2) = (b.sqr(x), b.sqr(y), b.sqr(vx), b.sqr(vy));
         // r = (x + A sin ωt, y + b x²) and ṙ = (ẋ + A ω cos ωt, ẏ + 2 b x ẋ).
-        let wt = b.mul(cw, t);
-        let swt = b.un(Unary::Sin, wt);
-        let cwt = b.un(Unary::Cos, wt);
-        let shift = b.mul(ca, swt);
-        let rx = b.add(x, shift);
-        let x2 = b.sqr(x);
-        let bx2 = b.mul(cb, x2);
-        let ry = b.add(y, bx2);
-        let drift = b.mul(ca, cwt);
-        let drift = b.mul(cw, drift);
-        let vrx = b.add(vx, drift);
-        let xv = b.mul(x, vx);
-        let bxv = b.mul(cb, xv);
-        let two_bxv = b.add(bxv, bxv);
-        let vry = b.add(vy, two_bxv);
-        let vrx2 = b.sqr(vrx);
-        let vry2 = b.sqr(vry);
-        let v2 = b.add(vrx2, vry2);
-        let kinetic = b.mul(chm, v2);
+        let moved = [b.prod(&[ca, swt]), b.prod(&[cb, x2])];
+        let (rx, ry) = (b.sum(&[x, moved[0]]), b.sum(&[y, moved[1]]));
+        let moving = [b.prod(&[ca, cw, cwt]), b.prod(&[c2b, x, vx])];
+        let (vrx, vry) = (b.sum(&[vx, moving[0]]), b.sum(&[vy, moving[1]]));
+        let speed2 = [b.sqr(vrx), b.sqr(vry)];
+        let v2 = b.sum(&speed2);
+        let kinetic = b.prod(&[chm, v2]);
         // The spring, and U = m g r_y + spring.
-        let y2 = b.sqr(y);
-        let r2 = b.add(x2, y2);
-        let us = b.mul(chk, r2);
-        let xy = b.mul(x, y);
-        let uk = b.mul(ckap, xy);
-        let spring = b.add(us, uk);
-        let ug = b.mul(cmg, ry);
-        let potential = b.add(ug, spring);
+        let parts = [
+            b.prod(&[chk, x2]),
+            b.prod(&[chk, y2]),
+            b.prod(&[ckap, x, y]),
+        ];
+        let spring = b.sum(&parts);
+        let weight = b.prod(&[cmg, ry]);
+        let potential = b.sum(&[weight, spring]);
         // Φ and Q″.
-        let vx2 = b.sqr(vx);
-        let vy2 = b.sqr(vy);
-        let vv = b.add(vx2, vy2);
-        let p1 = b.mul(chc, vv);
-        let x2vy2 = b.mul(x2, vy2);
-        let p2 = b.mul(chc2, x2vy2);
-        let dissipation = b.add(p1, p2);
-        let nut = b.mul(cnu, t);
+        let parts = [
+            b.prod(&[chc, vx2]),
+            b.prod(&[chc, vy2]),
+            b.prod(&[chc2, x2, vy2]),
+        ];
+        let dissipation = b.sum(&parts);
+        let nut = b.prod(&[cnu, t]);
         let cnt = b.un(Unary::Cos, nut);
-        let q0 = b.mul(cf, cnt);
-        let yvx = b.mul(y, vx);
-        let q1 = b.mul(cmd, yvx);
+        let (q0, q1) = (b.prod(&[cf, cnt]), b.prod(&[cmd, y, vx]));
         let (ki, po) = (Inputs::kinetic(2, 0), Inputs::potential(2, 0));
         let (phi, forces) = (
             b.function(dissipation, ki, &[]),
