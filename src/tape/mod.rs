@@ -65,7 +65,9 @@
 
 mod analysis;
 mod compile;
+mod derive;
 mod energy;
+mod eom_program;
 mod eval;
 mod graph;
 mod ins;
@@ -74,7 +76,9 @@ mod particles;
 
 use compile::Input;
 pub use compile::{Inputs, Tape};
+pub use derive::{Seeds, tangent, tangents};
 pub use energy::{EnergyModel, TapeSystem};
+pub use eom_program::{Energies, EomFunction, EomGraph, EomProgram, eom_graph};
 pub use eval::Function;
 pub use graph::{Binary, Graph, Node, Unary};
 pub use particles::TapeParticles;
