@@ -722,3 +722,22 @@ fn eom_program_speed() {
         );
     }
 }
+
+#[test]
+#[ignore = "diagnostic"]
+fn eom_program_size_breakdown() {
+    for n in [8, 16, 32] {
+        let model = chain(n);
+        let mut g = model.graph.clone();
+        let eom = eom_graph(&mut g, n, &model.parts).unwrap();
+        let k = Inputs::kinetic(n, 3);
+        let m = Tape::new(&g, &eom.mass, k, "M").unwrap().instructions();
+        let f = Tape::new(&g, &eom.force, k, "f").unwrap().instructions();
+        let all: Vec<usize> = eom.mass.iter().chain(&eom.force).copied().collect();
+        let both = Tape::new(&g, &all, k, "Mf").unwrap().instructions();
+        println!(
+            "n = {n}: M {m}, f {f}, together {both}, graph nodes {}",
+            g.len()
+        );
+    }
+}

@@ -163,7 +163,28 @@ impl Simplify<'_> {
                 return Ok(c);
             }
         }
+        // Like terms: c₁ x + c₂ x = (c₁ + c₂) x. A running sum Σₖ x of one term (the entries of
+        // M of a chain whose velocities are running sums) becomes one product, not n additions.
+        let (ca, xa) = self.coefficient(a);
+        let (cb, xb) = self.coefficient(b);
+        if xa == xb {
+            let c = self.0.constant(ca + cb);
+            return self.mul(c, xa);
+        }
         self.0.binary(Binary::Add, a.min(b), a.max(b))
+    }
+
+    /// `a` as c · x with c a number (c = 1 when `a` is no such product).
+    fn coefficient(&self, a: usize) -> (f64, usize) {
+        match self.0.nodes()[a] {
+            Node::Binary(Binary::Mul, x, y) => match (self.num(x), self.num(y)) {
+                (Some(c), None) => (c, y),
+                (None, Some(c)) => (c, x),
+                _ => (1.0, a),
+            },
+            Node::Unary(Unary::Neg, x) => (-1.0, x),
+            _ => (1.0, a),
+        }
     }
 
     pub(super) fn sub(&mut self, a: usize, b: usize) -> Result<usize> {
@@ -456,3 +477,55 @@ pub(super) const TIME: u8 = 1;
 pub(super) const POSITION: u8 = 2;
 /// A node reads a velocity.
 pub(super) const VELOCITY: u8 = 4;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn simplify_folds_identities_and_like_terms() {
+        let mut g = Graph::new();
+        let x = g.coord(0);
+        let p = g.param(0);
+        let (zero, one, two, three) = (
+            g.constant(0.0),
+            g.constant(1.0),
+            g.constant(2.0),
+            g.constant(3.0),
+        );
+        let mut s = Simplify(&mut g);
+        assert_eq!(s.mul(zero, x).unwrap(), zero);
+        assert_eq!(s.mul(x, one).unwrap(), x);
+        assert_eq!(s.add(x, zero).unwrap(), x);
+        assert_eq!(s.sub(x, zero).unwrap(), x);
+        let nx = s.neg(x).unwrap();
+        assert_eq!(s.neg(nx).unwrap(), x);
+        assert_eq!(s.add(two, three).unwrap(), s.0.constant(5.0));
+        assert_eq!(s.mul(two, three).unwrap(), s.0.constant(6.0));
+        // Parameters stay symbolic.
+        let tp = s.mul(two, p).unwrap();
+        assert!(matches!(s.0.nodes()[tp], Node::Binary(Binary::Mul, ..)));
+        // x + x + x = 3 x, and a + b is b + a.
+        let xx = s.add(x, x).unwrap();
+        let xxx = s.add(xx, x).unwrap();
+        assert_eq!(xxx, s.mul(three, x).unwrap());
+        assert_eq!(s.add(x, p).unwrap(), s.add(p, x).unwrap());
+        assert_eq!(s.add(x, nx).unwrap(), zero);
+    }
+
+    #[test]
+    fn tangents_share_one_sweep() {
+        // d/dq of sin q and of sin q · q in one sweep: cos q is built once.
+        let mut g = Graph::new();
+        let q = g.coord(0);
+        let s = g.unary(Unary::Sin, q).unwrap();
+        let sq = g.binary(Binary::Mul, s, q).unwrap();
+        let one = g.constant(1.0);
+        let d = tangents(&mut g, &[s, sq], &Seeds::new().coord(0, one)).unwrap();
+        let cos = g.find(Node::Unary(Unary::Cos, q)).unwrap();
+        assert_eq!(d[0], Some(cos));
+        assert!(d[1].is_some());
+        let seeds = Seeds::new().velocity(0, one);
+        assert_eq!(tangents(&mut g, &[sq], &seeds).unwrap(), vec![None]);
+    }
+}

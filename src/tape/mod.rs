@@ -33,6 +33,11 @@
 //! ([`Function`], the evaluation and its jet fast path), `jet.rs` (the jet arithmetic),
 //! `particles.rs` ([`TapeParticles`]) and `energy.rs` ([`EnergyModel`]).
 //!
+//! Derivatives as expressions: `derive.rs` ([`tangent`], [`tangents`], [`Seeds`]) differentiates
+//! on the graph itself (forward mode, simplified and hash-consed as it builds), and
+//! `eom_program.rs` ([`eom_graph`], [`EomProgram`], [`EomFunction`]) derives eq. 55 — M's entries
+//! and one force vector — as nodes and compiles them into one tape evaluated in plain `f64`.
+//!
 //! ```
 //! use lagrangian::tape::{Binary, Function, Graph, Inputs, Tape, Unary};
 //! use lagrangian::{Dynamics, System};
