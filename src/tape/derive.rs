@@ -158,10 +158,10 @@ impl Simplify<'_> {
         if self.is(b, 0.0) {
             return Ok(a);
         }
-        if let (Some(x), Some(y)) = (self.num(a), self.num(b)) {
-            if let Some(c) = self.fold(x + y) {
-                return Ok(c);
-            }
+        if let (Some(x), Some(y)) = (self.num(a), self.num(b))
+            && let Some(c) = self.fold(x + y)
+        {
+            return Ok(c);
         }
         // Like terms: c₁ x + c₂ x = (c₁ + c₂) x. A running sum Σₖ x of one term (the entries of
         // M of a chain whose velocities are running sums) becomes one product, not n additions.
@@ -197,10 +197,10 @@ impl Simplify<'_> {
         if a == b {
             return Ok(self.0.constant(0.0));
         }
-        if let (Some(x), Some(y)) = (self.num(a), self.num(b)) {
-            if let Some(c) = self.fold(x - y) {
-                return Ok(c);
-            }
+        if let (Some(x), Some(y)) = (self.num(a), self.num(b))
+            && let Some(c) = self.fold(x - y)
+        {
+            return Ok(c);
         }
         // a − (−b) = a + b
         if let Node::Unary(Unary::Neg, nb) = self.0.nodes()[b] {
@@ -225,10 +225,10 @@ impl Simplify<'_> {
         if self.is(b, -1.0) {
             return self.neg(a);
         }
-        if let (Some(x), Some(y)) = (self.num(a), self.num(b)) {
-            if let Some(c) = self.fold(x * y) {
-                return Ok(c);
-            }
+        if let (Some(x), Some(y)) = (self.num(a), self.num(b))
+            && let Some(c) = self.fold(x * y)
+        {
+            return Ok(c);
         }
         self.0.binary(Binary::Mul, a.min(b), a.max(b))
     }
@@ -243,10 +243,10 @@ impl Simplify<'_> {
         if self.is(b, -1.0) {
             return self.neg(a);
         }
-        if let (Some(x), Some(y)) = (self.num(a), self.num(b)) {
-            if let Some(c) = self.fold(x / y) {
-                return Ok(c);
-            }
+        if let (Some(x), Some(y)) = (self.num(a), self.num(b))
+            && let Some(c) = self.fold(x / y)
+        {
+            return Ok(c);
         }
         self.0.binary(Binary::Div, a, b)
     }
@@ -260,10 +260,10 @@ impl Simplify<'_> {
     }
 
     fn unary(&mut self, f: Unary, a: usize) -> Result<usize> {
-        if let Some(x) = self.num(a) {
-            if let Some(c) = self.fold(f.apply(x)) {
-                return Ok(c);
-            }
+        if let Some(x) = self.num(a)
+            && let Some(c) = self.fold(f.apply(x))
+        {
+            return Ok(c);
         }
         if f == Unary::Neg {
             return self.neg(a);
@@ -276,10 +276,10 @@ impl Simplify<'_> {
             0 => Ok(self.0.constant(1.0)),
             1 => Ok(a),
             _ => {
-                if let Some(x) = self.num(a) {
-                    if let Some(c) = self.fold(x.powi(k)) {
-                        return Ok(c);
-                    }
+                if let Some(x) = self.num(a)
+                    && let Some(c) = self.fold(x.powi(k))
+                {
+                    return Ok(c);
                 }
                 self.0.powi(a, k)
             }
@@ -292,10 +292,10 @@ impl Simplify<'_> {
             Some(1.0) => Ok(a),
             Some(y) if y.fract() == 0.0 && y.abs() <= 1024.0 => self.powi(a, y as i32),
             _ => {
-                if let (Some(x), Some(y)) = (self.num(a), self.num(b)) {
-                    if let Some(c) = self.fold(x.powf(y)) {
-                        return Ok(c);
-                    }
+                if let (Some(x), Some(y)) = (self.num(a), self.num(b))
+                    && let Some(c) = self.fold(x.powf(y))
+                {
+                    return Ok(c);
                 }
                 self.0.binary(Binary::Pow, a, b)
             }

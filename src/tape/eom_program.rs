@@ -79,10 +79,10 @@ pub fn eom_graph(graph: &mut Graph, dof: usize, parts: &Energies) -> Result<EomG
     if let Some(&o) = all.iter().find(|&&o| o >= graph.len()) {
         return bad(format!("node {o} is not a node of the graph"));
     }
-    if let Some(u) = parts.potential {
-        if reads(graph)[u] & VELOCITY != 0 {
-            return bad("the potential may not depend on the velocities".into());
-        }
+    if let Some(u) = parts.potential
+        && reads(graph)[u] & VELOCITY != 0
+    {
+        return bad("the potential may not depend on the velocities".into());
     }
     let one = graph.constant(1.0);
     let t = parts.kinetic;
