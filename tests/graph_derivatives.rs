@@ -7,8 +7,8 @@
 
 use lagrangian::num_dual::Dual64;
 use lagrangian::tape::{
-    Binary, Energies, EnergyModel, EomProgram, Function, Graph, Inputs, Seeds, Tape, Unary,
-    eom_graph, tangent,
+    Binary, Energies, EnergyModel, EomProgram, Function, Graph, Inputs, Seeds, Tape, Unary, Wrt,
+    eom_graph, gradient, tangent,
 };
 use lagrangian::{Dynamics, Error};
 use std::hint::black_box;
@@ -223,6 +223,60 @@ fn tangent_random_expressions_match_dual_numbers() {
         }
     }
     assert!(checked > 600, "only {checked} finite samples");
+}
+
+/// Reverse-sweep gradients of random expressions agree with Dual64 evaluation, component by
+/// component, in q and in q̇.
+#[test]
+fn gradient_random_expressions_match_dual_numbers() {
+    let mut rng = Rng(34);
+    let params = [0.7, -1.3];
+    let mut checked = 0;
+    for case in 0..150 {
+        let mut g = Graph::new();
+        let e = random_expression(&mut g, &mut rng, 4 + case % 12);
+        let wrt = if case % 2 == 0 {
+            Wrt::Velocity
+        } else {
+            Wrt::Position
+        };
+        let grad = gradient(&mut g, e, wrt, DOF).unwrap();
+        let zero = g.constant(0.0);
+        let nodes: Vec<usize> = grad.iter().map(|d| d.unwrap_or(zero)).collect();
+        let inputs = Inputs::kinetic(DOF, 2);
+        let f = Function::new(Tape::new(&g, &[e], inputs, "e").unwrap().into(), &params).unwrap();
+        let df =
+            Function::new(Tape::new(&g, &nodes, inputs, "de").unwrap().into(), &params).unwrap();
+        let t = rng.uniform(-1.0, 1.0);
+        let q: Vec<f64> = (0..DOF).map(|_| rng.uniform(-1.5, 1.5)).collect();
+        let qd: Vec<f64> = (0..DOF).map(|_| rng.uniform(-1.5, 1.5)).collect();
+        let mut got = [0.0; DOF];
+        df.eval_into(t, &q, &qd, &mut got);
+        for j in 0..DOF {
+            let seed = |x: &[f64], on: bool| -> Vec<Dual64> {
+                (0..DOF)
+                    .map(|k| Dual64::new(x[k], if on && k == j { 1.0 } else { 0.0 }))
+                    .collect()
+            };
+            let want = f.eval(
+                Dual64::from(t),
+                &seed(&q, wrt == Wrt::Position),
+                &seed(&qd, wrt == Wrt::Velocity),
+            );
+            if !want.re.is_finite() || !want.eps.is_finite() || want.eps.abs() > 1e8 {
+                continue;
+            }
+            let scale = want.eps.abs().max(1.0);
+            assert!(
+                (got[j] - want.eps).abs() <= 1e-12 * scale,
+                "case {case}, component {j}: gradient {}, dual {}",
+                got[j],
+                want.eps
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 300, "only {checked} finite samples");
 }
 
 /// Tangents of subgraphs that read no seeded input are exact zeros, and the simplifications

@@ -129,6 +129,93 @@ pub fn tangents(graph: &mut Graph, roots: &[usize], seeds: &Seeds) -> Result<Vec
     Ok(roots.iter().map(|&r| d[r]).collect())
 }
 
+/// Which inputs a [`gradient`] is taken with respect to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Wrt {
+    /// The coordinates q.
+    Position,
+    /// The velocities q̇.
+    Velocity,
+}
+
+/// The gradient of `root` with respect to the `dof` coordinates or velocities, by one reverse
+/// sweep on the graph (adjoints as nodes); `None` is an exact zero.
+///
+/// One reverse sweep instead of `dof` tangent sweeps matters for sums over running sums (a
+/// chain's T = Σₖ |Σ_{j≤k} ṙⱼ|²): the adjoints accumulate as shared suffix sums, so the gradient
+/// costs O(size of T) nodes where `dof` tangents would cost O(dof · size of T).
+///
+/// # Errors
+/// As [`tangent`].
+pub fn gradient(
+    graph: &mut Graph,
+    root: usize,
+    wrt: Wrt,
+    dof: usize,
+) -> Result<Vec<Option<usize>>> {
+    if root >= graph.len() {
+        return Err(crate::Error::InvalidInput {
+            what: "expression",
+            why: format!("node {root} is not a node of the graph"),
+        });
+    }
+    let bit = match wrt {
+        Wrt::Position => POSITION,
+        Wrt::Velocity => VELOCITY,
+    };
+    let r = reads(graph);
+    let mut adj: Vec<Option<usize>> = vec![None; root + 1];
+    let mut out = vec![None; dof];
+    adj[root] = Some(graph.constant(1.0));
+    let one = graph.constant(1.0);
+    let mut s = Simplify(graph);
+    for i in (0..=root).rev() {
+        let Some(a) = adj[i] else { continue };
+        let node = s.0.nodes()[i];
+        let mut push = |s: &mut Simplify, x: usize, partial: Option<usize>| -> Result<()> {
+            if r[x] & bit == 0 {
+                return Ok(());
+            }
+            let Some(p) = partial else { return Ok(()) };
+            let term = s.mul(a, p)?;
+            adj[x] = s.sum(adj[x], Some(term))?;
+            Ok(())
+        };
+        match node {
+            Node::Coord(k) if wrt == Wrt::Position && k < dof => out[k] = Some(a),
+            Node::Velocity(k) if wrt == Wrt::Velocity && k < dof => out[k] = Some(a),
+            Node::Const(_) | Node::Param(_) | Node::Time | Node::Coord(_) | Node::Velocity(_) => {}
+            Node::Unary(f, x) => {
+                let p = s.unary_tangent(f, x, i, one)?;
+                push(&mut s, x, p)?;
+            }
+            Node::PowI(x, k) => {
+                let p = s.powi(x, k - 1)?;
+                let kc = s.0.constant(f64::from(k));
+                let kp = s.mul(kc, p)?;
+                push(&mut s, x, Some(kp))?;
+            }
+            Node::Binary(f, x, y) => {
+                if x == y {
+                    // Both partials in one: the tangent with ẋ = 1.
+                    let p = s.binary_tangent(f, x, y, i, Some(one), Some(one))?;
+                    push(&mut s, x, p)?;
+                } else {
+                    if r[x] & bit != 0 {
+                        let p = s.binary_tangent(f, x, y, i, Some(one), None)?;
+                        push(&mut s, x, p)?;
+                    }
+                    if r[y] & bit != 0 {
+                        let p = s.binary_tangent(f, x, y, i, None, Some(one))?;
+                        push(&mut s, y, p)?;
+                    }
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
 /// Node construction with the simplifications of a derivative: 0·x = 0, 1·x = x, x ± 0 = x,
 /// −(−x) = x, operations on numbers folded, and operands of + and · in a canonical order so that
 /// a + b and b + a are one node.

@@ -5,12 +5,13 @@
 //!
 //! With L = T − U,
 //! M_ij = ∂²T/∂q̇ᵢ∂q̇ⱼ and fᵢ = Q″ᵢ + ∂L/∂qᵢ − (∂²L/∂q̇ᵢ∂q) q̇ − ∂²L/∂q̇ᵢ∂t − ∂Φ/∂q̇ᵢ,
-//! where the two mixed terms are one tangent sweep of pᵢ = ∂T/∂q̇ᵢ along (q, t) ↦ (q̇, 1). Only
+//! where ∂T/∂q̇, ∂L/∂q and ∂Φ/∂q̇ are one reverse sweep each ([`gradient`](super::gradient)), M's
+//! columns one tangent sweep each, and the two mixed terms one tangent sweep of pᵢ = ∂T/∂q̇ᵢ along (q, t) ↦ (q̇, 1). Only
 //! what the model has is built: no Φ, no Q″, no t — nothing for them. The tape's outputs are M's
 //! upper triangle row by row, then f; the tape is what a native-code backend compiles, with the
 //! constants of [`EomFunction::constants`].
 
-use super::derive::{POSITION, Seeds, Simplify, TIME, VELOCITY, reads, tangents};
+use super::derive::{POSITION, Seeds, Simplify, TIME, VELOCITY, Wrt, gradient, reads, tangents};
 use super::jet::Num;
 use super::{Function, Graph, Input, Inputs, Tape};
 use crate::dynamics::{check_lengths, finite_re};
@@ -86,12 +87,8 @@ pub fn eom_graph(graph: &mut Graph, dof: usize, parts: &Energies) -> Result<EomG
     }
     let one = graph.constant(1.0);
     let t = parts.kinetic;
-    // p_i = ∂T/∂q̇_i.
-    let mut p = Vec::with_capacity(dof);
-    for i in 0..dof {
-        let d = tangents(graph, &[t], &Seeds::new().velocity(i, one))?[0];
-        p.push(d);
-    }
+    // p = ∂T/∂q̇, one reverse sweep.
+    let p = gradient(graph, t, Wrt::Velocity, dof)?;
     // M by columns: column j is one sweep ∂/∂q̇_j of p_0 … p_j.
     let zero = graph.constant(0.0);
     let mut mass = vec![zero; dof * (dof + 1) / 2];
@@ -115,13 +112,14 @@ pub fn eom_graph(graph: &mut Graph, dof: usize, parts: &Energies) -> Result<EomG
         Some(u) => Simplify(graph).sub(t, u)?,
         None => t,
     };
+    let dl = gradient(graph, lagrangian, Wrt::Position, dof)?;
+    let dphi = match parts.dissipation {
+        Some(phi) => gradient(graph, phi, Wrt::Velocity, dof)?,
+        None => vec![None; dof],
+    };
     let mut force = Vec::with_capacity(dof);
     for i in 0..dof {
-        let dl = tangents(graph, &[lagrangian], &Seeds::new().coord(i, one))?[0];
-        let dphi = match parts.dissipation {
-            Some(phi) => tangents(graph, &[phi], &Seeds::new().velocity(i, one))?[0],
-            None => None,
-        };
+        let (dl, dphi) = (dl[i], dphi[i]);
         let q = parts.forces.as_ref().map(|q| q[i]);
         let mut s = Simplify(graph);
         let f = s.sum(q, dl)?;

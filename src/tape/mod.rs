@@ -33,8 +33,8 @@
 //! ([`Function`], the evaluation and its jet fast path), `jet.rs` (the jet arithmetic),
 //! `particles.rs` ([`TapeParticles`]) and `energy.rs` ([`EnergyModel`]).
 //!
-//! Derivatives as expressions: `derive.rs` ([`tangent`], [`tangents`], [`Seeds`]) differentiates
-//! on the graph itself (forward mode, simplified and hash-consed as it builds), and
+//! Derivatives as expressions: `derive.rs` ([`tangent`], [`tangents`], [`Seeds`], [`gradient`])
+//! differentiates on the graph itself (forward mode and reverse-mode gradients, simplified and hash-consed as it builds), and
 //! `eom_program.rs` ([`eom_graph`], [`EomProgram`], [`EomFunction`]) derives eq. 55 — M's entries
 //! and one force vector — as nodes and compiles them into one tape evaluated in plain `f64`.
 //!
@@ -81,7 +81,7 @@ mod particles;
 
 use compile::Input;
 pub use compile::{Inputs, Tape};
-pub use derive::{Seeds, tangent, tangents};
+pub use derive::{Seeds, Wrt, gradient, tangent, tangents};
 pub use energy::{EnergyModel, TapeSystem};
 pub use eom_program::{Energies, EomFunction, EomGraph, EomProgram, eom_graph};
 pub use eval::Function;
