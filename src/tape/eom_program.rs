@@ -100,7 +100,10 @@ pub fn eom_graph(graph: &mut Graph, dof: usize, parts: &Energies) -> Result<EomG
         }
     }
     // (∂²T/∂q̇∂q) q̇ + ∂²T/∂q̇∂t: one sweep of p along (q, t) ↦ (q̇, 1).
-    let mut motion = Seeds::new().time(one);
+    let mut motion = Seeds::new();
+    if reads(graph)[t] & TIME != 0 {
+        motion = motion.time(one);
+    }
     for j in 0..dof {
         let v = graph.velocity(j);
         motion = motion.coord(j, v);
