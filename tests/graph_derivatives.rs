@@ -562,6 +562,17 @@ fn check_against_energy_model(model: &Model, seed: u64) {
     let program = model.program();
     let eom = program.bind(&model.params).unwrap();
     let n = model.dof;
+    // Momenta and energy function from the derived graph, as a tape of their own.
+    let mut g = model.graph.clone();
+    let derived = eom_graph(&mut g, n, &model.parts).unwrap();
+    let mut roots = derived.momenta.clone();
+    roots.push(derived.energy);
+    let inputs = Inputs::kinetic(n, model.params.len());
+    let extra = Function::new(
+        Tape::new(&g, &roots, inputs, "p, h").unwrap().into(),
+        &model.params,
+    )
+    .unwrap();
     let mut rng = Rng(seed);
     let (mut got, mut m, mut f) = (vec![0.0; n], vec![0.0; n * n], vec![0.0; n]);
     for _ in 0..20 {
@@ -579,6 +590,23 @@ fn check_against_energy_model(model: &Model, seed: u64) {
                 want[i]
             );
         }
+        let (want_p, want_h) = (
+            energy.momenta(t, &q, &qd).unwrap(),
+            energy.energy(t, &q, &qd).unwrap(),
+        );
+        let mut ph = vec![0.0; n + 1];
+        extra.eval_into(t, &q, &qd, &mut ph);
+        let scale = want_p
+            .iter()
+            .fold(want_h.abs().max(1.0), |a, x| a.max(x.abs()));
+        for i in 0..n {
+            assert!((ph[i] - want_p[i]).abs() <= 1e-13 * scale, "p[{i}]");
+        }
+        assert!(
+            (ph[n] - want_h).abs() <= 1e-13 * scale,
+            "h {} {want_h}",
+            ph[n]
+        );
         let want_m = energy.mass_matrix(t, &q, &qd).unwrap();
         eom.mass_and_force(t, &q, &qd, &mut m, &mut f);
         let scale = want_m.iter().fold(1.0_f64, |a, x| a.max(x.abs()));
@@ -736,8 +764,8 @@ fn eom_program_speed() {
             .chain([4, 8, 16, 32].map(|n| (format!("chain n = {n}"), chain(n))))
             .collect();
     println!(
-        "{:>16} {:>8} {:>8} {:>10} {:>12} {:>12}",
-        "model", "T ins", "eom ins", "build ms", "derived ns", "energy ns"
+        "{:>16} {:>8} {:>8} {:>10} {:>12} {:>12} {:>12}",
+        "model", "T ins", "eom ins", "build ms", "derived ns", "M, f ns", "energy ns"
     );
     for (name, model) in cases {
         let n = model.dof;
@@ -760,6 +788,17 @@ fn eom_program_speed() {
             )
             .unwrap()
         });
+        let (mut m, mut f) = (vec![0.0; n * n], vec![0.0; n]);
+        let program_ns = time(calls, |k| {
+            eom.mass_and_force(
+                black_box(k as f64 * 1e-6),
+                black_box(&q),
+                black_box(&qd),
+                &mut m,
+                &mut f,
+            )
+        });
+        black_box((&m, &f));
         let energy_ns = time(calls / 4, |k| {
             energy
                 .accelerations_into(
@@ -771,7 +810,7 @@ fn eom_program_speed() {
                 .unwrap()
         });
         println!(
-            "{name:>16} {t_ins:>8} {:>8} {build:>10.2} {derived:>12.0} {energy_ns:>12.0}",
+            "{name:>16} {t_ins:>8} {:>8} {build:>10.2} {derived:>12.0} {program_ns:>12.0} {energy_ns:>12.0}",
             program.tape().instructions()
         );
     }

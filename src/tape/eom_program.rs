@@ -44,6 +44,11 @@ pub struct EomGraph {
     pub mass: Vec<usize>,
     /// f, one node per coordinate.
     pub force: Vec<usize>,
+    /// The momenta p = ∂L/∂q̇ = ∂T/∂q̇ (not compiled into the accelerations' tape; for a tape of
+    /// their own).
+    pub momenta: Vec<usize>,
+    /// The energy function h = q̇·p − L (likewise).
+    pub energy: usize,
     /// Whether every entry of M is free of t, q and q̇ (then M is computed and factored once).
     pub constant_mass: bool,
     /// Whether some entry of M or f reads t.
@@ -130,6 +135,15 @@ pub fn eom_graph(graph: &mut Graph, dof: usize, parts: &Energies) -> Result<EomG
         let f = s.diff(f, dphi)?;
         force.push(f.unwrap_or(zero));
     }
+    let momenta: Vec<usize> = p.iter().map(|d| d.unwrap_or(zero)).collect();
+    let mut s = Simplify(graph);
+    let mut qp = None;
+    for (i, &pi) in momenta.iter().enumerate() {
+        let v = s.0.velocity(i);
+        let term = s.mul(v, pi)?;
+        qp = s.sum(qp, Some(term))?;
+    }
+    let energy = s.diff(qp, Some(lagrangian))?.unwrap_or(zero);
     let r = reads(graph);
     let constant_mass = mass
         .iter()
@@ -139,6 +153,8 @@ pub fn eom_graph(graph: &mut Graph, dof: usize, parts: &Energies) -> Result<EomG
         dof,
         mass,
         force,
+        momenta,
+        energy,
         constant_mass,
         time,
     })
