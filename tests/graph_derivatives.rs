@@ -678,6 +678,11 @@ fn eom_program_detects_constant_mass_matrix() {
     };
     let program = model.program();
     assert!(program.constant_mass_matrix());
+    // M's entries are constants of the tape: the program costs what f alone costs.
+    let mut g = model.graph.clone();
+    let derived = eom_graph(&mut g, 2, &model.parts).unwrap();
+    let f_only = Tape::new(&g, &derived.force, Inputs::kinetic(2, 3), "f").unwrap();
+    assert_eq!(program.tape().instructions(), f_only.instructions());
     check_against_energy_model(&model, 7);
     // Not constant: the double pendulum and a chain.
     assert!(!double_pendulum().program().constant_mass_matrix());
