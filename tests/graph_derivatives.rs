@@ -839,3 +839,45 @@ fn eom_program_size_breakdown() {
         );
     }
 }
+
+#[test]
+fn eom_program_non_finite_accelerations_are_a_typed_error() {
+    // U = 1/q: the force is infinite at q = 0, in both routes the same error.
+    let mut graph = Graph::new();
+    let mut b = B(&mut graph);
+    let (v, x) = (b.0.velocity(0), b.0.coord(0));
+    let kinetic = b.sq(v);
+    let one = b.c(1.0);
+    let potential = b.b(Binary::Div, one, x);
+    let model = Model {
+        graph,
+        dof: 1,
+        parts: Energies {
+            kinetic,
+            potential: Some(potential),
+            ..Energies::default()
+        },
+        params: vec![],
+    };
+    let mut g = model.graph.clone();
+    let derived = eom_graph(&mut g, 1, &model.parts).unwrap();
+    assert!(!derived.time && derived.constant_mass);
+    let eom = model.program().bind(&[]).unwrap();
+    let mut out = [0.0];
+    let err = eom
+        .accelerations(0.25, &[0.0], &[1.0], &mut out)
+        .unwrap_err();
+    assert_eq!(
+        err,
+        Error::NonFinite {
+            what: "accelerations",
+            t: 0.25
+        }
+    );
+    let mut want = [0.0];
+    let energy = model
+        .energy_model()
+        .accelerations_into(0.25, &[0.0], &[1.0], &mut want)
+        .unwrap_err();
+    assert_eq!(err, energy);
+}
