@@ -77,8 +77,8 @@ impl Dynamics for ClosedDoublePendulum {
     }
     fn potential_gradient_into<D: Scalar>(&self, _t: D, q: &[D], out: &mut [D]) {
         let DoublePendulum { m1, m2, l1, l2, g } = self.0;
-        out[0] += q[0].sin() * ((m1 + m2) * g * l1);
-        out[1] += q[1].sin() * (m2 * g * l2);
+        out[0] = q[0].sin() * ((m1 + m2) * g * l1);
+        out[1] = q[1].sin() * (m2 * g * l2);
     }
     fn generalized_forces_into<D: Scalar>(&self, _t: D, _q: &[D], _qd: &[D], out: &mut [D]) {
         out.fill(D::zero());
@@ -172,7 +172,7 @@ impl Dynamics for ClosedNPendulum {
     }
     fn potential_gradient_into<D: Scalar>(&self, _t: D, q: &[D], out: &mut [D]) {
         for (k, o) in out.iter_mut().enumerate() {
-            *o += q[k].sin() * (self.tail[k] * self.chain.g * self.chain.lengths[k]);
+            *o = q[k].sin() * (self.tail[k] * self.chain.g * self.chain.lengths[k]);
         }
     }
     fn generalized_forces_into<D: Scalar>(&self, _t: D, _q: &[D], _qd: &[D], out: &mut [D]) {

@@ -51,7 +51,7 @@ pub trait Dynamics {
     /// Potential energy U(t, q) of every conservative force (gravity of particles included).
     fn potential_energy<D: Scalar>(&self, t: D, q: &[D]) -> D;
 
-    /// ∂U/∂q added into `out`.
+    /// ∂U/∂q, written to `out`.
     fn potential_gradient_into<D: Scalar>(&self, t: D, q: &[D], out: &mut [D]);
 
     /// Non-conservative, non-dissipative generalized forces Q″ (eq. 39, 55), written to `out`.
@@ -160,15 +160,6 @@ pub(crate) fn finite(values: &[f64], what: &'static str, t: f64) -> Result<()> {
     }
 }
 
-/// Check that the real parts of the accelerations are finite.
-pub(crate) fn finite_re<D: Scalar>(values: &[D], what: &'static str, t: D) -> Result<()> {
-    if values.iter().all(|v| v.re().is_finite()) {
-        Ok(())
-    } else {
-        Err(Error::NonFinite { what, t: t.re() })
-    }
-}
-
 /// Check the lengths the generic `*_into` methods are called with.
 pub(crate) fn check_lengths<D>(n: usize, q: &[D], qd: &[D], out: &[D]) -> Result<()> {
     for (what, len) in [("q", q.len()), ("qd", qd.len()), ("output", out.len())] {
@@ -182,17 +173,3 @@ pub(crate) fn check_lengths<D>(n: usize, q: &[D], qd: &[D], out: &[D]) -> Result
     }
     Ok(())
 }
-
-/// Call a const-generic method with `C` = the number of coordinates (up to the chunk size) and
-/// `C2 = 2 C`.
-macro_rules! by_dof {
-    ($n:expr, $this:ident . $f:ident ( $($arg:expr),* $(,)? )) => {
-        match $n {
-            1 => $this.$f::<1, 2, _>($($arg),*),
-            2 => $this.$f::<2, 4, _>($($arg),*),
-            3 => $this.$f::<3, 6, _>($($arg),*),
-            _ => $this.$f::<{ $crate::derivatives::CHUNK }, { 2 * $crate::derivatives::CHUNK }, _>($($arg),*),
-        }
-    };
-}
-pub(crate) use by_dof;

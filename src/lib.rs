@@ -31,8 +31,8 @@
 //! assert_relative_eq!(qdd[0], -9.81 / 2.0 * 0.3_f64.sin(), epsilon = 1e-14);
 //! ```
 
-mod derivatives;
 mod dynamics;
+mod eom;
 mod error;
 pub mod integrators;
 mod linalg;

@@ -10,12 +10,10 @@
 //! with Cartesian forces F_j mapped by eq. 21/39. This is cheaper than differentiating T twice
 //! and gives the same accelerations as the energy route (tests prove it).
 
-use crate::derivatives::{Wrt, gradient};
-use crate::dynamics::{Dynamics, Structure, by_dof, check_lengths, finite_re};
+use crate::dynamics::{Dynamics, Structure, check_lengths};
+use crate::eom::{Forces, by_dof};
 use crate::error::Result;
-use crate::linalg::{ldlt_in_place, ldlt_solve};
 use crate::scalar::{Grad, grad_const, grad_part, grad_seed, with_buf};
-use crate::system::singular;
 use crate::{Dissipation, GeneralizedForces, KineticEnergy, Potential, Scalar, System};
 use num_dual::{Dual, Dual2};
 
@@ -463,20 +461,11 @@ where
             .with_forces((&self.forces, mapped))
     }
 
-    /// Q″ + ∂(−U)/∂q − ∂Φ/∂q̇ of the parts given in generalized coordinates.
-    fn generalized_terms<const C: usize, D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        out.fill(D::zero());
-        if self.forces.is_present() {
-            self.forces.forces(t, q, qd, out);
-        }
-        if self.potential.is_present() {
-            let f = |t, q: &[_], _qd: &[_]| self.potential.potential(t, q);
-            gradient::<C, D, _>(t, q, qd, Wrt::Position, -1.0, f, out);
-        }
-        if self.dissipation.is_present() {
-            let f = |t, q: &[_], qd: &[_]| self.dissipation.dissipation(t, q, qd);
-            gradient::<C, D, _>(t, q, qd, Wrt::Velocity, -1.0, f, out);
-        }
+    /// U, Φ and Q″ (the parts given in generalized coordinates), for the shared assembly of
+    /// eq. 55.
+    #[inline(always)]
+    fn parts(&self) -> Forces<'_, U, R, Q> {
+        Forces::new(&self.potential, &self.dissipation, &self.forces)
     }
 
     fn accelerations_dof<const C: usize, const C2: usize, D: Scalar>(
@@ -494,9 +483,10 @@ where
         }
     }
 
-    /// J from one vector-dual pass per chunk of C coordinates, and r, ṙ and the acceleration at
-    /// q̈ = 0 from one second-order pass along (q̇, 1). (A single nested `Dual2<Grad>` pass
-    /// measured 5× slower: num-dual's nested `sin_cos` dominates.)
+    /// Eq. 55 with M = Σ m_j J_jᵀJ_j and the particles' terms Σ J_jᵀ(F_j − m_j a_j): J from one
+    /// vector-dual pass per chunk of C coordinates, and r, ṙ and the acceleration a_j at q̈ = 0
+    /// from one second-order pass along (q̇, 1). (A single nested `Dual2<Grad>` pass measured 5×
+    /// slower: num-dual's nested `sin_cos` dominates.) The rest from [`crate::eom`].
     #[inline(always)]
     fn accelerations_n<const C: usize, D: Scalar>(
         &self,
@@ -509,35 +499,39 @@ where
         let (q, qd, out) = (&q[..n], &qd[..n], &mut out[..n]);
         let p = &self.particles;
         let (na, dim) = (p.coordinates_len(), p.dim());
-        self.generalized_terms::<C, D>(t, q, qd, out);
         let zero = D::zero();
-        with_buf::<D, 36, _>(na * n, zero, |jac| {
-            with_buf::<D, 12, _>(na, zero, |r| {
-                with_buf::<D, 12, _>(na, zero, |v| {
-                    with_buf::<D, 12, _>(na, zero, |f| {
-                        jacobian::<C, D, P>(p, t, q, jac);
-                        motion(p, t, q, qd, r, v, f);
-                        // f holds the accelerations at q̈ = 0; turn it into F_j − m_j a_j.
-                        for (j, fj) in f.chunks_exact_mut(dim).enumerate() {
-                            let m = p.mass(j);
-                            for (d, fk) in fj.iter_mut().enumerate() {
-                                *fk = D::from(m * self.gravity[d]) - *fk * m;
-                            }
-                        }
-                        if self.cartesian.is_present() {
-                            self.cartesian.forces(t, r, v, f);
-                        }
-                        project(jac, n, f, out);
-                        with_buf::<D, 16, _>(n * n, zero, |m| {
-                            particle_mass_matrix(p, jac, n, m);
-                            ldlt_in_place(m, n).map_err(|e| singular(e.reason(), t, q))?;
-                            ldlt_solve(&*m, n, out);
-                            finite_re(out, "accelerations", t)
+        self.parts().accelerations::<C, D>(
+            t,
+            q,
+            qd,
+            out,
+            #[inline(always)]
+            |m, rhs| {
+                with_buf::<D, 36, _>(na * n, zero, |jac| {
+                    with_buf::<D, 12, _>(na, zero, |r| {
+                        with_buf::<D, 12, _>(na, zero, |v| {
+                            with_buf::<D, 12, _>(na, zero, |f| {
+                                jacobian::<C, D, P>(p, t, q, jac);
+                                motion(p, t, q, qd, r, v, f);
+                                // f holds the accelerations at q̈ = 0; turn it into F_j − m_j a_j.
+                                for (j, fj) in f.chunks_exact_mut(dim).enumerate() {
+                                    let m = p.mass(j);
+                                    for (d, fk) in fj.iter_mut().enumerate() {
+                                        *fk = D::from(m * self.gravity[d]) - *fk * m;
+                                    }
+                                }
+                                if self.cartesian.is_present() {
+                                    self.cartesian.forces(t, r, v, f);
+                                }
+                                project(jac, n, f, rhs);
+                                particle_mass_matrix(p, jac, n, m);
+                            })
                         })
                     })
-                })
-            })
-        })
+                });
+                false
+            },
+        )
     }
 
     fn mass_matrix_dof<const C: usize, const C2: usize, D: Scalar>(
@@ -591,8 +585,8 @@ where
             g: self.gravity,
         };
         let u = (gravity, &self.potential);
-        let f = |t, q: &[_], _qd: &[_]| u.potential(t, q);
-        gradient::<C, D, _>(t, q, q, Wrt::Position, 1.0, f, out);
+        out.fill(D::zero());
+        Forces::new(&u, &(), &()).add_potential_gradient::<C, D>(t, q, 1.0, out);
     }
 }
 

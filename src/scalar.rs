@@ -89,7 +89,8 @@ pub(crate) fn hyper_mixed<D: Scalar, const M: usize, const N: usize>(
 /// The stack buffer starts zeroed: num-dual's derivative parts are `Option`s, and where a pass is
 /// not inlined the compiler computes on the payload of a `None` speculatively. Uninitialised
 /// payload bytes are often subnormal as doubles, and each subnormal operation costs ~100 cycles
-/// (an out-of-line double-pendulum call measured 450 ns with them, 144 ns zeroed).
+/// (an out-of-line double-pendulum call in benches/eom.rs measured several times slower
+/// with them than zeroed).
 #[inline(always)]
 pub(crate) fn with_buf<L: Copy, const CAP: usize, R>(
     len: usize,

@@ -222,7 +222,6 @@ impl<'a, S: Dynamics> StaticProblem<'a, S> {
     /// ∂U/∂q into `grad` and Q″(t, q, 0) into `load`, on any scalar.
     fn terms<D: Scalar>(&self, q: &[D], grad: &mut [D], load: &mut [D]) {
         let t = D::from(self.t);
-        grad.fill(D::zero());
         self.system.potential_gradient_into(t, q, grad);
         load.fill(D::zero());
         if self.forced {

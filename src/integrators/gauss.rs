@@ -24,9 +24,10 @@
 //! iteration runs to round-off, so the reuse changes the work, not the result. Starting values
 //! come from the previous step's collocation polynomial.
 
-use super::newton::{self, Convergence, ForceParts, ImplicitStep, Legendre, Lu, Verdict};
+use super::newton::{self, Convergence, ImplicitStep, Legendre, Lu, Verdict};
 use super::{Integrator, Run};
 use crate::dynamics::Dynamics;
+use crate::eom::ForceParts;
 use crate::error::{Error, Result};
 use nalgebra::DMatrix;
 use num_dual::Dual64;

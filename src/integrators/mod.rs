@@ -51,6 +51,7 @@
 //! assert_relative_eq!(q[0], 0.1 * (9.81_f64.sqrt() * 2.0).cos(), epsilon = 2e-3);
 //! ```
 
+mod auto;
 mod dense;
 mod gauss;
 mod newton;
@@ -59,6 +60,7 @@ mod radau;
 mod runge_kutta;
 mod solution;
 mod stability;
+mod stiffness;
 mod symplectic;
 mod tableau;
 mod variational;
@@ -371,82 +373,6 @@ impl<S: Dynamics + ?Sized> Run<'_, S> {
     }
 }
 
-/// Choose a method from the system's structure, the options and the initial state (the rule
-/// is documented on [`Method::Auto`]); the reason goes to the statistics.
-fn choose<S: Dynamics + ?Sized>(
-    system: &S,
-    t0: f64,
-    q0: &[f64],
-    qd0: &[f64],
-    t_end: f64,
-    options: &Options,
-) -> (Method, String) {
-    let s = system.structure();
-    if options.dt.is_some() && s.conservative() {
-        return if s.separable {
-            (
-                Method::BlanesMoan4,
-                "separable (constant M, U(q)) and conservative, with a fixed dt: the symplectic \
-                 Blanes–Moan SRKN of order 4 keeps the energy error bounded over long runs"
-                    .into(),
-            )
-        } else {
-            (
-                Method::Gauss4,
-                "conservative but not separable (M depends on q, or gyroscopic or \
-                 velocity-dependent terms), with a fixed dt: Gauss–Legendre of order 4 on (q, p) \
-                 is symplectic for any Lagrangian and keeps the energy error bounded"
-                    .into(),
-            )
-        };
-    }
-    let stiffness = radau::estimate_stiffness(system, t0, q0, qd0, t_end - t0);
-    if let Some(est) = stiffness.filter(|e| e.stiff()) {
-        return (
-            Method::Radau5,
-            format!(
-                "stiff: at the initial state the fastest decaying mode (|λ| ≈ {:.3e}) is {:.0} \
-                 times faster than every mode the solution must follow (|λ| ≈ {:.3e}, at least \
-                 1/span), so an explicit step would be limited by stability; Radau IIA of order \
-                 5 is L-stable",
-                est.fastest,
-                est.ratio(),
-                est.resolved
-            ),
-        );
-    }
-    let not_stiff = match stiffness {
-        Some(est) => format!(
-            "not stiff (fastest mode |λ| ≈ {:.3e}, {:.0} times the slowest one to follow)",
-            est.fastest,
-            est.ratio()
-        ),
-        None => "not tested for stiffness (over 64 coordinates, or no Jacobian at the initial \
-                 state)"
-            .into(),
-    };
-    let why = match options.dt {
-        Some(_) => format!(
-            "fixed dt on a system that is forced, dissipative or time-dependent, {not_stiff}: \
-             DOP853 (order 8) at that step"
-        ),
-        None if s.conservative() => format!(
-            "tolerances given, {not_stiff}: DOP853 with error control, dense output and \
-             stiffness detection (the symplectic methods, {}, need a fixed dt)",
-            if s.separable {
-                "blanes_moan4"
-            } else {
-                "gauss4"
-            }
-        ),
-        None => format!(
-            "tolerances given, {not_stiff}: DOP853 with error control, dense output and \
-             stiffness detection"
-        ),
-    };
-    (Method::Dop853, why)
-}
-
 /// Integrate `system` from (q₀, q̇₀) at `span.0` to `span.1` (backwards when `span.1 <
 /// span.0`) with `method`.
 ///
@@ -527,7 +453,7 @@ fn solve_inner<S: Dynamics + ?Sized>(
     options.validate(t0, t_end)?;
     let (method, choice) = match method {
         Method::Auto => {
-            let (m, why) = choose(system, t0, q0, qd0, t_end, options);
+            let (m, why) = auto::choose(system, t0, q0, qd0, t_end, options);
             (m, Some(why))
         }
         m => (m, None),

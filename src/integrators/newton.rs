@@ -1,18 +1,17 @@
 //! What the implicit methods share: Jacobians by forward-mode AD (the system's generic
 //! `*_into` methods evaluated on [`Dual64`], one direction per column — no finite differences),
-//! an in-place LU factorization, the convergence test of a Newton iteration, the force
-//! G = ∂L/∂q + Q″ − ∂Φ/∂q̇ of the (q, p) form of eq. 55, and the inverse Legendre map
-//! p ↦ q̇.
+//! an in-place LU factorization, the convergence test of a Newton iteration, and the inverse
+//! Legendre map p ↦ q̇. The force G = ∂L/∂q + Q″ − ∂Φ/∂q̇ of the (q, p) form of eq. 55 is
+//! [`crate::eom`]'s `ForceParts`.
 //!
 //! Every buffer is allocated once per run, so the step loops do not touch the allocator.
 
 use super::dense::{self, Ends};
 use super::{Run, Statistics};
-use crate::Scalar;
-use crate::derivatives::{CHUNK, Wrt, gradient};
 use crate::dynamics::Dynamics;
+use crate::eom;
 use crate::error::{Error, Result};
-use crate::linalg::{ldlt_in_place, ldlt_solve};
+use crate::linalg::ldlt_solve;
 use nalgebra::{ComplexField, DMatrix};
 use num_dual::Dual64;
 
@@ -148,83 +147,6 @@ pub(crate) fn acceleration_jacobian<S: Dynamics + ?Sized>(
     jacobian(y, xd, fd, jac, |x, out| {
         system.accelerations_into(td, &x[..n], &x[n..], out)
     })
-}
-
-fn lagrangian_gradient_chunk<const C: usize, S: Dynamics + ?Sized, D: Scalar>(
-    system: &S,
-    t: D,
-    q: &[D],
-    v: &[D],
-    out: &mut [D],
-) {
-    gradient::<C, D, _>(
-        t,
-        q,
-        v,
-        Wrt::Position,
-        1.0,
-        |t, q, v| system.lagrangian(t, q, v),
-        out,
-    );
-}
-
-/// Which parts of the force G = ∂L/∂q + Q″ − ∂Φ/∂q̇ a system has.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct ForceParts {
-    /// T does not depend on q: ∂L/∂q = −∂U/∂q, one pass of U only.
-    separable: bool,
-    forced: bool,
-    dissipative: bool,
-}
-
-impl ForceParts {
-    pub(crate) fn of<S: Dynamics + ?Sized>(system: &S) -> Self {
-        let s = system.structure();
-        Self {
-            separable: s.separable,
-            forced: s.forced,
-            dissipative: s.dissipative,
-        }
-    }
-
-    /// G = ∂L/∂q + Q″ − ∂Φ/∂q̇ at (t, q, q̇) into `g`: the right-hand side of ṗ = G, the
-    /// (q, p) form of eq. 55. `tmp` has the length of q.
-    pub(crate) fn force_into<S: Dynamics + ?Sized, D: Scalar>(
-        self,
-        system: &S,
-        t: D,
-        q: &[D],
-        v: &[D],
-        g: &mut [D],
-        tmp: &mut [D],
-    ) {
-        g.fill(D::zero());
-        if self.separable {
-            system.potential_gradient_into(t, q, g);
-            for x in g.iter_mut() {
-                *x = -*x;
-            }
-        } else {
-            match q.len() {
-                1 => lagrangian_gradient_chunk::<1, S, D>(system, t, q, v, g),
-                2 => lagrangian_gradient_chunk::<2, S, D>(system, t, q, v, g),
-                3 => lagrangian_gradient_chunk::<3, S, D>(system, t, q, v, g),
-                _ => lagrangian_gradient_chunk::<CHUNK, S, D>(system, t, q, v, g),
-            }
-        }
-        if self.forced {
-            system.generalized_forces_into(t, q, v, tmp);
-            for (x, f) in g.iter_mut().zip(tmp.iter()) {
-                *x += *f;
-            }
-        }
-        if self.dissipative {
-            system.dissipative_forces_into(t, q, v, tmp);
-            for (x, f) in g.iter_mut().zip(tmp.iter()) {
-                *x += *f;
-            }
-        }
-    }
 }
 
 /// Increments below this (relative) size are round-off.
@@ -374,7 +296,7 @@ impl Legendre {
     ) -> Result<()> {
         let n = q.len();
         system.mass_matrix_into(t, q, v, &mut self.mass);
-        ldlt_in_place(&mut self.mass, n).map_err(|f| crate::system::singular(f.reason(), t, q))?;
+        eom::factor(&mut self.mass, n, t, q)?;
         stats.factorizations += 1;
         let mut conv = Convergence::new(LEGENDRE_ITERATIONS);
         loop {

@@ -463,16 +463,6 @@ impl Integrator for ExplicitRk {
         true
     }
 
-    fn fits<S: Dynamics + ?Sized>(
-        &self,
-        _system: &S,
-        _t0: f64,
-        _q0: &[f64],
-        _qd0: &[f64],
-    ) -> std::result::Result<(), String> {
-        Ok(())
-    }
-
     fn integrate<S: Dynamics + ?Sized>(&self, run: &mut Run<'_, S>) -> Result<()> {
         let mut c = Cache::new(&self.tableau, &run.y0);
         let (t0, y0) = (run.t0, run.y0.clone());

@@ -10,8 +10,8 @@
 use super::dense::{self, Ends};
 use super::{Integrator, Run};
 use crate::dynamics::Dynamics;
+use crate::eom;
 use crate::error::{Error, Result};
-use crate::linalg::{ldlt_in_place, ldlt_solve};
 use num_dual::Dual64;
 
 /// The coefficients of a kick–drift splitting: kicks `b` (one more than drifts) and drifts
@@ -216,7 +216,6 @@ impl Kick {
     ) -> Result<()> {
         run.stats.rhs_evaluations += 1;
         run.poll(t)?;
-        out.fill(0.0);
         run.system.potential_gradient_into(t, q, out);
         for o in out.iter_mut() {
             *o = -*o;
@@ -227,15 +226,7 @@ impl Kick {
                 *o += f;
             }
         }
-        ldlt_solve(&self.factor, run.n, out);
-        if out.iter().all(|a| a.is_finite()) {
-            Ok(())
-        } else {
-            Err(Error::NonFinite {
-                what: "accelerations",
-                t,
-            })
-        }
+        eom::solve(&self.factor, run.n, t, out)
     }
 }
 
@@ -293,7 +284,7 @@ impl Integrator for Splitting {
         let (t0, q0, qd0) = (run.t0, &run.y0[..n], &run.y0[n..]);
         let mut factor = vec![0.0; n * n];
         run.system.mass_matrix_into(t0, q0, qd0, &mut factor);
-        ldlt_in_place(&mut factor, n).map_err(|f| crate::system::singular(f.reason(), t0, q0))?;
+        eom::factor(&mut factor, n, t0, q0)?;
         run.stats.factorizations += 1;
         let mut kick = Kick {
             factor,

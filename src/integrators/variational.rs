@@ -19,10 +19,11 @@
 //! for any regular Lagrangian; with dissipation it reproduces the energy decay with no spurious
 //! drift. (It coincides with the one-stage Gauss method on (q, p).)
 
-use super::newton::{self, Convergence, ForceParts, ImplicitStep, Legendre, Lu, Verdict};
+use super::newton::{self, Convergence, ImplicitStep, Legendre, Lu, Verdict};
 use super::{Integrator, Run};
 use crate::Scalar;
 use crate::dynamics::Dynamics;
+use crate::eom::ForceParts;
 use crate::error::{Error, Result};
 use nalgebra::DMatrix;
 use num_dual::Dual64;

@@ -12,11 +12,10 @@ pub use kinetic::KineticEnergy;
 pub use potential::Potential;
 
 use crate::Scalar;
-use crate::derivatives::{InertiaOut, Wrt, gradient, inertia};
-use crate::dynamics::{Dynamics, Structure, by_dof, check_lengths, finite_re};
-use crate::error::{Error, Result};
-use crate::linalg::{ldlt_in_place, ldlt_solve};
-use crate::scalar::with_buf;
+use crate::dynamics::{Dynamics, Structure, check_lengths};
+use crate::eom::passes::{InertiaOut, Wrt, gradient, inertia};
+use crate::eom::{self, Forces, by_dof};
+use crate::error::Result;
 use std::sync::OnceLock;
 
 /// A mechanical system stated by its energies: T, and optionally U, Φ and Q″.
@@ -136,45 +135,10 @@ where
     R: Dissipation,
     Q: GeneralizedForces,
 {
-    /// The terms of eq. 55's right-hand side that T does not give, added into `out`:
-    /// Q″ − ∂U/∂q − ∂Φ/∂q̇. `with_potential: false` leaves out −∂U/∂q, which the one-pass
-    /// inertia scheme has already added.
+    /// U, Φ and Q″, for the shared assembly of eq. 55.
     #[inline(always)]
-    fn force_terms<const C: usize, D: Scalar>(
-        &self,
-        t: D,
-        q: &[D],
-        qd: &[D],
-        with_potential: bool,
-        out: &mut [D],
-    ) {
-        if self.forces.is_present() {
-            self.forces.forces(t, q, qd, out);
-        }
-        if with_potential && self.potential.is_present() {
-            gradient::<C, D, _>(
-                t,
-                q,
-                qd,
-                Wrt::Position,
-                -1.0,
-                #[inline(always)]
-                |t, q, _qd| self.potential.potential(t, q),
-                out,
-            );
-        }
-        if self.dissipation.is_present() {
-            gradient::<C, D, _>(
-                t,
-                q,
-                qd,
-                Wrt::Velocity,
-                -1.0,
-                #[inline(always)]
-                |t, q, qd| self.dissipation.dissipation(t, q, qd),
-                out,
-            );
-        }
+    fn parts(&self) -> Forces<'_, U, R, Q> {
+        Forces::new(&self.potential, &self.dissipation, &self.forces)
     }
 
     /// Whether T gives terms besides M q̈: ∂T/∂q − (∂²T/∂q̇∂q) q̇ − ∂²T/∂q̇∂t.
@@ -197,6 +161,8 @@ where
         }
     }
 
+    /// Eq. 55 with M and T's terms from [`inertia`] (which folds −∂U/∂q into its one pass
+    /// where that pays), the rest from [`crate::eom`].
     #[inline(always)]
     fn accelerations_n<const C: usize, const C2: usize, D: Scalar>(
         &self,
@@ -207,43 +173,43 @@ where
         out: &mut [D],
     ) -> Result<()> {
         let (q, qd, out) = (&q[..n], &qd[..n], &mut out[..n]);
-        out.fill(D::zero());
         let kinetic_terms = self.has_kinetic_terms();
-        if self.kinetic.constant_mass_matrix() {
-            let f = self.constant_factor::<C, C2, D>(t, q, qd)?;
-            let mut with_potential = true;
-            if kinetic_terms {
-                let io = InertiaOut {
-                    mass: None,
-                    kinetic_terms: Some(&mut *out),
-                };
-                with_potential =
-                    !inertia::<C, C2, D, T, U>(&self.kinetic, &self.potential, t, q, qd, io);
-            }
-            self.force_terms::<C, D>(t, q, qd, with_potential, out);
-            ldlt_solve(f, n, out);
-        } else {
-            with_buf::<D, 16, _>(
-                n * n,
-                D::zero(),
+        let (ke, pot) = (&self.kinetic, &self.potential);
+        if ke.constant_mass_matrix() {
+            let m = self.constant_factor::<C, C2, D>(t, q, qd)?;
+            self.parts().accelerations_constant::<C, D>(
+                m,
+                t,
+                q,
+                qd,
+                out,
                 #[inline(always)]
-                |m| {
-                    let io = InertiaOut {
-                        mass: Some(&mut *m),
-                        kinetic_terms: kinetic_terms.then_some(&mut *out),
-                    };
-                    let folded =
-                        inertia::<C, C2, D, T, U>(&self.kinetic, &self.potential, t, q, qd, io);
-                    // Factored before the remaining force terms are computed: the factorization
-                    // is a serial chain of divisions, which the CPU then overlaps with them.
-                    ldlt_in_place(m, n).map_err(|f| singular(f.reason(), t, q))?;
-                    self.force_terms::<C, D>(t, q, qd, !folded, out);
-                    ldlt_solve(&*m, n, out);
-                    Ok(())
+                |rhs| {
+                    kinetic_terms && {
+                        let io = InertiaOut {
+                            mass: None,
+                            kinetic_terms: Some(rhs),
+                        };
+                        inertia::<C, C2, D, T, U>(ke, pot, t, q, qd, io)
+                    }
                 },
-            )?;
+            )
+        } else {
+            self.parts().accelerations::<C, D>(
+                t,
+                q,
+                qd,
+                out,
+                #[inline(always)]
+                |m, rhs| {
+                    let io = InertiaOut {
+                        mass: Some(m),
+                        kinetic_terms: kinetic_terms.then_some(rhs),
+                    };
+                    inertia::<C, C2, D, T, U>(ke, pot, t, q, qd, io)
+                },
+            )
         }
-        finite_re(out, "accelerations", t)
     }
 
     /// The LDLᵀ factor of a constant mass matrix, computed once at the first state seen.
@@ -264,7 +230,7 @@ where
                 kinetic_terms: None,
             };
             inertia::<C, C2, f64, T, ()>(&self.kinetic, &(), tr, &qr, &qdr, io);
-            ldlt_in_place(&mut m, n).map_err(|f| singular(f.reason(), tr, &qr))?;
+            eom::factor(&mut m, n, tr, &qr)?;
             Ok(m)
         });
         factor.as_deref().map_err(Clone::clone)
@@ -302,10 +268,8 @@ where
         q: &[D],
         out: &mut [D],
     ) {
-        if self.potential.is_present() {
-            let f = |t, q: &[_], _qd: &[_]| self.potential.potential(t, q);
-            gradient::<C, D, _>(t, q, q, Wrt::Position, 1.0, f, out);
-        }
+        out.fill(D::zero());
+        self.parts().add_potential_gradient::<C, D>(t, q, 1.0, out);
     }
 
     fn dissipative_forces_dof<const C: usize, const C2: usize, D: Scalar>(
@@ -316,19 +280,7 @@ where
         out: &mut [D],
     ) {
         out.fill(D::zero());
-        if self.dissipation.is_present() {
-            let f = |t, q: &[_], qd: &[_]| self.dissipation.dissipation(t, q, qd);
-            gradient::<C, D, _>(t, q, qd, Wrt::Velocity, -1.0, f, out);
-        }
-    }
-}
-
-/// The typed error for a mass matrix that cannot be factored.
-pub(crate) fn singular<D: Scalar>(reason: &'static str, t: D, q: &[D]) -> Error {
-    Error::SingularMassMatrix {
-        t: t.re(),
-        q: q.iter().map(|x| x.re()).collect(),
-        reason,
+        self.parts().add_dissipative_forces::<C, D>(t, q, qd, out);
     }
 }
 

@@ -1,12 +1,11 @@
 //! [`EnergyModel`]: a model stated at run time by its energies, with the accelerations at `f64`
 //! states from one fused derivative pass of T.
 
-use super::jet::{Chain, First, Jet, Lagrange};
+use super::jet::{Chain, Jet, Lagrange};
 use super::{Function, Input};
-use crate::dynamics::{check_lengths, finite_re};
-use crate::linalg::{ldlt_in_place, ldlt_solve};
-use crate::system::singular;
-use crate::{Dynamics, Error, GeneralizedForces, KineticEnergy, Result, Scalar, Structure, System};
+use crate::dynamics::check_lengths;
+use crate::eom::Forces;
+use crate::{Dynamics, Error, KineticEnergy, Result, Scalar, Structure, System};
 
 /// The [`System`] of tape functions an [`EnergyModel`] wraps.
 pub type TapeSystem = System<Function, Option<Function>, Option<Function>, Option<Function>>;
@@ -107,7 +106,11 @@ impl EnergyModel {
         )
     }
 
-    /// Eq. 55 at an `f64` state with one pass of T (see the type's documentation).
+    /// Eq. 55 at an `f64` state with one pass of T (see the type's documentation); the rest of
+    /// the right-hand side and the LDLᵀ tail are [`crate::eom`]'s, as for every route. U is not folded
+    /// into the pass of T as [`System`] does for one or two coordinates: T and U are separate
+    /// tapes, so L = T − U would be a second run over the heavier jet, while U's own gradient
+    /// pass runs over a first-order one.
     fn fused<const N: usize, const N1: usize>(
         &self,
         t: f64,
@@ -116,86 +119,49 @@ impl EnergyModel {
         out: &mut [f64],
     ) -> Result<()> {
         let s = &self.system;
-        let mut rhs = [0.0; N];
-        if let Some(f) = &s.forces {
-            f.forces(t, q, qd, &mut rhs);
-        }
-        let mut m = [0.0; 64];
-        let m = &mut m[..N * N];
-        // T: first directions q̇, second directions (q̇, motion), first-order directions q.
-        let k = &s.kinetic;
-        let seed = |i: Input| {
-            let mut x = Lagrange::<N, N1>::cst(0.0);
-            match i {
-                Input::Time => {
-                    x.s.re = t;
-                    x.s.e2[N] = 1.0;
-                }
-                Input::Coord(j) => {
-                    x.s.re = q[j];
-                    x.s.e2[N] = qd[j];
-                    x.g[j] = 1.0;
-                }
-                Input::Velocity(j) => {
-                    x.s.re = qd[j];
-                    x.s.e1[j] = 1.0;
-                    x.s.e2[j] = 1.0;
-                }
-            }
-            Jet(x)
-        };
-        k.tape.run(&k.consts, seed, |_, v: Jet<Lagrange<N, N1>>| {
-            let v = v.0;
-            for i in 0..N {
-                rhs[i] += v.g[i] - v.s.e12[i][N];
-                for j in 0..N {
-                    m[i * N + j] = v.s.e12[i][j];
-                }
-            }
-        });
-        // U: its gradient in q.
-        if let Some(u) = &s.potential {
-            let seed = |i: Input| {
-                Jet(match i {
-                    Input::Time => First::cst(t),
-                    Input::Coord(j) => unit::<N>(q[j], j),
-                    Input::Velocity(_) => First::cst(0.0),
-                })
-            };
-            u.tape.run(&u.consts, seed, |_, v: Jet<First<N>>| {
-                for (r, e) in rhs.iter_mut().zip(v.0.e) {
-                    *r -= e;
-                }
-            });
-        }
-        // Φ: its gradient in q̇.
-        if let Some(r) = &s.dissipation {
-            let seed = |i: Input| {
-                Jet(match i {
-                    Input::Time => First::cst(t),
-                    Input::Coord(j) => First::cst(q[j]),
-                    Input::Velocity(j) => unit::<N>(qd[j], j),
-                })
-            };
-            r.tape.run(&r.consts, seed, |_, v: Jet<First<N>>| {
-                for (x, e) in rhs.iter_mut().zip(v.0.e) {
-                    *x -= e;
-                }
-            });
-        }
-        ldlt_in_place(m, N).map_err(|f| singular(f.reason(), t, q))?;
-        ldlt_solve(&*m, N, &mut rhs);
-        out.copy_from_slice(&rhs);
-        finite_re(out, "accelerations", t)
+        let parts = Forces::new(&s.potential, &s.dissipation, &s.forces);
+        parts.accelerations::<N, f64>(
+            t,
+            q,
+            qd,
+            out,
+            #[inline(always)]
+            |m, rhs| {
+                // T: first directions q̇, second directions (q̇, motion), first-order directions q.
+                let k = &s.kinetic;
+                let seed = |i: Input| {
+                    let mut x = Lagrange::<N, N1>::cst(0.0);
+                    match i {
+                        Input::Time => {
+                            x.s.re = t;
+                            x.s.e2[N] = 1.0;
+                        }
+                        Input::Coord(j) => {
+                            x.s.re = q[j];
+                            x.s.e2[N] = qd[j];
+                            x.g[j] = 1.0;
+                        }
+                        Input::Velocity(j) => {
+                            x.s.re = qd[j];
+                            x.s.e1[j] = 1.0;
+                            x.s.e2[j] = 1.0;
+                        }
+                    }
+                    Jet(x)
+                };
+                k.tape.run(&k.consts, seed, |_, v: Jet<Lagrange<N, N1>>| {
+                    let v = v.0;
+                    for i in 0..N {
+                        rhs[i] += v.g[i] - v.s.e12[i][N];
+                        for j in 0..N {
+                            m[i * N + j] = v.s.e12[i][j];
+                        }
+                    }
+                });
+                false
+            },
+        )
     }
-}
-
-/// The jet x + ε_j.
-#[inline(always)]
-fn unit<const N: usize>(x: f64, j: usize) -> First<N> {
-    let mut e = [0.0; N];
-    e[j] = 1.0;
-    First { re: x, e }
 }
 
 impl Dynamics for EnergyModel {
@@ -264,8 +230,9 @@ impl Dynamics for EnergyModel {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ParticleSystem;
     use crate::scenes::{DoublePendulum, DrivenPendulum};
-    use crate::tape::{Binary, Graph, Inputs, Tape, Unary};
+    use crate::tape::{Binary, Graph, Inputs, Tape, TapeParticles, Unary};
     use approx::assert_relative_eq;
     use std::sync::Arc;
 
@@ -296,8 +263,17 @@ mod tests {
         fn sqr(&mut self, a: usize) -> usize {
             self.0.powi(a, 2).unwrap()
         }
+        fn sum(&mut self, terms: &[usize]) -> usize {
+            terms[1..].iter().fold(terms[0], |s, &x| self.add(s, x))
+        }
+        fn prod(&mut self, factors: &[usize]) -> usize {
+            factors[1..].iter().fold(factors[0], |p, &x| self.mul(p, x))
+        }
         fn function(&self, root: usize, inputs: Inputs, params: &[f64]) -> Function {
-            let tape = Tape::new(&self.0, &[root], inputs, "test").unwrap();
+            self.outputs(&[root], inputs, params)
+        }
+        fn outputs(&self, roots: &[usize], inputs: Inputs, params: &[f64]) -> Function {
+            let tape = Tape::new(&self.0, roots, inputs, "test").unwrap();
             Function::new(Arc::new(tape), params).unwrap()
         }
     }
@@ -455,5 +431,196 @@ mod tests {
         assert!(EnergyModel::new(1, k.clone(), Some(k.clone()), None, None).is_err());
         // One force for two coordinates.
         assert!(EnergyModel::new(2, k2.clone(), None, None, Some(k2)).is_err());
+    }
+
+    /// A particle of mass m at r = (x + A sin ωt, y + b x²) in gravity g (T depends on t and q,
+    /// M on q), a spring U = ½ k (x² + y²) + κ x y, Φ = ½ c (ẋ² + ẏ²) + ½ c₂ x² ẏ², and
+    /// Q″ = (F cos νt, −d y ẋ): every term of eq. 55. As a model stated by its energies (T
+    /// written out, U with gravity) and as particles (the positions, gravity, and the same
+    /// spring, Φ and Q″).
+    fn every_term() -> (
+        EnergyModel,
+        ParticleSystem<TapeParticles, Function, Function, Function>,
+    ) {
+        let [m, a, w, bq, g, k, kappa, c, c2, f, nu, d] = [
+            1.3, 0.4, 1.7, 0.6, 9.81, 2.5, 0.3, 0.35, 0.2, 0.8, 1.1, 0.45,
+        ];
+        let mut b = B(Graph::new());
+        let (x, y, vx, vy, t) = (
+            b.0.coord(0),
+            b.0.coord(1),
+            b.0.velocity(0),
+            b.0.velocity(1),
+            b.0.time(),
+        );
+        let cs: Vec<usize> = [a, w, bq, 2.0 * bq, 0.5 * m, m * g, 0.5 * k, kappa]
+            .into_iter()
+            .chain([0.5 * c, 0.5 * c2, f, nu, -d])
+            .map(|v| b.c(v))
+            .collect();
+        let [
+            ca,
+            cw,
+            cb,
+            c2b,
+            chm,
+            cmg,
+            chk,
+            ckap,
+            chc,
+            chc2,
+            cf,
+            cnu,
+            cmd,
+        ] = cs[..]
+        else {
+            unreachable!()
+        };
+        let wt = b.prod(&[cw, t]);
+        let (swt, cwt) = (b.un(Unary::Sin, wt), b.un(Unary::Cos, wt));
+        let (x2, y2, vx2, vy2) = (b.sqr(x), b.sqr(y), b.sqr(vx), b.sqr(vy));
+        // r = (x + A sin ωt, y + b x²) and ṙ = (ẋ + A ω cos ωt, ẏ + 2 b x ẋ).
+        let moved = [b.prod(&[ca, swt]), b.prod(&[cb, x2])];
+        let (rx, ry) = (b.sum(&[x, moved[0]]), b.sum(&[y, moved[1]]));
+        let moving = [b.prod(&[ca, cw, cwt]), b.prod(&[c2b, x, vx])];
+        let (vrx, vry) = (b.sum(&[vx, moving[0]]), b.sum(&[vy, moving[1]]));
+        let speed2 = [b.sqr(vrx), b.sqr(vry)];
+        let v2 = b.sum(&speed2);
+        let kinetic = b.prod(&[chm, v2]);
+        // The spring, and U = m g r_y + spring.
+        let parts = [
+            b.prod(&[chk, x2]),
+            b.prod(&[chk, y2]),
+            b.prod(&[ckap, x, y]),
+        ];
+        let spring = b.sum(&parts);
+        let weight = b.prod(&[cmg, ry]);
+        let potential = b.sum(&[weight, spring]);
+        // Φ and Q″.
+        let parts = [
+            b.prod(&[chc, vx2]),
+            b.prod(&[chc, vy2]),
+            b.prod(&[chc2, x2, vy2]),
+        ];
+        let dissipation = b.sum(&parts);
+        let nut = b.prod(&[cnu, t]);
+        let cnt = b.un(Unary::Cos, nut);
+        let (q0, q1) = (b.prod(&[cf, cnt]), b.prod(&[cmd, y, vx]));
+        let (ki, po) = (Inputs::kinetic(2, 0), Inputs::potential(2, 0));
+        let (phi, forces) = (
+            b.function(dissipation, ki, &[]),
+            b.outputs(&[q0, q1], ki, &[]),
+        );
+        let model = EnergyModel::new(
+            2,
+            b.function(kinetic, ki, &[]),
+            Some(b.function(potential, po, &[])),
+            Some(phi.clone()),
+            Some(forces.clone()),
+        )
+        .unwrap();
+        let positions = TapeParticles::new(2, 2, b.outputs(&[rx, ry], po, &[]), vec![m]).unwrap();
+        let particles = ParticleSystem::new(positions)
+            .with_gravity([0.0, -g, 0.0])
+            .with_potential(b.function(spring, po, &[]))
+            .with_dissipation(phi)
+            .with_forces(forces);
+        (model, particles)
+    }
+
+    /// q̈ from the (q, p) form: ṗ = G with ṗ = ∂p/∂t + (∂p/∂q) q̇ + M q̈, so
+    /// q̈ = M⁻¹ (G − ∂p/∂t − (∂p/∂q) q̇), the derivative of p along (1, q̇, 0) by one dual pass.
+    fn qp_accelerations<S: Dynamics>(system: &S, t: f64, q: &[f64], qd: &[f64]) -> Vec<f64> {
+        use num_dual::Dual64;
+        let n = q.len();
+        let (mut g, mut tmp) = (vec![0.0; n], vec![0.0; n]);
+        crate::eom::ForceParts::of(system).force_into(system, t, q, qd, &mut g, &mut tmp);
+        let td = Dual64::new(t, 1.0);
+        let qdual: Vec<Dual64> = q.iter().zip(qd).map(|(&x, &v)| Dual64::new(x, v)).collect();
+        let vdual: Vec<Dual64> = qd.iter().map(|&v| Dual64::from_re(v)).collect();
+        let mut p = vec![Dual64::from_re(0.0); n];
+        system.momenta_into(td, &qdual, &vdual, &mut p);
+        let rhs: Vec<f64> = g.iter().zip(&p).map(|(g, p)| g - p.eps).collect();
+        let m = system.mass_matrix(t, q, qd).unwrap();
+        m.lu()
+            .solve(&nalgebra::DVector::from_vec(rhs))
+            .unwrap()
+            .as_slice()
+            .to_vec()
+    }
+
+    /// The four routes of eq. 55 — the energy route (U folded into T's pass), the tape's fused
+    /// jet pass, the particle route, and the (q, p) form of each — agree on a system with every
+    /// term: T depending on t and q, U, Φ and Q″.
+    #[test]
+    fn accelerations_every_term_four_routes() {
+        let (model, particles) = every_term();
+        let energy = particles.energy_route();
+        assert!(model.fused);
+        let s = model.structure();
+        assert!(s.time_dependent && s.dissipative && s.forced && !s.constant_mass);
+        for (t, q, qd) in [
+            (0.0, [0.3, -0.4], [0.0, 0.0]),
+            (0.7, [1.1, 0.5], [0.8, -1.3]),
+            (2.9, [-0.6, 1.7], [-2.1, 0.4]),
+        ] {
+            let want = energy.accelerations(t, &q, &qd).unwrap();
+            let routes = [
+                ("tape", model.accelerations(t, &q, &qd).unwrap()),
+                (
+                    "tape, generic",
+                    model.system().accelerations(t, &q, &qd).unwrap(),
+                ),
+                ("particles", particles.accelerations(t, &q, &qd).unwrap()),
+            ];
+            let qp = [
+                ("(q, p) energy", qp_accelerations(&energy, t, &q, &qd)),
+                ("(q, p) tape", qp_accelerations(&model, t, &q, &qd)),
+                ("(q, p) particles", qp_accelerations(&particles, t, &q, &qd)),
+            ];
+            let routes = routes
+                .into_iter()
+                .map(|(name, a)| (name, a.as_slice().to_vec()))
+                .chain(qp);
+            for (name, got) in routes {
+                for i in 0..2 {
+                    let tol = 1e-12 * want[i].abs().max(1.0);
+                    assert!(
+                        (got[i] - want[i]).abs() <= tol,
+                        "{name} at t = {t}: q̈{i} = {} vs {}",
+                        got[i],
+                        want[i]
+                    );
+                }
+            }
+        }
+    }
+
+    /// Like every `*_into`, `potential_gradient_into` overwrites its output, on every route.
+    #[test]
+    fn potential_gradient_into_overwrites() {
+        let (model, particles) = every_term();
+        let energy = particles.energy_route();
+        let (t, q) = (0.4, [0.7, -0.3]);
+        // ∂U/∂q of U = m g (y + b x²) + ½ k (x² + y²) + κ x y.
+        let (m, bq, g, k, kappa) = (1.3, 0.6, 9.81, 2.5, 0.3);
+        let exact = [
+            m * g * 2.0 * bq * q[0] + k * q[0] + kappa * q[1],
+            m * g + k * q[1] + kappa * q[0],
+        ];
+        let prefilled = |f: &dyn Fn(&mut [f64])| {
+            let mut out = [1e3; 2];
+            f(&mut out);
+            out
+        };
+        for got in [
+            prefilled(&|out| model.potential_gradient_into(t, &q, out)),
+            prefilled(&|out| energy.potential_gradient_into(t, &q, out)),
+            prefilled(&|out| particles.potential_gradient_into(t, &q, out)),
+        ] {
+            for i in 0..2 {
+                assert_relative_eq!(got[i], exact[i], max_relative = 1e-14);
+            }
+        }
     }
 }

@@ -7,7 +7,7 @@ use super::Tape;
 use super::compile::{ConstOp, Input, Out};
 use super::ins::step;
 use super::jet::{self, Arith, Convert, First, Jet, Num, Second};
-use crate::derivatives::CHUNK;
+use crate::eom::passes::CHUNK;
 use crate::error::{Error, Result};
 use crate::scalar::{Grad, Hyper, with_buf};
 use crate::{Dissipation, GeneralizedForces, KineticEnergy, Potential, Scalar};

@@ -1,6 +1,7 @@
 //! The forward-mode derivative passes behind the equations of motion.
 //!
-//! Each term of eq. 55 gets only the pass it needs (DESIGN.md):
+//! Each term of eq. 55 gets only the pass it needs (the design is described in
+//! docs/ARCHITECTURE.md and the README's "How the derivatives are taken"):
 //! - [`gradient`]: one first-order vector-dual pass (∂U/∂q, ∂Φ/∂q̇, p = ∂T/∂q̇);
 //! - [`inertia`]: everything T contributes, M = ∂²T/∂q̇² and the kinetic terms
 //!   ∂T/∂q − (∂²T/∂q̇∂q) q̇ − ∂²T/∂q̇∂t, from one hyper-dual pass whose first directions are q̇ and
@@ -26,9 +27,10 @@ use nalgebra::{SMatrix, SVector};
 pub(crate) const CHUNK: usize = 4;
 
 /// The largest number of coordinates for which the one-pass scheme also evaluates U. Up to two,
-/// its hyper-dual numbers (≤ 15 components) stay in registers and U rides along for free (double
-/// pendulum, benches/eom.rs: 48 → 42 ns); from three on (28 and 45 components) their operations
-/// are out-of-line calls, and U's own first-order pass is cheaper (4-pendulum: 800 vs 860 ns).
+/// its hyper-dual numbers (≤ 15 components) stay in registers and U rides along for free; from
+/// three on (28 and 45 components) their operations are out-of-line calls, and U's own
+/// first-order pass is cheaper (both measured in benches/eom.rs, on the double pendulum and the
+/// 4-pendulum).
 const FOLD_POTENTIAL_MAX: usize = 2;
 
 /// Which argument a gradient pass differentiates.
@@ -53,69 +55,60 @@ pub(crate) fn gradient<const C: usize, D: Scalar, F>(
 ) where
     F: Fn(Grad<D, C>, &[Grad<D, C>], &[Grad<D, C>]) -> Grad<D, C>,
 {
-    // A copy of the body with the length known at compile time for the common n == C case.
-    if q.len() == C {
-        gradient_n::<C, D, F>(C, t, q, qd, wrt, sign, f, out)
-    } else {
-        gradient_n::<C, D, F>(q.len(), t, q, qd, wrt, sign, f, out)
-    }
-}
-
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn gradient_n<const C: usize, D: Scalar, F>(
-    n: usize,
-    t: D,
-    q: &[D],
-    qd: &[D],
-    wrt: Wrt,
-    sign: f64,
-    f: F,
-    out: &mut [D],
-) where
-    F: Fn(Grad<D, C>, &[Grad<D, C>], &[Grad<D, C>]) -> Grad<D, C>,
-{
-    let (q, qd, out) = (&q[..n], &qd[..n], &mut out[..n]);
-    let tt = grad_const::<D, C>(t);
-    let zero = grad_const::<D, C>(D::zero());
-    with_buf::<_, C, _>(
-        n,
-        zero,
+    with_len::<C, _>(
+        q.len(),
         #[inline(always)]
-        |qs| {
+        |n| {
+            let (q, qd, out) = (&q[..n], &qd[..n], &mut out[..n]);
+            let tt = grad_const::<D, C>(t);
+            let zero = grad_const::<D, C>(D::zero());
             with_buf::<_, C, _>(
                 n,
                 zero,
                 #[inline(always)]
-                |qds| {
-                    let (seeded, fixed, x_fixed, x_seeded) = match wrt {
-                        Wrt::Position => (qs, qds, qd, q),
-                        Wrt::Velocity => (qds, qs, q, qd),
-                    };
-                    for (l, &x) in fixed.iter_mut().zip(x_fixed) {
-                        *l = grad_const(x);
-                    }
-                    for start in (0..n).step_by(C) {
-                        let end = (start + C).min(n);
-                        for (i, (l, &x)) in seeded.iter_mut().zip(x_seeded).enumerate() {
-                            *l = if (start..end).contains(&i) {
-                                grad_seed(x, i - start)
-                            } else {
-                                grad_const(x)
+                |qs| {
+                    with_buf::<_, C, _>(
+                        n,
+                        zero,
+                        #[inline(always)]
+                        |qds| {
+                            let (seeded, fixed, x_fixed, x_seeded) = match wrt {
+                                Wrt::Position => (qs, qds, qd, q),
+                                Wrt::Velocity => (qds, qs, q, qd),
                             };
-                        }
-                        let v = match wrt {
-                            Wrt::Position => f(tt, seeded, fixed),
-                            Wrt::Velocity => f(tt, fixed, seeded),
-                        };
-                        for i in start..end {
-                            out[i] += grad_part(&v, i - start) * sign;
-                        }
-                    }
+                            for (l, &x) in fixed.iter_mut().zip(x_fixed) {
+                                *l = grad_const(x);
+                            }
+                            for start in (0..n).step_by(C) {
+                                let end = (start + C).min(n);
+                                for (i, (l, &x)) in seeded.iter_mut().zip(x_seeded).enumerate() {
+                                    *l = if (start..end).contains(&i) {
+                                        grad_seed(x, i - start)
+                                    } else {
+                                        grad_const(x)
+                                    };
+                                }
+                                let v = match wrt {
+                                    Wrt::Position => f(tt, seeded, fixed),
+                                    Wrt::Velocity => f(tt, fixed, seeded),
+                                };
+                                for i in start..end {
+                                    out[i] += grad_part(&v, i - start) * sign;
+                                }
+                            }
+                        },
+                    )
                 },
             )
         },
     )
+}
+
+/// `body(n)`, with a copy of the body where n is known at compile time for the common n == C
+/// case.
+#[inline(always)]
+fn with_len<const C: usize, R>(n: usize, body: impl FnOnce(usize) -> R) -> R {
+    if n == C { body(C) } else { body(n) }
 }
 
 /// What [`inertia`] should fill.

@@ -1,0 +1,227 @@
+//! Lagrange's equations with dissipation (seed eq. 55), assembled once for every route:
+//!
+//! M q̈ = Q″ + ∂L/∂q − (∂²L/∂q̇∂q) q̇ − ∂²L/∂q̇∂t − ∂Φ/∂q̇,   L = T − U,   M = ∂²T/∂q̇².
+//!
+//! - [`passes`]: the forward-mode derivative passes, each term of eq. 55 with only the pass it
+//!   needs;
+//! - [`Forces`]: the terms T does not give, Q″ − ∂U/∂q − ∂Φ/∂q̇, from the parts U, Φ and Q″;
+//! - [`Forces::accelerations`] and [`Forces::accelerations_constant`]: the one right-hand side
+//!   and its LDLᵀ tail ([`factor`], [`solve`]): M factored with typed errors naming t and q,
+//!   solved, checked finite;
+//! - [`ForceParts`]: the (q, p) form ṗ = ∂L/∂q + Q″ − ∂Φ/∂q̇ of the implicit symplectic methods.
+//!
+//! A route supplies only M and the terms its kinetic energy gives (T's
+//! ∂T/∂q − (∂²T/∂q̇∂q) q̇ − ∂²T/∂q̇∂t): [`System`](crate::System) by [`passes::inertia`],
+//! [`EnergyModel`](crate::tape::EnergyModel) by one jet pass of its tape, and
+//! [`ParticleSystem`](crate::ParticleSystem) as Σ m_j J_jᵀJ_j and Σ J_jᵀ(F_j − m_j a_j).
+
+pub(crate) mod passes;
+mod qp_form;
+
+pub(crate) use qp_form::ForceParts;
+
+use crate::error::{Error, Result};
+use crate::linalg::{ldlt_in_place, ldlt_solve};
+use crate::scalar::with_buf;
+use crate::{Dissipation, GeneralizedForces, Potential, Scalar};
+use passes::{Wrt, gradient};
+
+/// Call a const-generic method with `C` = the number of coordinates (up to the chunk size
+/// [`passes::CHUNK`]) and `C2 = 2 C`: `by_dof!(n, self.method(args))` calls
+/// `self.method::<C, C2, _>(args)`.
+macro_rules! by_dof {
+    ($n:expr, $this:ident . $f:ident ( $($arg:expr),* $(,)? )) => {
+        match $n {
+            1 => $this.$f::<1, 2, _>($($arg),*),
+            2 => $this.$f::<2, 4, _>($($arg),*),
+            3 => $this.$f::<3, 6, _>($($arg),*),
+            _ => $this.$f::<
+                { $crate::eom::passes::CHUNK },
+                { 2 * $crate::eom::passes::CHUNK },
+                _,
+            >($($arg),*),
+        }
+    };
+}
+pub(crate) use by_dof;
+
+/// The parts of eq. 55 other than T: U, Φ and Q″. An absent part (`()`, `None`) reports
+/// itself absent and costs no pass.
+pub(crate) struct Forces<'a, U, R, Q> {
+    /// U(t, q).
+    potential: &'a U,
+    /// Rayleigh's Φ(t, q, q̇).
+    dissipation: &'a R,
+    /// Q″(t, q, q̇).
+    forces: &'a Q,
+}
+
+impl<'a, U: Potential, R: Dissipation, Q: GeneralizedForces> Forces<'a, U, R, Q> {
+    /// The parts U, Φ and Q″.
+    #[inline(always)]
+    pub(crate) fn new(potential: &'a U, dissipation: &'a R, forces: &'a Q) -> Self {
+        Self {
+            potential,
+            dissipation,
+            forces,
+        }
+    }
+
+    /// `out += sign · ∂U/∂q`, one gradient pass in chunks of `C` (nothing when U is absent).
+    #[inline(always)]
+    pub(crate) fn add_potential_gradient<const C: usize, D: Scalar>(
+        &self,
+        t: D,
+        q: &[D],
+        sign: f64,
+        out: &mut [D],
+    ) {
+        if self.potential.is_present() {
+            gradient::<C, D, _>(
+                t,
+                q,
+                q,
+                Wrt::Position,
+                sign,
+                #[inline(always)]
+                |t, q, _qd| self.potential.potential(t, q),
+                out,
+            );
+        }
+    }
+
+    /// `out −= ∂Φ/∂q̇`, one gradient pass in chunks of `C` (nothing when Φ is absent).
+    #[inline(always)]
+    pub(crate) fn add_dissipative_forces<const C: usize, D: Scalar>(
+        &self,
+        t: D,
+        q: &[D],
+        qd: &[D],
+        out: &mut [D],
+    ) {
+        if self.dissipation.is_present() {
+            gradient::<C, D, _>(
+                t,
+                q,
+                qd,
+                Wrt::Velocity,
+                -1.0,
+                #[inline(always)]
+                |t, q, qd| self.dissipation.dissipation(t, q, qd),
+                out,
+            );
+        }
+    }
+
+    /// The terms of eq. 55's right-hand side that T does not give, added into `out`:
+    /// Q″ − ∂U/∂q − ∂Φ/∂q̇. `folded` leaves out −∂U/∂q, which the kinetic pass has already
+    /// added (the one-pass inertia scheme differentiates L = T − U for up to two coordinates,
+    /// see [`passes::inertia`]).
+    #[inline(always)]
+    pub(crate) fn add_into<const C: usize, D: Scalar>(
+        &self,
+        t: D,
+        q: &[D],
+        qd: &[D],
+        folded: bool,
+        out: &mut [D],
+    ) {
+        if self.forces.is_present() {
+            self.forces.forces(t, q, qd, out);
+        }
+        if !folded {
+            self.add_potential_gradient::<C, D>(t, q, -1.0, out);
+        }
+        self.add_dissipative_forces::<C, D>(t, q, qd, out);
+    }
+
+    /// Eq. 55 solved for q̈ into `out` (n = `q.len()` entries). `inertia(m, rhs)` is the route's
+    /// part: it writes M (row-major, n × n) to `m`, adds the terms its kinetic energy gives into
+    /// `rhs`, and returns whether those include −∂U/∂q. The rest of the right-hand side comes
+    /// from [`add_into`](Self::add_into). M is factored before those force terms are computed:
+    /// the factorization is a serial chain of divisions, which the processor then overlaps with
+    /// them.
+    ///
+    /// # Errors
+    /// As [`factor`] and [`solve`].
+    #[inline(always)]
+    pub(crate) fn accelerations<const C: usize, D: Scalar>(
+        &self,
+        t: D,
+        q: &[D],
+        qd: &[D],
+        out: &mut [D],
+        inertia: impl FnOnce(&mut [D], &mut [D]) -> bool,
+    ) -> Result<()> {
+        let n = q.len();
+        out.fill(D::zero());
+        with_buf::<D, 16, _>(
+            n * n,
+            D::zero(),
+            #[inline(always)]
+            |m| {
+                let folded = inertia(m, out);
+                factor(m, n, t, q)?;
+                self.add_into::<C, D>(t, q, qd, folded, out);
+                solve(&*m, n, t, out)
+            },
+        )
+    }
+
+    /// [`accelerations`](Self::accelerations) with a constant M whose factor (from [`factor`],
+    /// at `f64`) is `m`: `kinetic(rhs)` adds the terms the kinetic energy gives (if any) into
+    /// `rhs` and returns whether those include −∂U/∂q.
+    ///
+    /// # Errors
+    /// As [`solve`].
+    #[inline(always)]
+    pub(crate) fn accelerations_constant<const C: usize, D: Scalar>(
+        &self,
+        m: &[f64],
+        t: D,
+        q: &[D],
+        qd: &[D],
+        out: &mut [D],
+        kinetic: impl FnOnce(&mut [D]) -> bool,
+    ) -> Result<()> {
+        out.fill(D::zero());
+        let folded = kinetic(out);
+        self.add_into::<C, D>(t, q, qd, folded, out);
+        solve(m, q.len(), t, out)
+    }
+}
+
+/// Factor the row-major n × n mass matrix `m` in place as LDLᵀ (only [`solve`] reads the result).
+///
+/// # Errors
+/// [`Error::SingularMassMatrix`] with t and q when M is singular, not positive definite or not
+/// finite.
+#[inline(always)]
+pub(crate) fn factor<D: Scalar>(m: &mut [D], n: usize, t: D, q: &[D]) -> Result<()> {
+    ldlt_in_place(m, n).map_err(|f| Error::SingularMassMatrix {
+        t: t.re(),
+        q: q.iter().map(|x| x.re()).collect(),
+        reason: f.reason(),
+    })
+}
+
+/// Solve M q̈ = `rhs` in place with the factor `m` from [`factor`] (`f64` for a constant M, or
+/// the scalar of `rhs`).
+///
+/// # Errors
+/// [`Error::NonFinite`] when q̈ is not finite.
+#[inline(always)]
+pub(crate) fn solve<F: Copy, D>(m: &[F], n: usize, t: D, rhs: &mut [D]) -> Result<()>
+where
+    D: Scalar + std::ops::Mul<F, Output = D>,
+{
+    ldlt_solve(m, n, rhs);
+    if rhs.iter().all(|v| v.re().is_finite()) {
+        Ok(())
+    } else {
+        Err(Error::NonFinite {
+            what: "accelerations",
+            t: t.re(),
+        })
+    }
+}
