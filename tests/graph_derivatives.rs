@@ -881,3 +881,59 @@ fn eom_program_non_finite_accelerations_are_a_typed_error() {
         .unwrap_err();
     assert_eq!(err, energy);
 }
+
+#[test]
+fn eom_program_abs_at_zero_matches_dual_numbers() {
+    // Φ = c |q̇|³ / 3 (drag growing with the square of the speed): ∂Φ/∂q̇ = c q̇ |q̇|, whose
+    // derivative rule d|x| = sign(x) ẋ must stay finite at q̇ = 0, where x / |x| would be 0/0.
+    // U = ½ k |q|² · |q| has |q| at q = 0 too.
+    let mut graph = Graph::new();
+    let mut b = B(&mut graph);
+    let (m, c, k) = (b.0.param(0), b.0.param(1), b.0.param(2));
+    let (x, v) = (b.0.coord(0), b.0.velocity(0));
+    let half = b.c(0.5);
+    let third = b.c(1.0 / 3.0);
+    let v2 = b.sq(v);
+    let kinetic = b.mul(half, m);
+    let kinetic = b.mul(kinetic, v2);
+    let av = b.u(Unary::Abs, v);
+    let av3 = b.mul(av, v2);
+    let dissipation = b.mul(c, av3);
+    let dissipation = b.mul(third, dissipation);
+    let ax = b.u(Unary::Abs, x);
+    let x2 = b.sq(x);
+    let potential = b.mul(ax, x2);
+    let potential = b.mul(k, potential);
+    let potential = b.mul(half, potential);
+    let model = Model {
+        graph,
+        dof: 1,
+        parts: Energies {
+            kinetic,
+            potential: Some(potential),
+            dissipation: Some(dissipation),
+            ..Energies::default()
+        },
+        params: vec![1.5, 0.4, 3.0],
+    };
+    let energy = model.energy_model();
+    let eom = model.program().bind(&model.params).unwrap();
+    let mut got = [0.0];
+    for (q, qd) in [(0.0, 0.0), (0.7, 0.0), (0.0, -1.2), (-0.3, 0.8)] {
+        let want = energy.accelerations(0.0, &[q], &[qd]).unwrap();
+        eom.accelerations(0.0, &[q], &[qd], &mut got).unwrap();
+        // m q̈ = −(3/2) k q |q| − c q̇ |q̇|
+        let exact = (-1.5 * 3.0 * q * q.abs() - 0.4 * qd * qd.abs()) / 1.5;
+        assert!(
+            (got[0] - want[0]).abs() <= 1e-15,
+            "({q}, {qd}): {} vs {}",
+            got[0],
+            want[0]
+        );
+        assert!(
+            (got[0] - exact).abs() <= 1e-14,
+            "({q}, {qd}): {} vs {exact}",
+            got[0]
+        );
+    }
+}

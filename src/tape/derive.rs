@@ -439,10 +439,11 @@ impl Simplify<'_> {
                 self.mul_opt(da, k)
             }
             Unary::Abs => {
-                // (a / |a|) ȧ
-                let sign = self.div(a, y)?;
+                // sign(a) ȧ, with the dual numbers' sign at a = 0 (a / |a| would be 0/0 there)
+                let sign = self.unary(Unary::Sign, a)?;
                 self.mul_opt(da, sign)
             }
+            Unary::Sign => Ok(None),
         }
     }
 

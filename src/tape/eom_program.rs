@@ -14,11 +14,11 @@
 use super::derive::{POSITION, Seeds, Simplify, TIME, VELOCITY, Wrt, gradient, reads, tangents};
 use super::jet::Num;
 use super::{Function, Graph, Input, Inputs, Tape};
-use crate::dynamics::{check_lengths, finite_re};
+use crate::dynamics::check_lengths;
+use crate::eom;
 use crate::error::{Error, Result};
-use crate::linalg::{FactorFailure, ldlt_in_place, ldlt_solve};
+use crate::linalg::{FactorFailure, ldlt_in_place};
 use crate::scalar::with_buf;
-use crate::system::singular;
 use std::sync::Arc;
 
 /// The energies of a model as nodes of one [`Graph`]: T, and optionally U, Rayleigh's Φ and Q″
@@ -337,18 +337,16 @@ impl EomFunction {
         check_lengths(n, q, qd, out)?;
         match &self.mass_factor {
             Some(factor) => {
-                let factor = factor.as_ref().map_err(|f| singular(f.reason(), t, q))?;
+                let factor = factor.as_ref().map_err(|&f| eom::singular(f, t, q))?;
                 self.run(t, q, qd, |_, _, _| {}, out);
-                ldlt_solve(&factor[..], n, out);
+                eom::solve(&factor[..], n, t, out)
             }
             None => with_buf::<f64, 64, _>(n * n, 0.0, |m| {
-                // ldlt_in_place reads the lower triangle.
+                // The factorization reads the lower triangle.
                 self.run(t, q, qd, |i, j, x| m[j * n + i] = x, out);
-                ldlt_in_place(m, n).map_err(|f| singular(f.reason(), t, q))?;
-                ldlt_solve(&*m, n, out);
-                Ok::<(), Error>(())
-            })?,
+                eom::factor(m, n, t, q)?;
+                eom::solve(&*m, n, t, out)
+            }),
         }
-        finite_re(out, "accelerations", t)
     }
 }

@@ -176,6 +176,7 @@ instruction_set! {
         Cosh => Cosh, CoshA: cosh;
         Tanh => Tanh, TanhA: tanh;
         Abs => Abs, AbsA: abs;
+        Sign => Sign, SignA: sign;
     }
     commutative {
         Add => Add, AddA: add; AddC, AddCA: add_c;
