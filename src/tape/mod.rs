@@ -70,6 +70,8 @@ mod eval;
 mod graph;
 mod ins;
 mod jet;
+#[cfg(feature = "jit")]
+mod native;
 mod particles;
 
 use compile::Input;
@@ -77,4 +79,6 @@ pub use compile::{Inputs, Tape};
 pub use energy::{EnergyModel, TapeSystem};
 pub use eval::Function;
 pub use graph::{Binary, Graph, Node, Unary};
+#[cfg(feature = "jit")]
+pub use native::{NativeFunction, NativeTape};
 pub use particles::TapeParticles;

@@ -1,0 +1,538 @@
+//! Native code for a [`Tape`] (the `jit` feature): its `f64` program compiled by Cranelift to one
+//! machine-code function, [`NativeTape`], and a compiled tape bound to parameter values,
+//! [`NativeFunction`].
+//!
+//! The instructions are lowered through the same table as the interpreter (`ins.rs`, `emit`), so
+//! an instruction is added in one place. Slots become SSA values (the code is straight-line, so
+//! no variables are needed); constants are loaded from the constants array, so one compiled tape
+//! serves every parameter set; the transcendental functions call `extern "C"` wrappers of the
+//! same `f64` methods the interpreter calls, and `c op x` forms are evaluated as the interpreter
+//! does (`c / x` as `(1 / x) · c`, `cˣ` as `exp(x ln c)`), so the results are bit-identical.
+//!
+//! Safety by construction: the compiler checks every slot, constant, input and output index
+//! against the tape's sizes before emitting a load or store, and rejects a read of a slot never
+//! written; [`NativeTape::eval`] checks the slices' lengths against those sizes. The stack is
+//! probed inline, so a large frame cannot jump over the guard page. Anything the compiler cannot
+//! handle (no Cranelift backend for the host, a malformed tape, a Cranelift error) is an
+//! [`Error::InvalidInput`], on which the caller keeps the interpreter.
+
+use super::Tape;
+use super::compile::{Input, Out};
+use super::eval::Function;
+use super::ins::{Emit, emit};
+use crate::error::{Error, Result};
+use crate::scalar::with_buf;
+use cranelift_codegen::ir::{self, AbiParam, InstBuilder, MemFlagsData, Value, types};
+use cranelift_codegen::settings::{self, Configurable};
+use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
+use cranelift_jit::{JITBuilder, JITModule};
+use cranelift_module::{FuncId, Linkage, Module, default_libcall_names};
+use std::sync::Arc;
+
+/// The compiled function: constants, t, q, q̇, outputs.
+type Entry = unsafe extern "C" fn(*const f64, f64, *const f64, *const f64, *mut f64);
+
+/// A tape compiled to machine code. Evaluate it with [`NativeTape::eval`], or bind it to
+/// parameter values with [`Function::compile_native`].
+pub struct NativeTape {
+    /// Owns the executable memory `entry` points into; freed on drop, never changed after
+    /// compilation. `None` only while dropping.
+    module: Option<JITModule>,
+    entry: Entry,
+    consts: usize,
+    dof: usize,
+    reads_q: bool,
+    reads_qd: bool,
+    outputs: usize,
+}
+
+// SAFETY: after `compile` the module is never mutated or read again except to free it in `drop`
+// (which needs `&mut self`, so no call can be running); the machine code is immutable and only
+// reads its arguments and writes `out`, so calling it from several threads at once is sound.
+unsafe impl Send for NativeTape {}
+// SAFETY: as for `Send`: `&self` gives access to nothing but the immutable code.
+unsafe impl Sync for NativeTape {}
+
+impl Drop for NativeTape {
+    fn drop(&mut self) {
+        if let Some(module) = self.module.take() {
+            // SAFETY: `entry` is only reachable through `&self`, which cannot outlive this call.
+            unsafe { module.free_memory() };
+        }
+    }
+}
+
+impl std::fmt::Debug for NativeTape {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("NativeTape")
+            .field("consts", &self.consts)
+            .field("dof", &self.dof)
+            .field("outputs", &self.outputs)
+            .finish_non_exhaustive()
+    }
+}
+
+/// A Cranelift failure or unsupported tape.
+fn fail(why: impl std::fmt::Display) -> Error {
+    Error::InvalidInput {
+        what: "native code",
+        why: why.to_string(),
+    }
+}
+
+/// Byte offset of element `i` of an `f64` array, if it fits an `i32`.
+fn offset(i: usize) -> Result<i32> {
+    i.checked_mul(8)
+        .and_then(|o| i32::try_from(o).ok())
+        .ok_or_else(|| fail(format!("index {i} too large")))
+}
+
+macro_rules! wrappers {
+    ($($name:ident: $f:ident($($x:ident: $t:ty),*);)*) => {
+        $(
+            extern "C" fn $name($($x: $t),*) -> f64 {
+                f64::$f($($x),*)
+            }
+        )*
+        /// Register the `f64` functions the generated code calls, by symbol name.
+        fn register(jit: &mut JITBuilder) {
+            $(jit.symbol(stringify!($name), $name as *const u8);)*
+            jit.symbol("lagrangian_powi", lagrangian_powi as *const u8);
+        }
+    };
+}
+
+wrappers! {
+    lagrangian_sin: sin(x: f64);
+    lagrangian_cos: cos(x: f64);
+    lagrangian_tan: tan(x: f64);
+    lagrangian_exp: exp(x: f64);
+    lagrangian_ln: ln(x: f64);
+    lagrangian_sinh: sinh(x: f64);
+    lagrangian_cosh: cosh(x: f64);
+    lagrangian_tanh: tanh(x: f64);
+    lagrangian_powf: powf(x: f64, y: f64);
+    lagrangian_atan2: atan2(x: f64, y: f64);
+}
+
+extern "C" fn lagrangian_powi(x: f64, n: i32) -> f64 {
+    x.powi(n)
+}
+
+impl NativeTape {
+    /// Compile `tape` to machine code for the host.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] when Cranelift has no backend for the host, fails, or the tape is
+    /// malformed (an index out of range, a slot read before it is written): fall back to the
+    /// interpreter.
+    pub fn compile(tape: &Tape) -> Result<Self> {
+        let mut flags = settings::builder();
+        for (k, v) in [
+            ("opt_level", "speed"),
+            ("enable_probestack", "true"),
+            ("probestack_strategy", "inline"),
+        ] {
+            flags.set(k, v).map_err(fail)?;
+        }
+        let isa = cranelift_native::builder()
+            .map_err(fail)?
+            .finish(settings::Flags::new(flags))
+            .map_err(fail)?;
+        let mut jit = JITBuilder::with_isa(isa, default_libcall_names());
+        register(&mut jit);
+        let mut module = JITModule::new(jit);
+        match Self::define(&mut module, tape) {
+            Ok(entry) => Ok(Self {
+                module: Some(module),
+                entry,
+                consts: tape.consts.len(),
+                dof: tape.inputs.dof,
+                reads_q: tape
+                    .input_slots
+                    .iter()
+                    .any(|(_, i)| matches!(i, Input::Coord(_))),
+                reads_qd: tape
+                    .input_slots
+                    .iter()
+                    .any(|(_, i)| matches!(i, Input::Velocity(_))),
+                outputs: tape.outputs.len(),
+            }),
+            Err(e) => {
+                // SAFETY: no pointer into the module was handed out.
+                unsafe { module.free_memory() };
+                Err(e)
+            }
+        }
+    }
+
+    /// Generate, compile and link the function.
+    fn define(module: &mut JITModule, tape: &Tape) -> Result<Entry> {
+        let config = module.target_config();
+        let ptr = config.pointer_type();
+        let mut ctx = module.make_context();
+        let sig = &mut ctx.func.signature;
+        sig.params.push(AbiParam::new(ptr));
+        sig.params.push(AbiParam::new(types::F64));
+        sig.params.extend([AbiParam::new(ptr); 3]);
+        let id = module
+            .declare_function("tape", Linkage::Local, &ctx.func.signature)
+            .map_err(fail)?;
+        let mut fctx = FunctionBuilderContext::new();
+        {
+            let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
+            let block = b.create_block();
+            b.append_block_params_for_function_params(block);
+            b.switch_to_block(block);
+            b.seal_block(block);
+            let p = b.block_params(block).to_vec();
+            let (consts_ptr, t, q, qd, out) = (p[0], p[1], p[2], p[3], p[4]);
+            let mut g = Gen {
+                module,
+                b,
+                funcs: Vec::new(),
+                consts_ptr,
+                consts: vec![None; tape.consts.len()],
+                slots: vec![None; tape.slots],
+                acc: None,
+            };
+            let dof = tape.inputs.dof;
+            for &(slot, input) in &tape.input_slots {
+                let v = match input {
+                    Input::Time => t,
+                    Input::Coord(k) | Input::Velocity(k) if k >= dof => {
+                        return Err(fail(format!("input {k} beyond {dof} coordinates")));
+                    }
+                    Input::Coord(k) => g.load(q, k)?,
+                    Input::Velocity(k) => g.load(qd, k)?,
+                };
+                g.set(slot, v)?;
+            }
+            for ins in &tape.code {
+                emit(ins, &mut g)?;
+            }
+            for (k, o) in tape.outputs.iter().enumerate() {
+                let v = match *o {
+                    Out::Slot(i) => g.slot(i)?,
+                    Out::Const(i) => g.constant(i)?,
+                };
+                let off = offset(k)?;
+                g.b.ins().store(MemFlagsData::trusted(), v, out, off);
+            }
+            g.b.ins().return_(&[]);
+            g.b.finalize(config);
+        }
+        module.define_function(id, &mut ctx).map_err(fail)?;
+        module.clear_context(&mut ctx);
+        module.finalize_definitions().map_err(fail)?;
+        let code = module.get_finalized_function(id);
+        // SAFETY: `code` is the function just defined with the signature of `Entry` in the
+        // host's default calling convention, which is `extern "C"`.
+        Ok(unsafe { std::mem::transmute::<*const u8, Entry>(code) })
+    }
+
+    /// Evaluate on (t, q, q̇) with `consts` (the constants of the compiled tape for some
+    /// parameters, [`Function::constants`]) and write the outputs to `out`.
+    ///
+    /// # Panics
+    /// If `consts` has not the tape's number of constants, `q` or `qd` is shorter than the
+    /// tape's `dof` (when it reads them), or `out` is shorter than the number of outputs.
+    #[inline]
+    pub fn eval(&self, consts: &[f64], t: f64, q: &[f64], qd: &[f64], out: &mut [f64]) {
+        assert!(consts.len() == self.consts, "constants of another tape");
+        assert!(
+            (!self.reads_q || q.len() >= self.dof) && (!self.reads_qd || qd.len() >= self.dof),
+            "a tape of {} coordinates evaluated with {} coordinates and {} velocities",
+            self.dof,
+            q.len(),
+            qd.len()
+        );
+        assert!(
+            out.len() >= self.outputs,
+            "{} outputs written to {} values",
+            self.outputs,
+            out.len()
+        );
+        // SAFETY: the code reads `consts[i]` for i below the tape's constant count, `q[k]` and
+        // `qd[k]` for k below its `dof` and only if it reads them, and writes `out[k]` for k
+        // below its output count (all checked in `compile`), and the asserts above bound the
+        // slices by these sizes. `self` keeps the code alive for the call.
+        unsafe {
+            (self.entry)(
+                consts.as_ptr(),
+                t,
+                q.as_ptr(),
+                qd.as_ptr(),
+                out.as_mut_ptr(),
+            )
+        }
+    }
+
+    /// Number of outputs.
+    pub fn outputs(&self) -> usize {
+        self.outputs
+    }
+}
+
+/// The code generator of one tape.
+struct Gen<'a> {
+    module: &'a mut JITModule,
+    b: FunctionBuilder<'a>,
+    /// The imported functions used so far.
+    funcs: Vec<(&'static str, ir::FuncRef)>,
+    consts_ptr: Value,
+    /// Each constant, loaded at its first use.
+    consts: Vec<Option<Value>>,
+    slots: Vec<Option<Value>>,
+    acc: Option<Value>,
+}
+
+impl Gen<'_> {
+    fn load(&mut self, base: Value, i: usize) -> Result<Value> {
+        let off = offset(i)?;
+        Ok(self.b.ins().load(
+            types::F64,
+            MemFlagsData::trusted().with_readonly(),
+            base,
+            off,
+        ))
+    }
+
+    /// Call the `f64` function `name` (an `i32` second argument for `powi`).
+    fn call(&mut self, name: &'static str, args: &[Value]) -> Value {
+        let f = match self.funcs.iter().find(|(n, _)| *n == name) {
+            Some(&(_, f)) => f,
+            None => {
+                let mut sig = self.module.make_signature();
+                sig.params.push(AbiParam::new(types::F64));
+                if args.len() == 2 {
+                    let second = if name == "lagrangian_powi" {
+                        types::I32
+                    } else {
+                        types::F64
+                    };
+                    sig.params.push(AbiParam::new(second));
+                }
+                sig.returns.push(AbiParam::new(types::F64));
+                // Declaring an import of a fixed name and signature cannot fail twice; a
+                // failure here would be a bug in this file, caught by the tests.
+                let id: FuncId = self
+                    .module
+                    .declare_function(name, Linkage::Import, &sig)
+                    .expect("declare an f64 function");
+                let f = self.module.declare_func_in_func(id, self.b.func);
+                self.funcs.push((name, f));
+                f
+            }
+        };
+        let call = self.b.ins().call(f, args);
+        self.b.inst_results(call)[0]
+    }
+
+    fn f64(&mut self, x: f64) -> Value {
+        self.b.ins().f64const(x)
+    }
+}
+
+impl Emit for Gen<'_> {
+    type V = Value;
+
+    fn slot(&mut self, i: u32) -> Result<Value> {
+        self.slots
+            .get(i as usize)
+            .copied()
+            .flatten()
+            .ok_or_else(|| fail(format!("slot {i} read before it is written")))
+    }
+    fn acc(&mut self) -> Result<Value> {
+        self.acc
+            .ok_or_else(|| fail("accumulator read before it is written"))
+    }
+    fn constant(&mut self, i: u32) -> Result<Value> {
+        let i = i as usize;
+        match self.consts.get(i) {
+            None => Err(fail(format!("constant {i} out of range"))),
+            Some(&Some(v)) => Ok(v),
+            Some(None) => {
+                let v = self.load(self.consts_ptr, i)?;
+                self.consts[i] = Some(v);
+                Ok(v)
+            }
+        }
+    }
+    fn set(&mut self, d: u32, v: Value) -> Result<()> {
+        let slot = self
+            .slots
+            .get_mut(d as usize)
+            .ok_or_else(|| fail(format!("slot {d} out of range")))?;
+        *slot = Some(v);
+        self.acc = Some(v);
+        Ok(())
+    }
+    fn add(&mut self, a: Value, b: Value) -> Value {
+        self.b.ins().fadd(a, b)
+    }
+    fn sub(&mut self, a: Value, b: Value) -> Value {
+        self.b.ins().fsub(a, b)
+    }
+    fn mul(&mut self, a: Value, b: Value) -> Value {
+        self.b.ins().fmul(a, b)
+    }
+    fn div(&mut self, a: Value, b: Value) -> Value {
+        self.b.ins().fdiv(a, b)
+    }
+    fn neg(&mut self, a: Value) -> Value {
+        self.b.ins().fneg(a)
+    }
+    fn add_c(&mut self, a: Value, c: Value) -> Value {
+        self.add(a, c)
+    }
+    fn sub_c(&mut self, a: Value, c: Value) -> Value {
+        self.sub(a, c)
+    }
+    fn c_sub(&mut self, a: Value, c: Value) -> Value {
+        // −x + c, as the interpreter.
+        let m = self.neg(a);
+        self.add(m, c)
+    }
+    fn mul_c(&mut self, a: Value, c: Value) -> Value {
+        self.mul(a, c)
+    }
+    fn div_c(&mut self, a: Value, c: Value) -> Value {
+        self.div(a, c)
+    }
+    fn c_div(&mut self, a: Value, c: Value) -> Value {
+        // (1 / x) · c, as the interpreter.
+        let one = self.f64(1.0);
+        let r = self.div(one, a);
+        self.mul(r, c)
+    }
+    fn pow_c(&mut self, a: Value, c: Value) -> Value {
+        self.call("lagrangian_powf", &[a, c])
+    }
+    fn c_pow(&mut self, a: Value, c: Value) -> Value {
+        // exp(x ln c), as the interpreter.
+        let l = self.ln(c);
+        let p = self.mul(a, l);
+        self.exp(p)
+    }
+    fn powd(&mut self, a: Value, b: Value) -> Value {
+        self.call("lagrangian_powf", &[a, b])
+    }
+    fn atan2(&mut self, a: Value, b: Value) -> Value {
+        self.call("lagrangian_atan2", &[a, b])
+    }
+    fn atan2_c(&mut self, a: Value, c: Value) -> Value {
+        self.atan2(a, c)
+    }
+    fn c_atan2(&mut self, a: Value, c: Value) -> Value {
+        self.atan2(c, a)
+    }
+    fn sin(&mut self, a: Value) -> Value {
+        self.call("lagrangian_sin", &[a])
+    }
+    fn cos(&mut self, a: Value) -> Value {
+        self.call("lagrangian_cos", &[a])
+    }
+    fn sin_cos(&mut self, a: Value) -> (Value, Value) {
+        // `f64::sin_cos` is `(sin, cos)`.
+        (self.sin(a), self.cos(a))
+    }
+    fn tan(&mut self, a: Value) -> Value {
+        self.call("lagrangian_tan", &[a])
+    }
+    fn exp(&mut self, a: Value) -> Value {
+        self.call("lagrangian_exp", &[a])
+    }
+    fn ln(&mut self, a: Value) -> Value {
+        self.call("lagrangian_ln", &[a])
+    }
+    fn sqrt(&mut self, a: Value) -> Value {
+        self.b.ins().sqrt(a)
+    }
+    fn sinh(&mut self, a: Value) -> Value {
+        self.call("lagrangian_sinh", &[a])
+    }
+    fn cosh(&mut self, a: Value) -> Value {
+        self.call("lagrangian_cosh", &[a])
+    }
+    fn tanh(&mut self, a: Value) -> Value {
+        self.call("lagrangian_tanh", &[a])
+    }
+    fn abs(&mut self, a: Value) -> Value {
+        self.b.ins().fabs(a)
+    }
+    fn sqr(&mut self, a: Value) -> Value {
+        self.mul(a, a)
+    }
+    fn powi(&mut self, a: Value, n: i32) -> Value {
+        let n = self.b.ins().iconst(types::I32, i64::from(n));
+        self.call("lagrangian_powi", &[a, n])
+    }
+}
+
+/// A [`NativeTape`] bound to parameter values: the native twin of a [`Function`] at `f64`.
+/// Cloning shares the code.
+#[derive(Debug, Clone)]
+pub struct NativeFunction {
+    tape: Arc<Tape>,
+    native: Arc<NativeTape>,
+    consts: Arc<[f64]>,
+}
+
+impl Function {
+    /// Compile this function's tape to machine code, bound to the same parameter values.
+    ///
+    /// # Errors
+    /// As [`NativeTape::compile`]: keep evaluating `self` then.
+    pub fn compile_native(&self) -> Result<NativeFunction> {
+        Ok(NativeFunction {
+            tape: self.tape.clone(),
+            native: Arc::new(NativeTape::compile(&self.tape)?),
+            consts: self.consts.clone(),
+        })
+    }
+
+    /// The constants of the tape for this function's parameters (the `consts` of
+    /// [`NativeTape::eval`]).
+    pub fn constants(&self) -> &[f64] {
+        &self.consts
+    }
+}
+
+impl NativeFunction {
+    /// The same code with other parameter values (only the constants are recomputed).
+    ///
+    /// # Errors
+    /// As [`Function::new`].
+    pub fn with_parameters(&self, params: &[f64]) -> Result<Self> {
+        Ok(Self {
+            tape: self.tape.clone(),
+            native: self.native.clone(),
+            consts: self.tape.constants(params)?.into(),
+        })
+    }
+
+    /// The compiled tape.
+    pub fn native(&self) -> &NativeTape {
+        &self.native
+    }
+
+    /// Write the outputs at (t, q, q̇) to `out`.
+    ///
+    /// # Panics
+    /// As [`NativeTape::eval`].
+    #[inline]
+    pub fn eval_into(&self, t: f64, q: &[f64], qd: &[f64], out: &mut [f64]) {
+        self.native.eval(&self.consts, t, q, qd, out)
+    }
+
+    /// The first output at (t, q, q̇).
+    #[inline]
+    pub fn eval(&self, t: f64, q: &[f64], qd: &[f64]) -> f64 {
+        with_buf::<f64, 16, _>(self.native.outputs.max(1), 0.0, |out| {
+            self.eval_into(t, q, qd, out);
+            out[0]
+        })
+    }
+}
