@@ -206,7 +206,10 @@ impl NativeTape {
                     Input::Coord(k) => g.load(q, k)?,
                     Input::Velocity(k) => g.load(qd, k)?,
                 };
-                g.set(slot, v)?;
+                // Not through `set`: as in the interpreter, inputs are not in the accumulator.
+                *g.slots
+                    .get_mut(slot as usize)
+                    .ok_or_else(|| fail(format!("input slot {slot} out of range")))? = Some(v);
             }
             for ins in &tape.code {
                 emit(ins, &mut g)?;
@@ -534,5 +537,397 @@ impl NativeFunction {
             self.eval_into(t, q, qd, out);
             out[0]
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::compile::Inputs;
+    use super::super::ins::Ins;
+    use super::super::{Binary, Graph, Unary};
+    use super::*;
+    use std::collections::BTreeSet;
+    use std::time::Instant;
+
+    const UNARY: [Unary; 11] = [
+        Unary::Neg,
+        Unary::Sin,
+        Unary::Cos,
+        Unary::Tan,
+        Unary::Exp,
+        Unary::Ln,
+        Unary::Sqrt,
+        Unary::Sinh,
+        Unary::Cosh,
+        Unary::Tanh,
+        Unary::Abs,
+    ];
+    const BINARY: [Binary; 6] = [
+        Binary::Add,
+        Binary::Sub,
+        Binary::Mul,
+        Binary::Div,
+        Binary::Pow,
+        Binary::Atan2,
+    ];
+
+    /// A deterministic generator (xorshift64*).
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> u64 {
+            self.0 ^= self.0 >> 12;
+            self.0 ^= self.0 << 25;
+            self.0 ^= self.0 >> 27;
+            self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+        }
+        fn below(&mut self, n: usize) -> usize {
+            (self.next() % n as u64) as usize
+        }
+        /// A number in (−r, r).
+        fn uniform(&mut self, r: f64) -> f64 {
+            ((self.next() >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) * r
+        }
+    }
+
+    /// Equal bits, or both NaN.
+    fn same(a: f64, b: f64) -> bool {
+        a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+    }
+
+    /// The kinds of instruction (`Ins` variant names) of a tape.
+    fn kinds(tape: &Tape) -> BTreeSet<String> {
+        tape.code
+            .iter()
+            .map(|i| format!("{i:?}").split('(').next().unwrap().to_string())
+            .collect()
+    }
+
+    /// Compile `f` and check it against the interpreter at (t, q, q̇), bit for bit.
+    fn check(f: &Function, native: &NativeFunction, t: f64, q: &[f64], qd: &[f64]) {
+        let n = f.tape().outputs();
+        let (mut want, mut got) = (vec![0.0; n], vec![f64::MAX; n]);
+        f.eval_into(t, q, qd, &mut want);
+        native.eval_into(t, q, qd, &mut got);
+        for k in 0..n {
+            assert!(
+                same(want[k], got[k]),
+                "output {k} at t = {t}, q = {q:?}, q̇ = {qd:?}: interpreter {}, native {}\n{:?}",
+                want[k],
+                got[k],
+                f.tape().code
+            );
+        }
+    }
+
+    /// f(x, y) for every function, in every form (variable operands, a constant operand on
+    /// either side, the operand in the accumulator or not).
+    fn every_form(g: &mut Graph) -> Vec<usize> {
+        let (x, y, t) = (g.coord(0), g.velocity(0), g.time());
+        let c = g.param(0);
+        let mut outs = Vec::new();
+        for f in UNARY {
+            outs.push(g.unary(f, x).unwrap());
+            // The operand is the previous result.
+            let s = g.binary(Binary::Add, x, y).unwrap();
+            outs.push(g.unary(f, s).unwrap());
+        }
+        for f in BINARY {
+            outs.push(g.binary(f, x, y).unwrap());
+            outs.push(g.binary(f, x, c).unwrap());
+            outs.push(g.binary(f, c, x).unwrap());
+            for (a, b) in [(0, 1), (1, 0)] {
+                let s = g.binary(Binary::Mul, x, t).unwrap();
+                let ops = [s, y];
+                outs.push(g.binary(f, ops[a], ops[b]).unwrap());
+                let s = g.binary(Binary::Sub, y, t).unwrap();
+                let ops = [s, c];
+                outs.push(g.binary(f, ops[a], ops[b]).unwrap());
+            }
+        }
+        for k in [-3, -1, 0, 1, 2, 3, 7] {
+            outs.push(g.powi(x, k).unwrap());
+            let s = g.binary(Binary::Add, x, t).unwrap();
+            outs.push(g.powi(s, k).unwrap());
+        }
+        let s = g.unary(Unary::Sin, y).unwrap();
+        let c = g.unary(Unary::Cos, y).unwrap();
+        outs.push(g.binary(Binary::Mul, s, c).unwrap());
+        let d = g.binary(Binary::Sub, y, x).unwrap();
+        let s = g.unary(Unary::Sin, d).unwrap();
+        let c = g.unary(Unary::Cos, d).unwrap();
+        outs.push(g.binary(Binary::Add, s, c).unwrap());
+        outs
+    }
+
+    #[test]
+    fn compile_matches_interpreter_on_every_instruction() {
+        let mut g = Graph::new();
+        let outs = every_form(&mut g);
+        let tape = Tape::new(&g, &outs, Inputs::kinetic(1, 1), "every form").unwrap();
+        let kinds = kinds(&tape);
+        // The random graphs below reach the other kinds.
+        assert!(kinds.len() >= 33, "{} kinds: {kinds:?}", kinds.len());
+        let f = Function::new(tape.into(), &[1.7]).unwrap();
+        let native = f.compile_native().unwrap();
+        let mut rng = Rng(7);
+        let special = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            0.5,
+            1e300,
+            -1e-300,
+            f64::INFINITY,
+            f64::NAN,
+        ];
+        for &x in &special {
+            for &y in &special {
+                check(&f, &native, 0.25, &[x], &[y]);
+            }
+        }
+        for _ in 0..200 {
+            let (x, y, t) = (rng.uniform(3.0), rng.uniform(3.0), rng.uniform(2.0));
+            check(&f, &native, t, &[x], &[y]);
+        }
+        for p in [-2.0, 0.0, 0.3] {
+            let (f, native) = (
+                f.with_parameters(&[p]).unwrap(),
+                native.with_parameters(&[p]).unwrap(),
+            );
+            check(&f, &native, 0.5, &[-0.7], &[1.3]);
+        }
+    }
+
+    /// A random graph of `size` nodes over t, q₀, q₁, q̇₀, q̇₁ and two parameters; its outputs
+    /// are its last `outputs` nodes.
+    fn random_graph(rng: &mut Rng, size: usize, outputs: usize) -> (Graph, Vec<usize>) {
+        let mut g = Graph::new();
+        let mut nodes = vec![
+            g.time(),
+            g.coord(0),
+            g.coord(1),
+            g.velocity(0),
+            g.velocity(1),
+            g.param(0),
+            g.param(1),
+            g.constant(2.5),
+        ];
+        while nodes.len() < size {
+            let a = nodes[rng.below(nodes.len())];
+            // Prefer recent nodes so that the graph is deep, not wide.
+            let recent = nodes.len() - 1 - rng.below(nodes.len().min(6));
+            let b = nodes[recent];
+            let node = match rng.below(10) {
+                0..=2 => g.unary(UNARY[rng.below(UNARY.len())], b),
+                3 => g.powi(b, rng.below(9) as i32 - 4),
+                _ => {
+                    let f = BINARY[rng.below(BINARY.len())];
+                    if rng.below(2) == 0 {
+                        g.binary(f, a, b)
+                    } else {
+                        g.binary(f, b, a)
+                    }
+                }
+            };
+            if let Ok(n) = node {
+                nodes.push(n);
+            }
+        }
+        let outs = nodes[nodes.len() - outputs..].to_vec();
+        (g, outs)
+    }
+
+    #[test]
+    fn compile_matches_interpreter_on_random_graphs() {
+        let mut rng = Rng(0x5eed);
+        let mut kinds_seen = BTreeSet::new();
+        let (mut compiled, mut non_finite) = (0, 0);
+        for case in 0..150 {
+            let (g, outs) = random_graph(&mut rng, 10 + case % 40, 1 + case % 4);
+            let tape = Tape::new(&g, &outs, Inputs::kinetic(2, 2), "random").unwrap();
+            kinds_seen.extend(kinds(&tape));
+            let params = [rng.uniform(2.0), rng.uniform(2.0)];
+            // Parameters whose constant subexpressions are not finite are rejected before any
+            // evaluation, by both.
+            let Ok(f) = Function::new(tape.into(), &params) else {
+                continue;
+            };
+            let native = f.compile_native().unwrap();
+            compiled += 1;
+            for _ in 0..20 {
+                let scale = [0.5, 2.0, 50.0][rng.below(3)];
+                let q = [rng.uniform(scale), rng.uniform(scale)];
+                let qd = [rng.uniform(scale), rng.uniform(scale)];
+                let t = rng.uniform(scale);
+                check(&f, &native, t, &q, &qd);
+                let mut out = vec![0.0; f.tape().outputs()];
+                f.eval_into(t, &q, &qd, &mut out);
+                non_finite += out.iter().filter(|x| !x.is_finite()).count();
+            }
+        }
+        println!(
+            "{compiled} graphs compiled, {non_finite} non-finite outputs, {} instruction kinds: \
+             {kinds_seen:?}",
+            kinds_seen.len()
+        );
+        assert!(compiled >= 100 && non_finite > 0);
+        // Every kind of instruction (64) but two of the rarest.
+        assert!(kinds_seen.len() >= 62);
+    }
+
+    /// T and U of the double pendulum (parameters m, l, g).
+    fn double_pendulum(g: &mut Graph) -> (usize, usize) {
+        let b = |g: &mut Graph, f, x, y| g.binary(f, x, y).unwrap();
+        let (m, l, grav) = (g.param(0), g.param(1), g.param(2));
+        let (th1, th2, w1, w2) = (g.coord(0), g.coord(1), g.velocity(0), g.velocity(1));
+        let (half, two) = (g.constant(0.5), g.constant(2.0));
+        let l2 = g.powi(l, 2).unwrap();
+        let k = b(g, Binary::Mul, half, m);
+        let k = b(g, Binary::Mul, k, l2);
+        let w1s = g.powi(w1, 2).unwrap();
+        let w2s = g.powi(w2, 2).unwrap();
+        let a = b(g, Binary::Mul, two, w1s);
+        let a = b(g, Binary::Add, a, w2s);
+        let d = b(g, Binary::Sub, th1, th2);
+        let c = g.unary(Unary::Cos, d).unwrap();
+        let x = b(g, Binary::Mul, two, w1);
+        let x = b(g, Binary::Mul, x, w2);
+        let x = b(g, Binary::Mul, x, c);
+        let a = b(g, Binary::Add, a, x);
+        let kinetic = b(g, Binary::Mul, k, a);
+        let mgl = b(g, Binary::Mul, m, grav);
+        let mgl = b(g, Binary::Mul, mgl, l);
+        let c1 = g.unary(Unary::Cos, th1).unwrap();
+        let c2 = g.unary(Unary::Cos, th2).unwrap();
+        let c1 = b(g, Binary::Mul, two, c1);
+        let s = b(g, Binary::Add, c1, c2);
+        let u = b(g, Binary::Mul, mgl, s);
+        let potential = g.unary(Unary::Neg, u).unwrap();
+        (kinetic, potential)
+    }
+
+    #[test]
+    fn compile_double_pendulum() {
+        let mut g = Graph::new();
+        let (k, u) = double_pendulum(&mut g);
+        let params = [1.3, 0.7, 9.81];
+        let t = Tape::new(&g, &[k], Inputs::kinetic(2, 3), "T").unwrap();
+        let both = Tape::new(&g, &[k, u], Inputs::kinetic(2, 3), "T, U").unwrap();
+        let u = Tape::new(&g, &[u], Inputs::potential(2, 3), "U").unwrap();
+        let mut rng = Rng(3);
+        for tape in [t, u, both] {
+            let f = Function::new(tape.into(), &params).unwrap();
+            let native = f.compile_native().unwrap();
+            for _ in 0..50 {
+                let q = [rng.uniform(3.0), rng.uniform(3.0)];
+                let qd = [rng.uniform(5.0), rng.uniform(5.0)];
+                check(&f, &native, 0.0, &q, &qd);
+            }
+        }
+        // Against the closed form.
+        let t = Tape::new(&g, &[k], Inputs::kinetic(2, 3), "T").unwrap();
+        let native = Function::new(t.into(), &params)
+            .unwrap()
+            .compile_native()
+            .unwrap();
+        let (q, qd): ([f64; 2], [f64; 2]) = ([0.3, -1.1], [0.8, -0.4]);
+        let (m, l) = (params[0], params[1]);
+        let want = 0.5
+            * m
+            * l
+            * l
+            * (2.0 * qd[0] * qd[0] + qd[1] * qd[1] + 2.0 * qd[0] * qd[1] * (q[0] - q[1]).cos());
+        assert!((native.eval(0.0, &q, &qd) - want).abs() <= 1e-15 * want.abs());
+    }
+
+    #[test]
+    fn compile_rejects_malformed_tapes() {
+        let mut g = Graph::new();
+        let x = g.coord(0);
+        let s = g.unary(Unary::Sin, x).unwrap();
+        let tape = Tape::new(&g, &[s], Inputs::potential(1, 0), "U").unwrap();
+        let bad = |edit: &dyn Fn(&mut Tape)| {
+            let mut t = tape.clone();
+            edit(&mut t);
+            let err = NativeTape::compile(&t).unwrap_err();
+            assert!(matches!(err, Error::InvalidInput { .. }), "{err}");
+        };
+        bad(&|t| t.code.push(Ins::Neg(0, 99)));
+        bad(&|t| t.code.push(Ins::Neg(99, 0)));
+        bad(&|t| t.code.push(Ins::AddC(0, 0, 5)));
+        bad(&|t| t.outputs.push(Out::Slot(42)));
+        bad(&|t| t.input_slots.push((0, Input::Coord(1))));
+        bad(&|t| t.code.insert(0, Ins::NegA(0)));
+        // An unwritten slot in range.
+        bad(&|t| {
+            t.slots += 1;
+            t.outputs.push(Out::Slot(t.slots as u32 - 1));
+        });
+        assert!(NativeTape::compile(&tape).is_ok());
+    }
+
+    #[test]
+    #[should_panic(expected = "coordinates")]
+    fn eval_checks_lengths() {
+        let mut g = Graph::new();
+        let x = g.coord(1);
+        let tape = Tape::new(&g, &[x], Inputs::potential(2, 0), "U").unwrap();
+        let native = NativeTape::compile(&tape).unwrap();
+        native.eval(&[], 0.0, &[1.0], &[], &mut [0.0]);
+    }
+
+    #[test]
+    fn compile_shares_code_across_threads() {
+        fn is_send_sync<T: Send + Sync>() {}
+        is_send_sync::<NativeTape>();
+        is_send_sync::<NativeFunction>();
+        let mut g = Graph::new();
+        let (k, _) = double_pendulum(&mut g);
+        let t = Tape::new(&g, &[k], Inputs::kinetic(2, 3), "T").unwrap();
+        let f = Function::new(t.into(), &[1.0, 1.0, 9.81]).unwrap();
+        let native = f.compile_native().unwrap();
+        let want = f.eval(0.0, &[0.1, 0.2], &[0.3, 0.4]);
+        std::thread::scope(|s| {
+            for _ in 0..2 {
+                s.spawn(|| assert_eq!(native.eval(0.0, &[0.1, 0.2], &[0.3, 0.4]), want));
+            }
+        });
+    }
+
+    #[test]
+    fn compile_large_tape() {
+        // About 10 000 instructions: a long random program, several outputs.
+        let mut rng = Rng(11);
+        let mut g = Graph::new();
+        let (x, y) = (g.coord(0), g.velocity(0));
+        let mut acc = vec![x, y];
+        let mut outs = Vec::new();
+        for k in 0..3400 {
+            // Everything is reachable from the last output.
+            let last = *acc.last().unwrap();
+            let c = g.constant(1.0 + (k % 97) as f64 / 97.0);
+            let p = g.binary(BINARY[k % 4], last, c).unwrap();
+            let n = g
+                .unary([Unary::Sin, Unary::Tanh, Unary::Abs][k % 3], p)
+                .unwrap();
+            let b = acc[acc.len() - 1 - rng.below(acc.len().min(8))];
+            let n = g.binary(BINARY[(k / 4) % 3], n, b).unwrap();
+            acc.push(n);
+            if k % 1000 == 999 || k == 3399 {
+                outs.push(n);
+            }
+        }
+        let tape = Tape::new(&g, &outs, Inputs::kinetic(1, 0), "large").unwrap();
+        let start = Instant::now();
+        let f = Function::new(tape.into(), &[]).unwrap();
+        let native = f.compile_native().unwrap();
+        println!(
+            "{} instructions compiled in {:.1} ms",
+            f.tape().instructions(),
+            start.elapsed().as_secs_f64() * 1e3
+        );
+        assert!(f.tape().instructions() >= 9000);
+        check(&f, &native, 0.0, &[0.4], &[-0.2]);
     }
 }
