@@ -161,3 +161,56 @@ fn tape_speed_accelerations() {
         report(&format!("chain n = {n}"), &model(n, |g| chain(g, n)));
     }
 }
+
+/// Native code (`jit` feature) against the interpreter on the f64 evaluation of T and U: compile
+/// time and ns per call.
+#[cfg(feature = "jit")]
+#[test]
+#[ignore = "timing; run in release with --ignored --nocapture"]
+fn tape_speed_native() {
+    type Build<'a> = &'a dyn Fn(&mut Graph) -> (usize, usize);
+    let cases: [(&str, usize, Build); 3] = [
+        ("double pendulum", 2, &double_pendulum),
+        ("chain n = 8", 8, &|g| chain(g, 8)),
+        ("chain n = 32", 32, &|g| chain(g, 32)),
+    ];
+    for (name, n, build) in cases {
+        let start = Instant::now();
+        let mut g = Graph::new();
+        let (k, u) = build(&mut g);
+        let params = [1.0, 1.0, 9.81];
+        let t = Tape::new(&g, &[k], Inputs::kinetic(n, 3), "T").unwrap();
+        let u = Tape::new(&g, &[u], Inputs::potential(n, 3), "U").unwrap();
+        let t = Function::new(t.into(), &params).unwrap();
+        let u = Function::new(u.into(), &params).unwrap();
+        let tapes = start.elapsed().as_secs_f64() * 1e3;
+        let start = Instant::now();
+        let nt = t.compile_native().unwrap();
+        let nu = u.compile_native().unwrap();
+        let compile = start.elapsed().as_secs_f64() * 1e3;
+        println!(
+            "{name:>16}: T {} + U {} instructions; graph and tapes {tapes:.2} ms, native \
+             compilation of both {compile:.2} ms",
+            t.tape().instructions(),
+            u.tape().instructions()
+        );
+        let q: Vec<f64> = (0..n).map(|i| 0.3 + 0.1 * i as f64).collect();
+        let qd: Vec<f64> = (0..n).map(|i| 0.2 - 0.05 * i as f64).collect();
+        let tk = |k: usize| black_box(k as f64 * 1e-6);
+        let calls = 200_000;
+        let interp = time(calls, |k| {
+            black_box(t.eval(tk(k), black_box(&q), black_box(&qd)));
+        });
+        let native = time(calls, |k| {
+            black_box(nt.eval(tk(k), black_box(&q), black_box(&qd)));
+        });
+        println!("{name:>16}: T per call: interpreter {interp:8.1} ns, native {native:8.1} ns");
+        let interp = time(calls, |k| {
+            black_box(u.eval(tk(k), black_box(&q), black_box(&qd)));
+        });
+        let native = time(calls, |k| {
+            black_box(nu.eval(tk(k), black_box(&q), black_box(&qd)));
+        });
+        println!("{name:>16}: U per call: interpreter {interp:8.1} ns, native {native:8.1} ns");
+    }
+}
