@@ -214,3 +214,38 @@ fn tape_speed_native() {
         println!("{name:>16}: U per call: interpreter {interp:8.1} ns, native {native:8.1} ns");
     }
 }
+
+/// Compile time of a 10 000-instruction tape (`jit` feature).
+#[cfg(feature = "jit")]
+#[test]
+#[ignore = "timing; run in release with --ignored --nocapture"]
+fn tape_speed_native_compile_large() {
+    let mut g = Graph::new();
+    let (x, y) = (g.coord(0), g.velocity(0));
+    let mut nodes = vec![x, y];
+    let ops = [Binary::Add, Binary::Mul, Binary::Sub, Binary::Div];
+    let mut outs = Vec::new();
+    for k in 0..3400 {
+        let last = *nodes.last().unwrap();
+        let c = g.constant(1.0 + (k % 97) as f64 / 97.0);
+        let p = g.binary(ops[k % 4], last, c).unwrap();
+        let f = [Unary::Sin, Unary::Tanh, Unary::Abs][k % 3];
+        let n = g.unary(f, p).unwrap();
+        let b = nodes[nodes.len() - 1 - (k * 7919) % nodes.len().min(8)];
+        let n = g.binary(ops[(k / 4) % 3], n, b).unwrap();
+        nodes.push(n);
+        if k % 1000 == 999 || k == 3399 {
+            outs.push(n);
+        }
+    }
+    let tape = Tape::new(&g, &outs, Inputs::kinetic(1, 0), "large").unwrap();
+    let f = Function::new(tape.into(), &[]).unwrap();
+    let start = Instant::now();
+    let native = f.compile_native().unwrap();
+    println!(
+        "{} instructions: native compilation {:.1} ms",
+        f.tape().instructions(),
+        start.elapsed().as_secs_f64() * 1e3
+    );
+    black_box(native.eval(0.0, &[0.4], &[-0.2]));
+}

@@ -31,7 +31,10 @@
 //! `analysis.rs` (what a tape reads, its polynomial structure in q̇), `compile.rs` ([`Tape::new`]
 //! step by step, [`Inputs`]), `ins.rs` (the instruction set as one table), `eval.rs`
 //! ([`Function`], the evaluation and its jet fast path), `jet.rs` (the jet arithmetic),
-//! `particles.rs` ([`TapeParticles`]) and `energy.rs` ([`EnergyModel`]).
+//! `particles.rs` ([`TapeParticles`]) and `energy.rs` ([`EnergyModel`]). With the `jit` feature,
+//! `native.rs` compiles a tape's `f64` program to machine code with Cranelift (`NativeTape`,
+//! `NativeFunction`, `Function::compile_native`); the interpreter stays the fallback and the
+//! reference it is tested against.
 //!
 //! ```
 //! use lagrangian::tape::{Binary, Function, Graph, Inputs, Tape, Unary};
