@@ -184,10 +184,16 @@ fn tape_speed_native() {
         let t = Function::new(t.into(), &params).unwrap();
         let u = Function::new(u.into(), &params).unwrap();
         let tapes = start.elapsed().as_secs_f64() * 1e3;
-        let start = Instant::now();
-        let nt = t.compile_native().unwrap();
-        let nu = u.compile_native().unwrap();
-        let compile = start.elapsed().as_secs_f64() * 1e3;
+        // The best of five compilations (the machine may be busy).
+        let mut compile = f64::INFINITY;
+        let (mut nt, mut nu) = (None, None);
+        for _ in 0..5 {
+            let start = Instant::now();
+            nt = Some(t.compile_native().unwrap());
+            nu = Some(u.compile_native().unwrap());
+            compile = compile.min(start.elapsed().as_secs_f64() * 1e3);
+        }
+        let (nt, nu) = (nt.unwrap(), nu.unwrap());
         println!(
             "{name:>16}: T {} + U {} instructions; graph and tapes {tapes:.2} ms, native \
              compilation of both {compile:.2} ms",
@@ -240,12 +246,17 @@ fn tape_speed_native_compile_large() {
     }
     let tape = Tape::new(&g, &outs, Inputs::kinetic(1, 0), "large").unwrap();
     let f = Function::new(tape.into(), &[]).unwrap();
-    let start = Instant::now();
-    let native = f.compile_native().unwrap();
+    let mut compile = f64::INFINITY;
+    let mut native = None;
+    for _ in 0..3 {
+        let start = Instant::now();
+        native = Some(f.compile_native().unwrap());
+        compile = compile.min(start.elapsed().as_secs_f64() * 1e3);
+    }
+    let native = native.unwrap();
     println!(
-        "{} instructions: native compilation {:.1} ms",
+        "{} instructions: native compilation {compile:.1} ms (best of 3)",
         f.tape().instructions(),
-        start.elapsed().as_secs_f64() * 1e3
     );
     black_box(native.eval(0.0, &[0.4], &[-0.2]));
 }
