@@ -110,6 +110,7 @@ macro_rules! wrappers {
         fn register(jit: &mut JITBuilder) {
             $(jit.symbol(stringify!($name), $name as *const u8);)*
             jit.symbol("lagrangian_powi", lagrangian_powi as *const u8);
+            jit.symbol("lagrangian_sin_cos", lagrangian_sin_cos as *const u8);
         }
     };
 }
@@ -129,6 +130,17 @@ wrappers! {
 
 extern "C" fn lagrangian_powi(x: f64, n: i32) -> f64 {
     x.powi(n)
+}
+
+/// `f64::sin_cos`: the sine, and the cosine written to `cos`.
+///
+/// # Safety
+/// `cos` is valid for a write of an `f64` (the generated code passes a slot of its frame).
+unsafe extern "C" fn lagrangian_sin_cos(x: f64, cos: *mut f64) -> f64 {
+    let (s, c) = x.sin_cos();
+    // SAFETY: see the function's contract.
+    unsafe { cos.write(c) };
+    s
 }
 
 impl NativeTape {
@@ -213,6 +225,8 @@ impl NativeTape {
                 consts: vec![None; tape.consts.len()],
                 slots: vec![None; tape.slots],
                 acc: None,
+                ptr,
+                cos_slot: None,
             };
             let dof = tape.inputs.dof;
             for &(slot, input) in &tape.input_slots {
@@ -306,6 +320,9 @@ struct Gen<'a> {
     consts: Vec<Option<Value>>,
     slots: Vec<Option<Value>>,
     acc: Option<Value>,
+    /// The pointer type, and the stack slot `sin_cos` returns the cosine in.
+    ptr: ir::Type,
+    cos_slot: Option<ir::StackSlot>,
 }
 
 impl Gen<'_> {
@@ -319,20 +336,15 @@ impl Gen<'_> {
         ))
     }
 
-    /// Call the `f64` function `name` (an `i32` second argument for `powi`).
+    /// Call the `f64` function `name` on `args` (the signature follows their types).
     fn call(&mut self, name: &'static str, args: &[Value]) -> Value {
         let f = match self.funcs.iter().find(|(n, _)| *n == name) {
             Some(&(_, f)) => f,
             None => {
                 let mut sig = self.module.make_signature();
-                sig.params.push(AbiParam::new(types::F64));
-                if args.len() == 2 {
-                    let second = if name == "lagrangian_powi" {
-                        types::I32
-                    } else {
-                        types::F64
-                    };
-                    sig.params.push(AbiParam::new(second));
+                for &a in args {
+                    sig.params
+                        .push(AbiParam::new(self.b.func.dfg.value_type(a)));
                 }
                 sig.returns.push(AbiParam::new(types::F64));
                 // Declaring an import of a fixed name and signature cannot fail twice; a
@@ -456,8 +468,18 @@ impl Emit for Gen<'_> {
         self.call("lagrangian_cos", &[a])
     }
     fn sin_cos(&mut self, a: Value) -> (Value, Value) {
-        // `f64::sin_cos` is `(sin, cos)`.
-        (self.sin(a), self.cos(a))
+        // One call: the cosine comes back through an 8-byte slot of this function's frame.
+        let slot = *self.cos_slot.get_or_insert_with(|| {
+            self.b.create_sized_stack_slot(ir::StackSlotData::new(
+                ir::StackSlotKind::ExplicitSlot,
+                8,
+                3,
+            ))
+        });
+        let addr = self.b.ins().stack_addr(self.ptr, slot, 0);
+        let s = self.call("lagrangian_sin_cos", &[a, addr]);
+        let c = self.b.ins().stack_load(self.ptr, types::F64, slot, 0);
+        (s, c)
     }
     fn tan(&mut self, a: Value) -> Value {
         self.call("lagrangian_tan", &[a])
