@@ -227,6 +227,7 @@ impl NativeTape {
                 acc: None,
                 ptr,
                 cos_slot: None,
+                failed: None,
             };
             let dof = tape.inputs.dof;
             for &(slot, input) in &tape.input_slots {
@@ -245,6 +246,9 @@ impl NativeTape {
             }
             for ins in &tape.code {
                 emit(ins, &mut g)?;
+            }
+            if let Some(e) = g.failed.take() {
+                return Err(e);
             }
             for (k, o) in tape.outputs.iter().enumerate() {
                 let v = match *o {
@@ -323,6 +327,8 @@ struct Gen<'a> {
     /// The pointer type, and the stack slot `sin_cos` returns the cosine in.
     ptr: ir::Type,
     cos_slot: Option<ir::StackSlot>,
+    /// The first failure to declare a function.
+    failed: Option<Error>,
 }
 
 impl Gen<'_> {
@@ -347,12 +353,14 @@ impl Gen<'_> {
                         .push(AbiParam::new(self.b.func.dfg.value_type(a)));
                 }
                 sig.returns.push(AbiParam::new(types::F64));
-                // Declaring an import of a fixed name and signature cannot fail twice; a
-                // failure here would be a bug in this file, caught by the tests.
-                let id: FuncId = self
-                    .module
-                    .declare_function(name, Linkage::Import, &sig)
-                    .expect("declare an f64 function");
+                let id: FuncId = match self.module.declare_function(name, Linkage::Import, &sig) {
+                    Ok(id) => id,
+                    Err(e) => {
+                        // Reported after the instructions (`Emit`'s arithmetic cannot fail).
+                        self.failed.get_or_insert(fail(e));
+                        return self.f64(f64::NAN);
+                    }
+                };
                 let f = self.module.declare_func_in_func(id, self.b.func);
                 self.funcs.push((name, f));
                 f
