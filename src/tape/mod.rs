@@ -31,7 +31,10 @@
 //! `analysis.rs` (what a tape reads, its polynomial structure in q̇), `compile.rs` ([`Tape::new`]
 //! step by step, [`Inputs`]), `ins.rs` (the instruction set as one table), `eval.rs`
 //! ([`Function`], the evaluation and its jet fast path), `jet.rs` (the jet arithmetic),
-//! `particles.rs` ([`TapeParticles`]) and `energy.rs` ([`EnergyModel`]).
+//! `particles.rs` ([`TapeParticles`]) and `energy.rs` ([`EnergyModel`]). With the `jit` feature,
+//! `native.rs` compiles a tape's `f64` program to machine code with Cranelift (`NativeTape`,
+//! `NativeFunction`, `Function::compile_native`); the interpreter stays the fallback and the
+//! reference it is tested against.
 //!
 //! Derivatives as expressions: `derive.rs` ([`tangent`], [`tangents`], [`Seeds`], [`gradient`])
 //! differentiates on the graph itself (forward mode and reverse-mode gradients, simplified and hash-consed as it builds), and
@@ -77,6 +80,8 @@ mod eval;
 mod graph;
 mod ins;
 mod jet;
+#[cfg(feature = "jit")]
+mod native;
 mod particles;
 
 use compile::Input;
@@ -86,4 +91,6 @@ pub use energy::{EnergyModel, TapeSystem};
 pub use eom_program::{Energies, EomFunction, EomGraph, EomProgram, eom_graph};
 pub use eval::Function;
 pub use graph::{Binary, Graph, Node, Unary};
+#[cfg(feature = "jit")]
+pub use native::{NativeFunction, NativeTape};
 pub use particles::TapeParticles;
