@@ -937,3 +937,42 @@ fn eom_program_abs_at_zero_matches_dual_numbers() {
         );
     }
 }
+
+#[test]
+fn eom_program_native_code_matches_interpreter_bit_for_bit() {
+    // With the `jit` feature the program runs as machine code; the interpreter is the reference.
+    for (k, model) in [
+        double_pendulum(),
+        chain(6),
+        driven_pendulum(),
+        charged_particle(),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let program = model.program();
+        let expected = if cfg!(feature = "jit") {
+            "native"
+        } else {
+            "interpreter"
+        };
+        assert_eq!(program.backend(), expected);
+        let native = program.bind(&model.params).unwrap();
+        let reference = program.interpreted();
+        assert_eq!(reference.backend(), "interpreter");
+        let reference = reference.bind(&model.params).unwrap();
+        let n = model.dof;
+        let mut rng = Rng(40 + k as u64);
+        let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
+        for _ in 0..50 {
+            let t = rng.uniform(-2.0, 2.0);
+            let q: Vec<f64> = (0..n).map(|_| rng.uniform(-3.0, 3.0)).collect();
+            let qd: Vec<f64> = (0..n).map(|_| rng.uniform(-3.0, 3.0)).collect();
+            native.accelerations(t, &q, &qd, &mut a).unwrap();
+            reference.accelerations(t, &q, &qd, &mut b).unwrap();
+            for i in 0..n {
+                assert_eq!(a[i].to_bits(), b[i].to_bits(), "model {k}, q̈[{i}]");
+            }
+        }
+    }
+}

@@ -115,6 +115,17 @@ impl AnyModel {
     pub(crate) fn has_positions(&self) -> bool {
         self.positions(&[], &[]).is_some()
     }
+
+    /// What computes the accelerations at `f64` states: `"native"` (eq. 55 derived on the
+    /// expression graph, compiled by Cranelift), `"interpreter"` (the same program, or the tapes'
+    /// derivative passes, interpreted) or `"rust"` (a scene written in Rust).
+    pub(crate) fn backend(&self) -> &'static str {
+        match self {
+            AnyModel::Energy(m) => m.program().map_or("interpreter", |p| p.program().backend()),
+            AnyModel::Particles(_) => "interpreter",
+            _ => "rust",
+        }
+    }
 }
 
 /// A model with extra generalized loads Q (one per coordinate) for statics: r = ∂U/∂q − Q″ − Q.

@@ -162,11 +162,15 @@ pub fn eom_graph(graph: &mut Graph, dof: usize, parts: &Energies) -> Result<EomG
 
 /// Eq. 55 compiled: one [`Tape`] whose outputs are M's upper triangle row by row, then f (see
 /// [`EomGraph`]), not yet bound to parameter values.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct EomProgram {
     tape: Arc<Tape>,
     dof: usize,
     constant_mass: bool,
+    /// The tape as machine code (feature `jit`); `None` where it could not be compiled, and
+    /// then the interpreter runs it (same results, bit for bit).
+    #[cfg(feature = "jit")]
+    native: Option<Arc<super::NativeTape>>,
 }
 
 impl EomProgram {
@@ -192,11 +196,36 @@ impl EomProgram {
             Inputs::kinetic(eom.dof, params),
             "equations of motion",
         )?;
+        // Machine code where Cranelift serves the host; any failure leaves the interpreter.
+        #[cfg(feature = "jit")]
+        let native = super::NativeTape::compile(&tape).ok().map(Arc::new);
         Ok(Self {
             tape: tape.into(),
             dof: eom.dof,
             constant_mass: eom.constant_mass,
+            #[cfg(feature = "jit")]
+            native,
         })
+    }
+
+    /// The same program run by the interpreter: the reference the native code is tested
+    /// against (without the `jit` feature, the program itself).
+    pub fn interpreted(self) -> Self {
+        Self {
+            #[cfg(feature = "jit")]
+            native: None,
+            ..self
+        }
+    }
+
+    /// What runs the tape: `"native"` (machine code from Cranelift, feature `jit`) or
+    /// `"interpreter"`.
+    pub fn backend(&self) -> &'static str {
+        #[cfg(feature = "jit")]
+        if self.native.is_some() {
+            return "native";
+        }
+        "interpreter"
     }
 
     /// The compiled tape: outputs M's upper triangle row by row, then f.
@@ -276,6 +305,7 @@ impl EomFunction {
     /// If a slice has the wrong length.
     pub fn mass_and_force(&self, t: f64, q: &[f64], qd: &[f64], m: &mut [f64], f: &mut [f64]) {
         let n = self.program.dof;
+        assert!(q.len() == n && qd.len() == n, "wrong state lengths");
         assert!(m.len() == n * n && f.len() == n, "wrong output lengths");
         self.run(
             t,
@@ -303,6 +333,27 @@ impl EomFunction {
         let nm = n * (n + 1) / 2;
         // Row and column of each upper-triangle output, in order.
         let (mut i, mut j) = (0, 0);
+        let mut emit = |k: usize, v: f64| {
+            if k < nm {
+                mass(i, j, v);
+                j += 1;
+                if j == n {
+                    i += 1;
+                    j = i;
+                }
+            } else {
+                f[k - nm] = v;
+            }
+        };
+        #[cfg(feature = "jit")]
+        if let Some(native) = &self.program.native {
+            return with_buf::<f64, 64, _>(self.program.tape.outputs(), 0.0, |out| {
+                native.eval(&self.function.consts, t, q, qd, out);
+                for (k, &v) in out.iter().enumerate() {
+                    emit(k, v);
+                }
+            });
+        }
         let input = |x: Input| {
             Num(match x {
                 Input::Time => t,
@@ -312,18 +363,7 @@ impl EomFunction {
         };
         self.function
             .tape
-            .run(&self.function.consts, input, |k, v: Num<f64>| {
-                if k < nm {
-                    mass(i, j, v.0);
-                    j += 1;
-                    if j == n {
-                        i += 1;
-                        j = i;
-                    }
-                } else {
-                    f[k - nm] = v.0;
-                }
-            });
+            .run(&self.function.consts, input, |k, v: Num<f64>| emit(k, v.0));
     }
 
     /// The accelerations q̈ = M⁻¹ f at (t, q, q̇), written to `out`.

@@ -320,6 +320,7 @@ pub(super) trait Emit {
     fn cosh(&mut self, a: Self::V) -> Self::V;
     fn tanh(&mut self, a: Self::V) -> Self::V;
     fn abs(&mut self, a: Self::V) -> Self::V;
+    fn sign(&mut self, a: Self::V) -> Self::V;
     fn sqr(&mut self, a: Self::V) -> Self::V;
     fn powi(&mut self, a: Self::V, n: i32) -> Self::V;
 }

@@ -513,6 +513,16 @@ impl Emit for Gen<'_> {
     fn abs(&mut self, a: Value) -> Value {
         self.b.ins().fabs(a)
     }
+    fn sign(&mut self, a: Value) -> Value {
+        // 1 for a > 0, −1 otherwise (NaN included), as `graph::sign`.
+        let zero = self.b.ins().f64const(0.0);
+        let positive = self
+            .b
+            .ins()
+            .fcmp(ir::condcodes::FloatCC::GreaterThan, a, zero);
+        let (one, minus_one) = (self.b.ins().f64const(1.0), self.b.ins().f64const(-1.0));
+        self.b.ins().select(positive, one, minus_one)
+    }
     fn sqr(&mut self, a: Value) -> Value {
         self.mul(a, a)
     }
@@ -597,7 +607,7 @@ mod tests {
     use std::collections::BTreeSet;
     use std::time::Instant;
 
-    const UNARY: [Unary; 11] = [
+    const UNARY: [Unary; 12] = [
         Unary::Neg,
         Unary::Sin,
         Unary::Cos,
@@ -609,6 +619,7 @@ mod tests {
         Unary::Cosh,
         Unary::Tanh,
         Unary::Abs,
+        Unary::Sign,
     ];
     const BINARY: [Binary; 6] = [
         Binary::Add,
