@@ -427,7 +427,10 @@ class Model:
     def structure(self) -> Dict[str, Any]:
         """What the engine found the system to be: ``time_dependent``, ``constant_mass`` (M is
         factored once), ``separable`` (explicit symplectic methods apply), ``dissipative``,
-        ``forced``, ``conservative``."""
+        ``forced``, ``conservative``; and ``backend``, what computes the accelerations:
+        ``"native"`` (eq. 55 derived on the expression graph and compiled to machine code),
+        ``"interpreter"`` (the same, interpreted: particle-route models, or where no native code
+        could be made) or ``"rust"`` (a ready-made scene)."""
         return dict(self._native.structure())
 
     def with_parameters(self, **values: float) -> "Model":

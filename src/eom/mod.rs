@@ -21,7 +21,7 @@ mod qp_form;
 pub(crate) use qp_form::ForceParts;
 
 use crate::error::{Error, Result};
-use crate::linalg::{ldlt_in_place, ldlt_solve};
+use crate::linalg::{FactorFailure, ldlt_in_place, ldlt_solve};
 use crate::scalar::with_buf;
 use crate::{Dissipation, GeneralizedForces, Potential, Scalar};
 use passes::{Wrt, gradient};
@@ -198,11 +198,16 @@ impl<'a, U: Potential, R: Dissipation, Q: GeneralizedForces> Forces<'a, U, R, Q>
 /// finite.
 #[inline(always)]
 pub(crate) fn factor<D: Scalar>(m: &mut [D], n: usize, t: D, q: &[D]) -> Result<()> {
-    ldlt_in_place(m, n).map_err(|f| Error::SingularMassMatrix {
+    ldlt_in_place(m, n).map_err(|f| singular(f, t, q))
+}
+
+/// The typed error for a mass matrix whose factorization failed at (t, q).
+pub(crate) fn singular<D: Scalar>(failure: FactorFailure, t: D, q: &[D]) -> Error {
+    Error::SingularMassMatrix {
         t: t.re(),
         q: q.iter().map(|x| x.re()).collect(),
-        reason: f.reason(),
-    })
+        reason: failure.reason(),
+    }
 }
 
 /// Solve M q̈ = `rhs` in place with the factor `m` from [`factor`] (`f64` for a constant M, or

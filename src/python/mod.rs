@@ -205,6 +205,7 @@ impl PyModel {
         d.set_item("dissipative", s.dissipative)?;
         d.set_item("forced", s.forced)?;
         d.set_item("conservative", s.conservative())?;
+        d.set_item("backend", self.model.backend())?;
         Ok(d)
     }
 

@@ -4,7 +4,10 @@
 
 use crate::scenes::registry::{Arguments, Drawn, Positions, Scene, scenes};
 use crate::scenes::*;
-use crate::tape::{Binary, EnergyModel, Function, Graph, Inputs, Node, Tape, TapeParticles, Unary};
+use crate::tape::{
+    Binary, Energies, EnergyModel, EomProgram, Function, Graph, Inputs, Node, Tape, TapeParticles,
+    Unary,
+};
 use crate::{Dynamics, Error, ParticleSystem, Result, Scalar, Structure};
 use std::sync::Arc;
 
@@ -112,6 +115,17 @@ impl AnyModel {
     pub(crate) fn has_positions(&self) -> bool {
         self.positions(&[], &[]).is_some()
     }
+
+    /// What computes the accelerations at `f64` states: `"native"` (eq. 55 derived on the
+    /// expression graph, compiled by Cranelift), `"interpreter"` (the same program, or the tapes'
+    /// derivative passes, interpreted) or `"rust"` (a scene written in Rust).
+    pub(crate) fn backend(&self) -> &'static str {
+        match self {
+            AnyModel::Energy(m) => m.program().map_or("interpreter", |p| p.program().backend()),
+            AnyModel::Particles(_) => "interpreter",
+            _ => "rust",
+        }
+    }
 }
 
 /// A model with extra generalized loads Q (one per coordinate) for statics: r = ∂U/∂q − Q″ − Q.
@@ -175,6 +189,9 @@ pub(crate) struct Compiled {
     pub(crate) forces: Option<Arc<Tape>>,
     /// Position tape, dimension and mass tape of the particle route.
     pub(crate) particles: Option<(Arc<Tape>, usize, Arc<Tape>)>,
+    /// Eq. 55 derived on the expression graph (M and the force vector as one tape), for a model
+    /// stated by its kinetic energy: the accelerations at `f64` states with no dual numbers.
+    pub(crate) eom: Option<EomProgram>,
 }
 
 /// What the Python side sends for one model.
@@ -254,31 +271,32 @@ impl Compiled {
         if dof == 0 {
             return Err(bad("a model needs at least one coordinate".into()));
         }
-        let (g, ids) = node_ids(spec.nodes)?;
-        let tape = |roots: &[usize], inputs: Inputs, what: &str| -> Result<Arc<Tape>> {
+        let (mut g, ids) = node_ids(spec.nodes)?;
+        let node = |o: usize, what: &str| -> Result<usize> {
+            ids.get(o)
+                .copied()
+                .ok_or_else(|| bad(format!("{what}: output {o} is not a node")))
+        };
+        let tape = |g: &Graph, roots: &[usize], inputs: Inputs, what: &str| -> Result<Arc<Tape>> {
             let roots = roots
                 .iter()
-                .map(|&o| {
-                    ids.get(o)
-                        .copied()
-                        .ok_or_else(|| bad(format!("{what}: output {o} is not a node")))
-                })
+                .map(|&o| node(o, what))
                 .collect::<Result<Vec<_>>>()?;
-            Ok(Arc::new(Tape::new(&g, &roots, inputs, what)?))
+            Ok(Arc::new(Tape::new(g, &roots, inputs, what)?))
         };
         let all = Inputs::kinetic(dof, params);
         let no_velocity = Inputs::potential(dof, params);
         let kinetic = spec
             .kinetic
-            .map(|k| tape(&[k], all, "kinetic energy"))
+            .map(|k| tape(&g, &[k], all, "kinetic energy"))
             .transpose()?;
         let potential = spec
             .potential
-            .map(|u| tape(&[u], no_velocity, "potential"))
+            .map(|u| tape(&g, &[u], no_velocity, "potential"))
             .transpose()?;
         let dissipation = spec
             .dissipation
-            .map(|r| tape(&[r], all, "dissipation function"))
+            .map(|r| tape(&g, &[r], all, "dissipation function"))
             .transpose()?;
         let forces = match &spec.forces {
             Some(f) if f.len() != dof => {
@@ -288,7 +306,7 @@ impl Compiled {
                     got: f.len(),
                 });
             }
-            Some(f) => Some(tape(f, all, "generalized forces")?),
+            Some(f) => Some(tape(&g, f, all, "generalized forces")?),
             None => None,
         };
         let particles = match (&spec.positions, &spec.masses) {
@@ -305,9 +323,9 @@ impl Compiled {
                     )));
                 }
                 Some((
-                    tape(r, no_velocity, "positions")?,
+                    tape(&g, r, no_velocity, "positions")?,
                     spec.dim,
-                    tape(m, Inputs::constant(params), "masses")?,
+                    tape(&g, m, Inputs::constant(params), "masses")?,
                 ))
             }
             (None, None) => None,
@@ -318,6 +336,26 @@ impl Compiled {
                 "give either the kinetic energy or the particles' positions and masses".into(),
             ));
         }
+        // Derived last: its nodes join the graph the tapes above were compiled from.
+        let eom = match spec.kinetic {
+            Some(k) => {
+                let parts = Energies {
+                    kinetic: node(k, "kinetic energy")?,
+                    potential: spec.potential.map(|u| node(u, "potential")).transpose()?,
+                    dissipation: spec
+                        .dissipation
+                        .map(|r| node(r, "dissipation function"))
+                        .transpose()?,
+                    forces: spec
+                        .forces
+                        .as_ref()
+                        .map(|f| f.iter().map(|&o| node(o, "generalized forces")).collect())
+                        .transpose()?,
+                };
+                Some(EomProgram::new(&mut g, dof, params, &parts)?)
+            }
+            None => None,
+        };
         Ok(Self {
             dof,
             params,
@@ -326,6 +364,7 @@ impl Compiled {
             dissipation,
             forces,
             particles,
+            eom,
         })
     }
 
@@ -349,13 +388,13 @@ impl Compiled {
             bind(&self.forces)?,
         );
         match (&self.kinetic, &self.particles) {
-            (Some(k), _) => Ok(AnyModel::Energy(EnergyModel::new(
-                self.dof,
-                Function::new(k.clone(), params)?,
-                u,
-                r,
-                q,
-            )?)),
+            (Some(k), _) => {
+                let model = EnergyModel::new(self.dof, Function::new(k.clone(), params)?, u, r, q)?;
+                Ok(AnyModel::Energy(match &self.eom {
+                    Some(eom) => model.with_program(eom.bind(params)?)?,
+                    None => model,
+                }))
+            }
             (None, Some((positions, dim, masses))) => {
                 let m = Function::new(masses.clone(), params)?.constant_values();
                 let p = TapeParticles::new(

@@ -1,8 +1,9 @@
 //! [`EnergyModel`]: a model stated at run time by its energies, with the accelerations at `f64`
-//! states from one fused derivative pass of T.
+//! states from the eq. 55 program derived on its expression graph when it has one
+//! ([`EnergyModel::with_program`]), otherwise from one fused derivative pass of T.
 
 use super::jet::{Chain, Jet, Lagrange};
-use super::{Function, Input};
+use super::{EomFunction, Function, Input};
 use crate::dynamics::check_lengths;
 use crate::eom::Forces;
 use crate::{Dynamics, Error, KineticEnergy, Result, Scalar, Structure, System};
@@ -16,15 +17,19 @@ const FUSED_MAX: usize = 4;
 /// A model stated by its energies as tapes: T, and optionally U, Rayleigh's Φ and Q″.
 ///
 /// It is the [`System`] of those [`Function`]s — every derivative pass and every integrator
-/// works on it unchanged — except for one shortcut: at `f64` states of up to four coordinates
-/// whose T depends on q or t, the accelerations take one pass of T over a jet that carries M,
-/// the mixed terms (∂²T/∂q̇∂q) q̇ + ∂²T/∂q̇∂t and ∂T/∂q together, instead of a gradient pass and a
-/// hyper-dual pass. An interpreted tape pays per instruction, so halving the passes over T is
-/// what brings a model stated in Python within reach of a compiled one.
+/// works on it unchanged — except for the accelerations at `f64` states, the integrators' hot
+/// path:
+/// - with the eq. 55 program derived from the expression graph ([`EnergyModel::with_program`],
+///   what the Python module builds), one plain `f64` run of a tape whose outputs are M and the
+///   force vector, then the LDLᵀ tail: no dual numbers at all;
+/// - otherwise, for up to four coordinates whose T depends on q or t, one pass of T over a jet
+///   that carries M, the mixed terms (∂²T/∂q̇∂q) q̇ + ∂²T/∂q̇∂t and ∂T/∂q together, instead of a
+///   gradient pass and a hyper-dual pass (an interpreted tape pays per instruction).
 #[derive(Debug, Clone)]
 pub struct EnergyModel {
     system: TapeSystem,
     fused: bool,
+    program: Option<EomFunction>,
 }
 
 impl EnergyModel {
@@ -81,7 +86,39 @@ impl EnergyModel {
             .with_potential(potential)
             .with_dissipation(dissipation)
             .with_forces(forces);
-        Ok(Self { system, fused })
+        Ok(Self {
+            system,
+            fused,
+            program: None,
+        })
+    }
+
+    /// The model with its accelerations at `f64` states from `program`: eq. 55 derived on the
+    /// expression graph of the same energies ([`EomProgram`](super::EomProgram)), bound to the
+    /// same parameter values.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] when the program is made for another number of coordinates.
+    pub fn with_program(self, program: EomFunction) -> Result<Self> {
+        if program.program().dof() != self.dof() {
+            return Err(Error::InvalidInput {
+                what: "model",
+                why: format!(
+                    "the equations of motion are derived for {} coordinates, the model has {}",
+                    program.program().dof(),
+                    self.dof()
+                ),
+            });
+        }
+        Ok(Self {
+            program: Some(program),
+            ..self
+        })
+    }
+
+    /// The derived eq. 55 program, if the model has one.
+    pub fn program(&self) -> Option<&EomFunction> {
+        self.program.as_ref()
     }
 
     /// The [`System`] this model is.
@@ -97,13 +134,17 @@ impl EnergyModel {
         let s = &self.system;
         let rebind =
             |f: &Option<Function>| f.as_ref().map(|f| f.with_parameters(params)).transpose();
-        Self::new(
+        let model = Self::new(
             s.dof(),
             s.kinetic.with_parameters(params)?,
             rebind(&s.potential)?,
             rebind(&s.dissipation)?,
             rebind(&s.forces)?,
-        )
+        )?;
+        match &self.program {
+            Some(p) => model.with_program(p.with_parameters(params)?),
+            None => Ok(model),
+        }
     }
 
     /// Eq. 55 at an `f64` state with one pass of T (see the type's documentation); the rest of
@@ -201,8 +242,7 @@ impl Dynamics for EnergyModel {
     }
     #[inline]
     fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
-        if self.fused && super::jet::is::<D, f64>() {
-            check_lengths(self.dof(), q, qd, out)?;
+        if (self.program.is_some() || self.fused) && super::jet::is::<D, f64>() {
             // SAFETY: D is f64 (same TypeId), so these are identity casts.
             let (t, q, qd) = unsafe {
                 (
@@ -212,6 +252,10 @@ impl Dynamics for EnergyModel {
                 )
             };
             let out = unsafe { &mut *(out as *mut [D] as *mut [f64]) };
+            if let Some(program) = &self.program {
+                return program.accelerations(t, q, qd, out);
+            }
+            check_lengths(self.dof(), q, qd, out)?;
             return match self.dof() {
                 1 => self.fused::<1, 2>(t, q, qd, out),
                 2 => self.fused::<2, 3>(t, q, qd, out),

@@ -30,6 +30,9 @@ pub enum Unary {
     Tanh,
     /// |x|
     Abs,
+    /// The slope of |x| as the dual numbers take it: 1 for x > 0, −1 otherwise (so at 0 it is
+    /// −1, as num-dual's `abs`). The derivative of |x| on the graph, finite at x = 0.
+    Sign,
 }
 
 /// Functions of two arguments.
@@ -245,6 +248,7 @@ impl Unary {
             Unary::Cosh => x.cosh(),
             Unary::Tanh => x.tanh(),
             Unary::Abs => x.abs(),
+            Unary::Sign => sign(x),
         }
     }
 }
@@ -261,6 +265,12 @@ impl Binary {
             Binary::Atan2 => a.atan2(b),
         }
     }
+}
+
+/// [`Unary::Sign`] on a number.
+#[inline(always)]
+pub(super) fn sign(x: f64) -> f64 {
+    if x > 0.0 { 1.0 } else { -1.0 }
 }
 
 #[cfg(test)]

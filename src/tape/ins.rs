@@ -9,10 +9,14 @@
 //! To add a function of one argument: a [`Unary`] variant, its [`Arith`] method (`jet.rs`), its
 //! `f64` meaning (`Unary::apply`) and one line in the `unary` block below. A function of two
 //! arguments: one line in `commutative` or `ordered`, which also gives its forms with a constant
-//! operand (`x op c`, and `c op x` for the ordered ones).
+//! operand (`x op c`, and `c op x` for the ordered ones). With the `jit` feature, a new
+//! [`Arith`] method also needs its [`Emit`] twin (its native code, `native.rs`): the compiler
+//! says so.
 
 use super::jet::Arith;
 use super::{Binary, Unary};
+#[cfg(feature = "jit")]
+use crate::error::Result;
 
 /// What an instruction computes, before slots are assigned.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -39,7 +43,7 @@ macro_rules! put {
     }};
 }
 
-/// The table → `Ins`, `lower`, `step`. Each line names the variants of one function and the
+/// The table → `Ins`, `lower`, `step` (and `emit`, native code, with the `jit` feature). Each line names the variants of one function and the
 /// [`Arith`] method that evaluates them:
 /// - `unary`: `F => slot form, accumulator form: method`;
 /// - `commutative`: `F => a∘b, acc∘b: method; x∘c, acc∘c: method` (`c∘x` is `x∘c`);
@@ -160,7 +164,165 @@ macro_rules! instruction_set {
                 }
             }
         }
+
+        /// Lower one instruction through `e` (native code, `native.rs`): the same table as
+        /// [`step`], with the arithmetic of [`Emit`] instead of [`Arith`].
+        #[cfg(feature = "jit")]
+        pub(super) fn emit<E: Emit>(ins: &Ins, e: &mut E) -> Result<()> {
+            match *ins {
+                $(
+                    Ins::$u(d, a) => {
+                        let x = e.slot(a)?;
+                        let v = e.$um(x);
+                        e.set(d, v)
+                    }
+                    Ins::$ua(d) => {
+                        let x = e.acc()?;
+                        let v = e.$um(x);
+                        e.set(d, v)
+                    }
+                )*
+                $(
+                    Ins::$c(d, a, b) => {
+                        let (x, y) = (e.slot(a)?, e.slot(b)?);
+                        let v = e.$cm(x, y);
+                        e.set(d, v)
+                    }
+                    Ins::$ca(d, b) => {
+                        let (x, y) = (e.acc()?, e.slot(b)?);
+                        let v = e.$cm(x, y);
+                        e.set(d, v)
+                    }
+                    Ins::$cc(d, a, i) => {
+                        let (x, c) = (e.slot(a)?, e.constant(i)?);
+                        let v = e.$ccm(x, c);
+                        e.set(d, v)
+                    }
+                    Ins::$cca(d, i) => {
+                        let (x, c) = (e.acc()?, e.constant(i)?);
+                        let v = e.$ccm(x, c);
+                        e.set(d, v)
+                    }
+                )*
+                $(
+                    Ins::$o(d, a, b) => {
+                        let (x, y) = (e.slot(a)?, e.slot(b)?);
+                        let v = e.$om(x, y);
+                        e.set(d, v)
+                    }
+                    Ins::$oa(d, b) => {
+                        let (x, y) = (e.acc()?, e.slot(b)?);
+                        let v = e.$om(x, y);
+                        e.set(d, v)
+                    }
+                    Ins::$ob(d, a) => {
+                        let (x, y) = (e.slot(a)?, e.acc()?);
+                        let v = e.$om(x, y);
+                        e.set(d, v)
+                    }
+                    Ins::$oc(d, a, i) => {
+                        let (x, c) = (e.slot(a)?, e.constant(i)?);
+                        let v = e.$ocm(x, c);
+                        e.set(d, v)
+                    }
+                    Ins::$oca(d, i) => {
+                        let (x, c) = (e.acc()?, e.constant(i)?);
+                        let v = e.$ocm(x, c);
+                        e.set(d, v)
+                    }
+                    Ins::$co(d, a, i) => {
+                        let (x, c) = (e.slot(a)?, e.constant(i)?);
+                        let v = e.$com(x, c);
+                        e.set(d, v)
+                    }
+                    Ins::$coa(d, i) => {
+                        let (x, c) = (e.acc()?, e.constant(i)?);
+                        let v = e.$com(x, c);
+                        e.set(d, v)
+                    }
+                )*
+                Ins::Sqr(d, a) => {
+                    let x = e.slot(a)?;
+                    let v = e.sqr(x);
+                    e.set(d, v)
+                }
+                Ins::SqrA(d) => {
+                    let x = e.acc()?;
+                    let v = e.sqr(x);
+                    e.set(d, v)
+                }
+                Ins::PowI(d, a, n) => {
+                    let x = e.slot(a)?;
+                    let v = e.powi(x, n);
+                    e.set(d, v)
+                }
+                Ins::PowIA(d, n) => {
+                    let x = e.acc()?;
+                    let v = e.powi(x, n);
+                    e.set(d, v)
+                }
+                Ins::SinCos(ds, dc, a) => {
+                    let x = e.slot(a)?;
+                    let (sn, cs) = e.sin_cos(x);
+                    e.set(ds, sn)?;
+                    e.set(dc, cs)
+                }
+                Ins::SinCosA(ds, dc) => {
+                    let x = e.acc()?;
+                    let (sn, cs) = e.sin_cos(x);
+                    e.set(ds, sn)?;
+                    e.set(dc, cs)
+                }
+            }
+        }
     };
+}
+
+/// A code generator for the instruction set (`native.rs`): [`Arith`]'s operations on the values
+/// `V` of the generated code, with constants as values too, and the reads and writes of slots,
+/// constants and the accumulator, each checked (an error, not a panic, for a malformed tape).
+#[cfg(feature = "jit")]
+pub(super) trait Emit {
+    type V: Copy;
+    /// The value in slot `i`.
+    fn slot(&mut self, i: u32) -> Result<Self::V>;
+    /// The last value written.
+    fn acc(&mut self) -> Result<Self::V>;
+    /// Constant `i`.
+    fn constant(&mut self, i: u32) -> Result<Self::V>;
+    /// Write slot `d` (and the accumulator).
+    fn set(&mut self, d: u32, v: Self::V) -> Result<()>;
+    fn add(&mut self, a: Self::V, b: Self::V) -> Self::V;
+    fn sub(&mut self, a: Self::V, b: Self::V) -> Self::V;
+    fn mul(&mut self, a: Self::V, b: Self::V) -> Self::V;
+    fn div(&mut self, a: Self::V, b: Self::V) -> Self::V;
+    fn neg(&mut self, a: Self::V) -> Self::V;
+    fn add_c(&mut self, a: Self::V, c: Self::V) -> Self::V;
+    fn sub_c(&mut self, a: Self::V, c: Self::V) -> Self::V;
+    fn c_sub(&mut self, a: Self::V, c: Self::V) -> Self::V;
+    fn mul_c(&mut self, a: Self::V, c: Self::V) -> Self::V;
+    fn div_c(&mut self, a: Self::V, c: Self::V) -> Self::V;
+    fn c_div(&mut self, a: Self::V, c: Self::V) -> Self::V;
+    fn pow_c(&mut self, a: Self::V, c: Self::V) -> Self::V;
+    fn c_pow(&mut self, a: Self::V, c: Self::V) -> Self::V;
+    fn powd(&mut self, a: Self::V, b: Self::V) -> Self::V;
+    fn atan2(&mut self, a: Self::V, b: Self::V) -> Self::V;
+    fn atan2_c(&mut self, a: Self::V, c: Self::V) -> Self::V;
+    fn c_atan2(&mut self, a: Self::V, c: Self::V) -> Self::V;
+    fn sin(&mut self, a: Self::V) -> Self::V;
+    fn cos(&mut self, a: Self::V) -> Self::V;
+    fn sin_cos(&mut self, a: Self::V) -> (Self::V, Self::V);
+    fn tan(&mut self, a: Self::V) -> Self::V;
+    fn exp(&mut self, a: Self::V) -> Self::V;
+    fn ln(&mut self, a: Self::V) -> Self::V;
+    fn sqrt(&mut self, a: Self::V) -> Self::V;
+    fn sinh(&mut self, a: Self::V) -> Self::V;
+    fn cosh(&mut self, a: Self::V) -> Self::V;
+    fn tanh(&mut self, a: Self::V) -> Self::V;
+    fn abs(&mut self, a: Self::V) -> Self::V;
+    fn sign(&mut self, a: Self::V) -> Self::V;
+    fn sqr(&mut self, a: Self::V) -> Self::V;
+    fn powi(&mut self, a: Self::V, n: i32) -> Self::V;
 }
 
 instruction_set! {
@@ -176,6 +338,7 @@ instruction_set! {
         Cosh => Cosh, CoshA: cosh;
         Tanh => Tanh, TanhA: tanh;
         Abs => Abs, AbsA: abs;
+        Sign => Sign, SignA: sign;
     }
     commutative {
         Add => Add, AddA: add; AddC, AddCA: add_c;

@@ -53,6 +53,8 @@ pub(super) trait Arith: Copy {
     fn cosh(self) -> Self;
     fn tanh(self) -> Self;
     fn abs(self) -> Self;
+    /// [`Unary::Sign`](super::Unary::Sign): a step, so its derivatives are zero.
+    fn sign(self) -> Self;
     fn sqr(self) -> Self;
     fn powi(self, n: i32) -> Self;
 }
@@ -179,6 +181,10 @@ impl<D: Scalar> Arith for Num<D> {
     #[inline(always)]
     fn abs(self) -> Self {
         Num(self.0.abs())
+    }
+    #[inline(always)]
+    fn sign(self) -> Self {
+        Num(D::from(super::graph::sign(self.0.re())))
     }
     #[inline(always)]
     fn sqr(self) -> Self {
@@ -648,6 +654,10 @@ impl<J: Chain> Arith for Jet<J> {
     fn abs(self) -> Self {
         // As num-dual: −x unless x > 0.
         if self.0.re() > 0.0 { self } else { self.neg() }
+    }
+    #[inline(always)]
+    fn sign(self) -> Self {
+        Jet(J::cst(super::graph::sign(self.0.re())))
     }
     #[inline(always)]
     fn sqr(self) -> Self {

@@ -31,7 +31,15 @@
 //! `analysis.rs` (what a tape reads, its polynomial structure in q̇), `compile.rs` ([`Tape::new`]
 //! step by step, [`Inputs`]), `ins.rs` (the instruction set as one table), `eval.rs`
 //! ([`Function`], the evaluation and its jet fast path), `jet.rs` (the jet arithmetic),
-//! `particles.rs` ([`TapeParticles`]) and `energy.rs` ([`EnergyModel`]).
+//! `particles.rs` ([`TapeParticles`]) and `energy.rs` ([`EnergyModel`]). With the `jit` feature,
+//! `native.rs` compiles a tape's `f64` program to machine code with Cranelift (`NativeTape`,
+//! `NativeFunction`, `Function::compile_native`); the interpreter stays the fallback and the
+//! reference it is tested against.
+//!
+//! Derivatives as expressions: `derive.rs` ([`tangent`], [`tangents`], [`Seeds`], [`gradient`])
+//! differentiates on the graph itself (forward mode and reverse-mode gradients, simplified and hash-consed as it builds), and
+//! `eom_program.rs` ([`eom_graph`], [`EomProgram`], [`EomFunction`]) derives eq. 55 — M's entries
+//! and one force vector — as nodes and compiles them into one tape evaluated in plain `f64`.
 //!
 //! ```
 //! use lagrangian::tape::{Binary, Function, Graph, Inputs, Tape, Unary};
@@ -65,16 +73,24 @@
 
 mod analysis;
 mod compile;
+mod derive;
 mod energy;
+mod eom_program;
 mod eval;
 mod graph;
 mod ins;
 mod jet;
+#[cfg(feature = "jit")]
+mod native;
 mod particles;
 
 use compile::Input;
 pub use compile::{Inputs, Tape};
+pub use derive::{Seeds, Wrt, gradient, tangent, tangents};
 pub use energy::{EnergyModel, TapeSystem};
+pub use eom_program::{Energies, EomFunction, EomGraph, EomProgram, eom_graph};
 pub use eval::Function;
 pub use graph::{Binary, Graph, Node, Unary};
+#[cfg(feature = "jit")]
+pub use native::{NativeFunction, NativeTape};
 pub use particles::TapeParticles;

@@ -132,3 +132,31 @@ def test_docstring_examples_run(module):
         pytest.importorskip("scipy")
     result = doctest.testmod(importlib.import_module(module))
     assert result.attempted > 0 and result.failed == 0
+
+
+def test_backend_names_what_computes_the_accelerations():
+    # A model stated by expressions runs eq. 55 derived on its graph as machine code; the
+    # same system written in Rust is a scene; the particle route keeps its interpreted passes.
+    th1, th2 = lg.coordinates("th1 th2")
+    m, l, g = lg.parameters("m l g")
+    T = 0.5 * m * l**2 * (2 * th1.d**2 + th2.d**2 + 2 * th1.d * th2.d * lg.cos(th1 - th2))
+    U = -m * g * l * (2 * lg.cos(th1) + lg.cos(th2))
+    model = lg.Model(coordinates=[th1, th2], kinetic=T, potential=U,
+                     parameters={"m": 1.0, "l": 1.0, "g": 9.81})
+    scene = lg.scenes.double_pendulum(1.0, 1.0, 1.0, 1.0, 9.81)
+    assert model.structure["backend"] == "native"
+    assert scene.structure["backend"] == "rust"
+    x, = lg.coordinates("x")
+    particle = lg.Model(coordinates=[x], positions=[(x, 0.0)], masses=[1.0])
+    assert particle.structure["backend"] == "interpreter"
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        q, qd = rng.uniform(-3, 3, 2), rng.uniform(-3, 3, 2)
+        a = scene.accelerations(0.0, q, qd)
+        assert_allclose(model.accelerations(0.0, q, qd), a, rtol=1e-13, atol=1e-13 * np.abs(a).max())
+    # New parameter values reuse the compiled code.
+    moon = model.with_parameters(g=1.62)
+    assert moon.structure["backend"] == "native"
+    assert_allclose(moon.accelerations(0.0, [0.3, 0.0], [0.0, 0.0]),
+                    lg.scenes.double_pendulum(1.0, 1.0, 1.0, 1.0, 1.62).accelerations(0.0, [0.3, 0.0], [0.0, 0.0]),
+                    rtol=1e-13)

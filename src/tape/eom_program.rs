@@ -1,0 +1,392 @@
+//! Eq. 55 as one compiled program: the entries of M and the force vector f derived on the
+//! expression graph ([`derive`](super::derive)) and compiled into one [`Tape`], so that the
+//! accelerations at an `f64` state are one plain-`f64` run of that tape and an LDLᵀ solve — no
+//! dual numbers, no pass of T per direction.
+//!
+//! With L = T − U,
+//! M_ij = ∂²T/∂q̇ᵢ∂q̇ⱼ and fᵢ = Q″ᵢ + ∂L/∂qᵢ − (∂²L/∂q̇ᵢ∂q) q̇ − ∂²L/∂q̇ᵢ∂t − ∂Φ/∂q̇ᵢ,
+//! where ∂T/∂q̇, ∂L/∂q and ∂Φ/∂q̇ are one reverse sweep each ([`gradient`](super::gradient)), M's
+//! columns one tangent sweep each, and the two mixed terms one tangent sweep of pᵢ = ∂T/∂q̇ᵢ along (q, t) ↦ (q̇, 1). Only
+//! what the model has is built: no Φ, no Q″, no t — nothing for them. The tape's outputs are M's
+//! upper triangle row by row, then f; the tape is what a native-code backend compiles, with the
+//! constants of [`EomFunction::constants`].
+
+use super::derive::{POSITION, Seeds, Simplify, TIME, VELOCITY, Wrt, gradient, reads, tangents};
+use super::jet::Num;
+use super::{Function, Graph, Input, Inputs, Tape};
+use crate::dynamics::check_lengths;
+use crate::eom;
+use crate::error::{Error, Result};
+use crate::linalg::{FactorFailure, ldlt_in_place};
+use crate::scalar::with_buf;
+use std::sync::Arc;
+
+/// The energies of a model as nodes of one [`Graph`]: T, and optionally U, Rayleigh's Φ and Q″
+/// (one node per coordinate).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Energies {
+    /// The kinetic energy T(t, q, q̇).
+    pub kinetic: usize,
+    /// The potential U(t, q).
+    pub potential: Option<usize>,
+    /// Rayleigh's dissipation function Φ(t, q, q̇).
+    pub dissipation: Option<usize>,
+    /// The generalized forces Q″(t, q, q̇), one per coordinate.
+    pub forces: Option<Vec<usize>>,
+}
+
+/// The pieces of eq. 55 as nodes of the graph they were derived in.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EomGraph {
+    /// Number of coordinates.
+    pub dof: usize,
+    /// M's upper triangle row by row: (0,0), (0,1), …, (0,n−1), (1,1), …
+    pub mass: Vec<usize>,
+    /// f, one node per coordinate.
+    pub force: Vec<usize>,
+    /// The momenta p = ∂L/∂q̇ = ∂T/∂q̇ (not compiled into the accelerations' tape; for a tape of
+    /// their own).
+    pub momenta: Vec<usize>,
+    /// The energy function h = q̇·p − L (likewise).
+    pub energy: usize,
+    /// Whether every entry of M is free of t, q and q̇ (then M is computed and factored once).
+    pub constant_mass: bool,
+    /// Whether some entry of M or f reads t.
+    pub time: bool,
+}
+
+/// Index of M_ij (i ≤ j) in the upper triangle stored row by row.
+fn upper(n: usize, i: usize, j: usize) -> usize {
+    i * n - i * (i + 1) / 2 + j
+}
+
+/// Derive M and f of eq. 55 from `parts` as nodes of `graph` (see the module docs).
+///
+/// # Errors
+/// [`Error::InvalidInput`] when `dof` is zero, a part is not a node of the graph, the forces are
+/// not one per coordinate, or the potential reads velocities.
+pub fn eom_graph(graph: &mut Graph, dof: usize, parts: &Energies) -> Result<EomGraph> {
+    let bad = |why: String| Err(Error::InvalidInput { what: "model", why });
+    if dof == 0 {
+        return bad("a model needs at least one coordinate".into());
+    }
+    let mut all = vec![parts.kinetic];
+    all.extend(parts.potential);
+    all.extend(parts.dissipation);
+    if let Some(q) = &parts.forces {
+        if q.len() != dof {
+            return bad(format!(
+                "the generalized forces have {} outputs, expected {dof}",
+                q.len()
+            ));
+        }
+        all.extend(q);
+    }
+    if let Some(&o) = all.iter().find(|&&o| o >= graph.len()) {
+        return bad(format!("node {o} is not a node of the graph"));
+    }
+    if let Some(u) = parts.potential
+        && reads(graph)[u] & VELOCITY != 0
+    {
+        return bad("the potential may not depend on the velocities".into());
+    }
+    let one = graph.constant(1.0);
+    let t = parts.kinetic;
+    // p = ∂T/∂q̇, one reverse sweep.
+    let p = gradient(graph, t, Wrt::Velocity, dof)?;
+    // M by columns: column j is one sweep ∂/∂q̇_j of p_0 … p_j.
+    let zero = graph.constant(0.0);
+    let mut mass = vec![zero; dof * (dof + 1) / 2];
+    for j in 0..dof {
+        let roots: Vec<usize> = p[..=j].iter().map(|d| d.unwrap_or(zero)).collect();
+        let col = tangents(graph, &roots, &Seeds::new().velocity(j, one))?;
+        for (i, m) in col.into_iter().enumerate() {
+            mass[upper(dof, i, j)] = m.unwrap_or(zero);
+        }
+    }
+    // (∂²T/∂q̇∂q) q̇ + ∂²T/∂q̇∂t: one sweep of p along (q, t) ↦ (q̇, 1).
+    let mut motion = Seeds::new();
+    if reads(graph)[t] & TIME != 0 {
+        motion = motion.time(one);
+    }
+    for j in 0..dof {
+        let v = graph.velocity(j);
+        motion = motion.coord(j, v);
+    }
+    let roots: Vec<usize> = p.iter().map(|d| d.unwrap_or(zero)).collect();
+    let mixed = tangents(graph, &roots, &motion)?;
+    // ∂L/∂q_i, L = T − U.
+    let lagrangian = match parts.potential {
+        Some(u) => Simplify(graph).sub(t, u)?,
+        None => t,
+    };
+    let dl = gradient(graph, lagrangian, Wrt::Position, dof)?;
+    let dphi = match parts.dissipation {
+        Some(phi) => gradient(graph, phi, Wrt::Velocity, dof)?,
+        None => vec![None; dof],
+    };
+    let mut force = Vec::with_capacity(dof);
+    for i in 0..dof {
+        let (dl, dphi) = (dl[i], dphi[i]);
+        let q = parts.forces.as_ref().map(|q| q[i]);
+        let mut s = Simplify(graph);
+        let f = s.sum(q, dl)?;
+        let f = s.diff(f, mixed[i])?;
+        let f = s.diff(f, dphi)?;
+        force.push(f.unwrap_or(zero));
+    }
+    let momenta: Vec<usize> = p.iter().map(|d| d.unwrap_or(zero)).collect();
+    let mut s = Simplify(graph);
+    let mut qp = None;
+    for (i, &pi) in momenta.iter().enumerate() {
+        let v = s.0.velocity(i);
+        let term = s.mul(v, pi)?;
+        qp = s.sum(qp, Some(term))?;
+    }
+    let energy = s.diff(qp, Some(lagrangian))?.unwrap_or(zero);
+    let r = reads(graph);
+    let constant_mass = mass
+        .iter()
+        .all(|&m| r[m] & (TIME | POSITION | VELOCITY) == 0);
+    let time = mass.iter().chain(&force).any(|&x| r[x] & TIME != 0);
+    Ok(EomGraph {
+        dof,
+        mass,
+        force,
+        momenta,
+        energy,
+        constant_mass,
+        time,
+    })
+}
+
+/// Eq. 55 compiled: one [`Tape`] whose outputs are M's upper triangle row by row, then f (see
+/// [`EomGraph`]), not yet bound to parameter values.
+#[derive(Debug, Clone)]
+pub struct EomProgram {
+    tape: Arc<Tape>,
+    dof: usize,
+    constant_mass: bool,
+    /// The tape as machine code (feature `jit`); `None` where it could not be compiled, and
+    /// then the interpreter runs it (same results, bit for bit).
+    #[cfg(feature = "jit")]
+    native: Option<Arc<super::NativeTape>>,
+}
+
+impl EomProgram {
+    /// Derive eq. 55 from `parts` (adding the derivatives' nodes to `graph`) and compile it for
+    /// `dof` coordinates and `params` parameters.
+    ///
+    /// # Errors
+    /// As [`eom_graph`] and [`Tape::new`].
+    pub fn new(graph: &mut Graph, dof: usize, params: usize, parts: &Energies) -> Result<Self> {
+        let eom = eom_graph(graph, dof, parts)?;
+        Self::compile(graph, &eom, params)
+    }
+
+    /// Compile derived pieces `eom` of `graph` for `params` parameters.
+    ///
+    /// # Errors
+    /// As [`Tape::new`].
+    pub fn compile(graph: &Graph, eom: &EomGraph, params: usize) -> Result<Self> {
+        let outputs: Vec<usize> = eom.mass.iter().chain(&eom.force).copied().collect();
+        let tape = Tape::new(
+            graph,
+            &outputs,
+            Inputs::kinetic(eom.dof, params),
+            "equations of motion",
+        )?;
+        // Machine code where Cranelift serves the host; any failure leaves the interpreter.
+        #[cfg(feature = "jit")]
+        let native = super::NativeTape::compile(&tape).ok().map(Arc::new);
+        Ok(Self {
+            tape: tape.into(),
+            dof: eom.dof,
+            constant_mass: eom.constant_mass,
+            #[cfg(feature = "jit")]
+            native,
+        })
+    }
+
+    /// The same program run by the interpreter: the reference the native code is tested
+    /// against (without the `jit` feature, the program itself).
+    pub fn interpreted(self) -> Self {
+        Self {
+            #[cfg(feature = "jit")]
+            native: None,
+            ..self
+        }
+    }
+
+    /// What runs the tape: `"native"` (machine code from Cranelift, feature `jit`) or
+    /// `"interpreter"`.
+    pub fn backend(&self) -> &'static str {
+        #[cfg(feature = "jit")]
+        if self.native.is_some() {
+            return "native";
+        }
+        "interpreter"
+    }
+
+    /// The compiled tape: outputs M's upper triangle row by row, then f.
+    pub fn tape(&self) -> &Arc<Tape> {
+        &self.tape
+    }
+
+    /// Number of coordinates.
+    pub fn dof(&self) -> usize {
+        self.dof
+    }
+
+    /// Whether M is free of t, q and q̇ (computed and factored once per parameter set).
+    pub fn constant_mass_matrix(&self) -> bool {
+        self.constant_mass
+    }
+
+    /// Bind to parameter values.
+    ///
+    /// # Errors
+    /// As [`Function::new`].
+    pub fn bind(&self, params: &[f64]) -> Result<EomFunction> {
+        let function = Function::new(self.tape.clone(), params)?;
+        let n = self.dof;
+        let mass_factor = self.constant_mass.then(|| {
+            // Every entry of M is an output read from the constants.
+            let mut m = vec![0.0; n * n];
+            let zeros = vec![0.0; n];
+            let mut out = vec![0.0; self.tape.outputs()];
+            function.eval_into(0.0, &zeros, &zeros, &mut out);
+            for i in 0..n {
+                for j in i..n {
+                    m[j * n + i] = out[upper(n, i, j)];
+                }
+            }
+            ldlt_in_place(&mut m, n).map(|()| m.into())
+        });
+        Ok(EomFunction {
+            program: self.clone(),
+            function,
+            mass_factor,
+        })
+    }
+}
+
+/// An [`EomProgram`] bound to parameter values: the accelerations at `f64` states.
+#[derive(Debug, Clone)]
+pub struct EomFunction {
+    program: EomProgram,
+    function: Function,
+    /// The LDLᵀ factor of a constant M (or why it has none).
+    mass_factor: Option<std::result::Result<Arc<[f64]>, FactorFailure>>,
+}
+
+impl EomFunction {
+    /// The program.
+    pub fn program(&self) -> &EomProgram {
+        &self.program
+    }
+
+    /// The tape's constants for these parameter values (what the tape reads besides t, q, q̇).
+    pub fn constants(&self) -> &[f64] {
+        &self.function.consts
+    }
+
+    /// The same program with other parameter values.
+    ///
+    /// # Errors
+    /// As [`Function::new`].
+    pub fn with_parameters(&self, params: &[f64]) -> Result<Self> {
+        self.program.bind(params)
+    }
+
+    /// M (full, row-major n × n) and f at (t, q, q̇).
+    ///
+    /// # Panics
+    /// If a slice has the wrong length.
+    pub fn mass_and_force(&self, t: f64, q: &[f64], qd: &[f64], m: &mut [f64], f: &mut [f64]) {
+        let n = self.program.dof;
+        assert!(q.len() == n && qd.len() == n, "wrong state lengths");
+        assert!(m.len() == n * n && f.len() == n, "wrong output lengths");
+        self.run(
+            t,
+            q,
+            qd,
+            |i, j, x| {
+                m[i * n + j] = x;
+                m[j * n + i] = x;
+            },
+            f,
+        );
+    }
+
+    /// Run the tape: M_ij (i ≤ j) to `mass`, f to `f`.
+    #[inline(always)]
+    fn run(
+        &self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        mut mass: impl FnMut(usize, usize, f64),
+        f: &mut [f64],
+    ) {
+        let n = self.program.dof;
+        let nm = n * (n + 1) / 2;
+        // Row and column of each upper-triangle output, in order.
+        let (mut i, mut j) = (0, 0);
+        let mut emit = |k: usize, v: f64| {
+            if k < nm {
+                mass(i, j, v);
+                j += 1;
+                if j == n {
+                    i += 1;
+                    j = i;
+                }
+            } else {
+                f[k - nm] = v;
+            }
+        };
+        #[cfg(feature = "jit")]
+        if let Some(native) = &self.program.native {
+            return with_buf::<f64, 64, _>(self.program.tape.outputs(), 0.0, |out| {
+                native.eval(&self.function.consts, t, q, qd, out);
+                for (k, &v) in out.iter().enumerate() {
+                    emit(k, v);
+                }
+            });
+        }
+        let input = |x: Input| {
+            Num(match x {
+                Input::Time => t,
+                Input::Coord(k) => q[k],
+                Input::Velocity(k) => qd[k],
+            })
+        };
+        self.function
+            .tape
+            .run(&self.function.consts, input, |k, v: Num<f64>| emit(k, v.0));
+    }
+
+    /// The accelerations q̈ = M⁻¹ f at (t, q, q̇), written to `out`.
+    ///
+    /// # Errors
+    /// [`Error::DimensionMismatch`] for slices of the wrong length,
+    /// [`Error::SingularMassMatrix`] when M cannot be factored, [`Error::NonFinite`] when the
+    /// accelerations are not finite — as the energy route.
+    pub fn accelerations(&self, t: f64, q: &[f64], qd: &[f64], out: &mut [f64]) -> Result<()> {
+        let n = self.program.dof;
+        check_lengths(n, q, qd, out)?;
+        match &self.mass_factor {
+            Some(factor) => {
+                let factor = factor.as_ref().map_err(|&f| eom::singular(f, t, q))?;
+                self.run(t, q, qd, |_, _, _| {}, out);
+                eom::solve(&factor[..], n, t, out)
+            }
+            None => with_buf::<f64, 64, _>(n * n, 0.0, |m| {
+                // The factorization reads the lower triangle.
+                self.run(t, q, qd, |i, j, x| m[j * n + i] = x, out);
+                eom::factor(m, n, t, q)?;
+                eom::solve(&*m, n, t, out)
+            }),
+        }
+    }
+}
