@@ -5,15 +5,12 @@
 //! n pendulums, through [`EnergyModel`] (what the Python module builds) and through the plain
 //! [`TapeSystem`] (every derivative pass evaluated on the tape).
 
-use lagrangian::Dynamics;
 mod common;
 
 use common::time;
-use lagrangian::tape::{
-    Binary, EnergyModel, Function, Graph, Inputs, Tape, TapeSystem, Unary, models,
-};
+use lagrangian::Dynamics;
+use lagrangian::tape::{EnergyModel, Function, Graph, Inputs, Tape, TapeSystem, models};
 use std::hint::black_box;
-use std::time::Instant;
 
 /// T and U of the double pendulum as the Python benchmark writes them, parameters (m, l, g).
 fn double_pendulum(g: &mut Graph) -> (usize, usize) {
@@ -106,6 +103,7 @@ fn tape_speed_accelerations() {
 #[test]
 #[ignore = "timing; run in release with --ignored --nocapture"]
 fn tape_speed_native() {
+    use std::time::Instant;
     type Build<'a> = &'a dyn Fn(&mut Graph) -> (usize, usize);
     let cases: [(&str, usize, Build); 3] = [
         ("double pendulum", 2, &double_pendulum),
@@ -158,6 +156,8 @@ fn tape_speed_native() {
 #[test]
 #[ignore = "timing; run in release with --ignored --nocapture"]
 fn tape_speed_native_compile_large() {
+    use lagrangian::tape::{Binary, Unary};
+    use std::time::Instant;
     let mut g = Graph::new();
     let (x, y) = (g.coord(0), g.velocity(0));
     let mut nodes = vec![x, y];
