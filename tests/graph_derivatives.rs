@@ -5,10 +5,13 @@
 //! The timing at the end is not a timed assertion: run it with
 //! `CARGO_PROFILE_RELEASE_LTO=false cargo test --release --test graph_derivatives -- --ignored --nocapture`.
 
+mod common;
+
+use common::time;
 use lagrangian::num_dual::Dual64;
 use lagrangian::tape::{
     Binary, Energies, EnergyModel, EomProgram, Function, Graph, Inputs, Seeds, Tape, Unary, Wrt,
-    eom_graph, gradient, tangent,
+    eom_graph, gradient, models, tangent,
 };
 use lagrangian::{Dynamics, Error};
 use std::hint::black_box;
@@ -352,101 +355,30 @@ impl Model {
     }
 }
 
-/// A chain of n pendulums with Cartesian velocities as running sums (parameters m, l, g).
-fn chain(n: usize) -> Model {
+/// A model of `tape::models` with T and U only.
+fn example(dof: usize, params: Vec<f64>, build: impl FnOnce(&mut Graph) -> Energies) -> Model {
     let mut graph = Graph::new();
-    let mut b = B(&mut graph);
-    let (m, l, grav) = (b.0.param(0), b.0.param(1), b.0.param(2));
-    let half = b.c(0.5);
-    let (mut vx, mut vy, mut y, mut kin, mut pot) = (None, None, None, None, None);
-    let acc = |b: &mut B, a: Option<usize>, x: usize| match a {
-        None => x,
-        Some(a) => b.add(a, x),
-    };
-    for i in 0..n {
-        let (th, w) = (b.0.coord(i), b.0.velocity(i));
-        let (s, c) = (b.sin(th), b.cos(th));
-        let lw = b.mul(l, w);
-        let dx = b.mul(lw, c);
-        let dy = b.mul(lw, s);
-        vx = Some(acc(&mut b, vx, dx));
-        vy = Some(acc(&mut b, vy, dy));
-        let lc = b.mul(l, c);
-        let h = b.u(Unary::Neg, lc);
-        y = Some(acc(&mut b, y, h));
-        let v2x = b.sq(vx.unwrap());
-        let v2y = b.sq(vy.unwrap());
-        let v2 = b.add(v2x, v2y);
-        kin = Some(acc(&mut b, kin, v2));
-        pot = Some(acc(&mut b, pot, y.unwrap()));
-    }
-    let hm = b.mul(half, m);
-    let kinetic = b.mul(hm, kin.unwrap());
-    let mg = b.mul(m, grav);
-    let potential = b.mul(mg, pot.unwrap());
+    let parts = build(&mut graph);
     Model {
         graph,
-        dof: n,
-        parts: Energies {
-            kinetic,
-            potential: Some(potential),
-            ..Energies::default()
-        },
-        params: vec![1.3, 0.8, 9.81],
+        dof,
+        parts,
+        params,
     }
 }
 
-/// The double pendulum in its textbook form, parameters (m₁, m₂, l₁, l₂, g).
+/// [`models::pendulum_chain`] of n links (parameters m, l, g).
+fn chain(n: usize) -> Model {
+    example(n, vec![1.3, 0.8, 9.81], |g| {
+        models::pendulum_chain(g, n).unwrap()
+    })
+}
+
+/// [`models::double_pendulum`], parameters (m₁, m₂, l₁, l₂, g).
 fn double_pendulum() -> Model {
-    let mut graph = Graph::new();
-    let mut b = B(&mut graph);
-    let (m1, m2, l1, l2, grav) = (
-        b.0.param(0),
-        b.0.param(1),
-        b.0.param(2),
-        b.0.param(3),
-        b.0.param(4),
-    );
-    let (th1, th2, w1, w2) = (b.0.coord(0), b.0.coord(1), b.0.velocity(0), b.0.velocity(1));
-    let half = b.c(0.5);
-    let m12 = b.add(m1, m2);
-    let l1s = b.sq(l1);
-    let l2s = b.sq(l2);
-    let w1s = b.sq(w1);
-    let w2s = b.sq(w2);
-    let a = b.mul(m12, l1s);
-    let a = b.mul(a, w1s);
-    let c = b.mul(m2, l2s);
-    let c = b.mul(c, w2s);
-    let s = b.add(a, c);
-    let s = b.mul(half, s);
-    let d = b.sub(th1, th2);
-    let cd = b.cos(d);
-    let x = b.mul(m2, l1);
-    let x = b.mul(x, l2);
-    let x = b.mul(x, w1);
-    let x = b.mul(x, w2);
-    let x = b.mul(x, cd);
-    let kinetic = b.add(s, x);
-    let c1 = b.cos(th1);
-    let c2 = b.cos(th2);
-    let u1 = b.mul(m12, l1);
-    let u1 = b.mul(u1, c1);
-    let u2 = b.mul(m2, l2);
-    let u2 = b.mul(u2, c2);
-    let u = b.add(u1, u2);
-    let u = b.mul(grav, u);
-    let potential = b.u(Unary::Neg, u);
-    Model {
-        graph,
-        dof: 2,
-        parts: Energies {
-            kinetic,
-            potential: Some(potential),
-            ..Energies::default()
-        },
-        params: vec![1.0, 2.0, 1.5, 0.7, 9.81],
-    }
+    example(2, vec![1.0, 2.0, 1.5, 0.7, 9.81], |g| {
+        models::double_pendulum(g).unwrap()
+    })
 }
 
 /// A pendulum whose pivot moves as y = A cos ωt (T depends on t), with viscous damping
@@ -745,20 +677,6 @@ fn eom_program_singular_mass_matrix_is_a_typed_error() {
         .unwrap_err();
     assert_eq!(err, want);
     assert!(matches!(err, Error::SingularMassMatrix { .. }));
-}
-
-/// Nanoseconds per call: the best of rounds of 200 calls.
-fn time(calls: usize, mut f: impl FnMut(usize)) -> f64 {
-    let per_round = 200;
-    (0..calls / per_round)
-        .map(|_| {
-            let start = Instant::now();
-            for k in 0..per_round {
-                f(k);
-            }
-            start.elapsed().as_secs_f64() * 1e9 / per_round as f64
-        })
-        .fold(f64::INFINITY, f64::min)
 }
 
 #[test]

@@ -5,82 +5,27 @@
 //! n pendulums, through [`EnergyModel`] (what the Python module builds) and through the plain
 //! [`TapeSystem`] (every derivative pass evaluated on the tape).
 
+mod common;
+
+use common::time;
 use lagrangian::Dynamics;
-use lagrangian::tape::{Binary, EnergyModel, Function, Graph, Inputs, Tape, TapeSystem, Unary};
+use lagrangian::tape::{EnergyModel, Function, Graph, Inputs, Tape, TapeSystem, models};
 use std::hint::black_box;
-use std::time::Instant;
 
-/// T and U of the double pendulum as the Python benchmark writes them, parameters (m, l, g):
-/// T = ½ m l² (2 θ̇₁² + θ̇₂² + 2 θ̇₁ θ̇₂ cos(θ₁ − θ₂)), U = −m g l (2 cos θ₁ + cos θ₂).
+/// T and U of the double pendulum as the Python benchmark writes them, parameters (m, l, g).
 fn double_pendulum(g: &mut Graph) -> (usize, usize) {
-    let b = |g: &mut Graph, f, x, y| g.binary(f, x, y).unwrap();
-    let (m, l, grav) = (g.param(0), g.param(1), g.param(2));
-    let (th1, th2, w1, w2) = (g.coord(0), g.coord(1), g.velocity(0), g.velocity(1));
-    let (half, two) = (g.constant(0.5), g.constant(2.0));
-    let l2 = g.powi(l, 2).unwrap();
-    let k = b(g, Binary::Mul, half, m);
-    let k = b(g, Binary::Mul, k, l2);
-    let w1s = g.powi(w1, 2).unwrap();
-    let w2s = g.powi(w2, 2).unwrap();
-    let a = b(g, Binary::Mul, two, w1s);
-    let a = b(g, Binary::Add, a, w2s);
-    let d = b(g, Binary::Sub, th1, th2);
-    let c = g.unary(Unary::Cos, d).unwrap();
-    let x = b(g, Binary::Mul, two, w1);
-    let x = b(g, Binary::Mul, x, w2);
-    let x = b(g, Binary::Mul, x, c);
-    let a = b(g, Binary::Add, a, x);
-    let kinetic = b(g, Binary::Mul, k, a);
-    let mgl = b(g, Binary::Mul, m, grav);
-    let mgl = b(g, Binary::Mul, mgl, l);
-    let c1 = g.unary(Unary::Cos, th1).unwrap();
-    let c2 = g.unary(Unary::Cos, th2).unwrap();
-    let c1 = b(g, Binary::Mul, two, c1);
-    let s = b(g, Binary::Add, c1, c2);
-    let u = b(g, Binary::Mul, mgl, s);
-    let potential = g.unary(Unary::Neg, u).unwrap();
-    (kinetic, potential)
+    let parts = models::double_pendulum_equal(g).unwrap();
+    (parts.kinetic, parts.potential.unwrap())
 }
 
-/// A chain of n unit pendulums (parameters m, l, g): T = ½ m Σₖ |vₖ|², U = m g Σₖ yₖ.
+/// A chain of n pendulums (parameters m, l, g).
 fn chain(g: &mut Graph, n: usize) -> (usize, usize) {
-    let b = |g: &mut Graph, f, x, y| g.binary(f, x, y).unwrap();
-    let (m, l, grav) = (g.param(0), g.param(1), g.param(2));
-    let half = g.constant(0.5);
-    let (mut vx, mut vy, mut y) = (None, None, None);
-    let (mut kin, mut pot) = (None, None);
-    let add = |g: &mut Graph, acc: Option<usize>, x: usize| match acc {
-        None => x,
-        Some(a) => g.binary(Binary::Add, a, x).unwrap(),
-    };
-    for i in 0..n {
-        let (th, w) = (g.coord(i), g.velocity(i));
-        let (s, c) = (
-            g.unary(Unary::Sin, th).unwrap(),
-            g.unary(Unary::Cos, th).unwrap(),
-        );
-        let lw = b(g, Binary::Mul, l, w);
-        let dx = b(g, Binary::Mul, lw, c);
-        let dy = b(g, Binary::Mul, lw, s);
-        vx = Some(add(g, vx, dx));
-        vy = Some(add(g, vy, dy));
-        let lc = b(g, Binary::Mul, l, c);
-        let h = g.unary(Unary::Neg, lc).unwrap();
-        y = Some(add(g, y, h));
-        let v2x = g.powi(vx.unwrap(), 2).unwrap();
-        let v2y = g.powi(vy.unwrap(), 2).unwrap();
-        let v2 = b(g, Binary::Add, v2x, v2y);
-        kin = Some(add(g, kin, v2));
-        pot = Some(add(g, pot, y.unwrap()));
-    }
-    let hm = b(g, Binary::Mul, half, m);
-    let kinetic = b(g, Binary::Mul, hm, kin.unwrap());
-    let mg = b(g, Binary::Mul, m, grav);
-    let potential = b(g, Binary::Mul, mg, pot.unwrap());
-    (kinetic, potential)
+    let parts = models::pendulum_chain(g, n).unwrap();
+    (parts.kinetic, parts.potential.unwrap())
 }
 
-fn model(n: usize, build: impl FnOnce(&mut Graph) -> (usize, usize)) -> EnergyModel {
+/// T and U of a model of n coordinates as functions, with parameters (1, 1, 9.81).
+fn functions(n: usize, build: impl FnOnce(&mut Graph) -> (usize, usize)) -> (Function, Function) {
     let mut g = Graph::new();
     let (k, u) = build(&mut g);
     let params = [1.0, 1.0, 9.81];
@@ -88,22 +33,12 @@ fn model(n: usize, build: impl FnOnce(&mut Graph) -> (usize, usize)) -> EnergyMo
     let u = Tape::new(&g, &[u], Inputs::potential(n, 3), "U").unwrap();
     let t = Function::new(t.into(), &params).unwrap();
     let u = Function::new(u.into(), &params).unwrap();
-    EnergyModel::new(n, t, Some(u), None, None).unwrap()
+    (t, u)
 }
 
-/// Nanoseconds per call of `f`: the best of `calls / 200` rounds of 200 calls (short rounds, so
-/// that on a busy machine some run undisturbed).
-fn time(calls: usize, mut f: impl FnMut(usize)) -> f64 {
-    let per_round = 200;
-    (0..calls / per_round)
-        .map(|_| {
-            let start = Instant::now();
-            for k in 0..per_round {
-                f(k);
-            }
-            start.elapsed().as_secs_f64() * 1e9 / per_round as f64
-        })
-        .fold(f64::INFINITY, f64::min)
+fn model(n: usize, build: impl FnOnce(&mut Graph) -> (usize, usize)) -> EnergyModel {
+    let (t, u) = functions(n, build);
+    EnergyModel::new(n, t, Some(u), None, None).unwrap()
 }
 
 /// [`time`] of 1e5 calls of `accelerations_into`.
@@ -168,6 +103,7 @@ fn tape_speed_accelerations() {
 #[test]
 #[ignore = "timing; run in release with --ignored --nocapture"]
 fn tape_speed_native() {
+    use std::time::Instant;
     type Build<'a> = &'a dyn Fn(&mut Graph) -> (usize, usize);
     let cases: [(&str, usize, Build); 3] = [
         ("double pendulum", 2, &double_pendulum),
@@ -176,13 +112,7 @@ fn tape_speed_native() {
     ];
     for (name, n, build) in cases {
         let start = Instant::now();
-        let mut g = Graph::new();
-        let (k, u) = build(&mut g);
-        let params = [1.0, 1.0, 9.81];
-        let t = Tape::new(&g, &[k], Inputs::kinetic(n, 3), "T").unwrap();
-        let u = Tape::new(&g, &[u], Inputs::potential(n, 3), "U").unwrap();
-        let t = Function::new(t.into(), &params).unwrap();
-        let u = Function::new(u.into(), &params).unwrap();
+        let (t, u) = functions(n, build);
         let tapes = start.elapsed().as_secs_f64() * 1e3;
         // The best of five compilations (the machine may be busy).
         let mut compile = f64::INFINITY;
@@ -226,6 +156,8 @@ fn tape_speed_native() {
 #[test]
 #[ignore = "timing; run in release with --ignored --nocapture"]
 fn tape_speed_native_compile_large() {
+    use lagrangian::tape::{Binary, Unary};
+    use std::time::Instant;
     let mut g = Graph::new();
     let (x, y) = (g.coord(0), g.velocity(0));
     let mut nodes = vec![x, y];

@@ -276,7 +276,7 @@ mod tests {
     use super::*;
     use crate::ParticleSystem;
     use crate::scenes::{DoublePendulum, DrivenPendulum};
-    use crate::tape::{Binary, Graph, Inputs, Tape, TapeParticles, Unary};
+    use crate::tape::{Binary, Graph, Inputs, Tape, TapeParticles, Unary, models};
     use approx::assert_relative_eq;
     use std::sync::Arc;
 
@@ -322,46 +322,15 @@ mod tests {
         }
     }
 
-    /// The seed's double pendulum written as expressions: parameters (m1, m2, l1, l2, g).
+    /// The double pendulum of [`models::double_pendulum`]: parameters (m1, m2, l1, l2, g).
     fn double_pendulum(params: &[f64]) -> EnergyModel {
-        let mut b = B(Graph::new());
-        let (m1, m2, l1, l2, g) = (b.p(0), b.p(1), b.p(2), b.p(3), b.p(4));
-        let (t1, t2) = (b.0.coord(0), b.0.coord(1));
-        let (w1, w2) = (b.0.velocity(0), b.0.velocity(1));
-        let half = b.c(0.5);
-        let m12 = b.add(m1, m2);
-        let l1s = b.sqr(l1);
-        let l2s = b.sqr(l2);
-        let w1s = b.sqr(w1);
-        let w2s = b.sqr(w2);
-        let a = b.mul(m12, l1s);
-        let a = b.mul(a, w1s);
-        let bb = b.mul(m2, l2s);
-        let bb = b.mul(bb, w2s);
-        let ab = b.add(a, bb);
-        let ab = b.mul(half, ab);
-        let d = b.sub(t1, t2);
-        let cd = b.un(Unary::Cos, d);
-        let c = b.mul(m2, l1);
-        let c = b.mul(c, l2);
-        let c = b.mul(c, w1);
-        let c = b.mul(c, w2);
-        let c = b.mul(c, cd);
-        let kinetic = b.add(ab, c);
-        let c1 = b.un(Unary::Cos, t1);
-        let c2 = b.un(Unary::Cos, t2);
-        let u1 = b.mul(m12, g);
-        let u1 = b.mul(u1, l1);
-        let u1 = b.mul(u1, c1);
-        let u2 = b.mul(m2, g);
-        let u2 = b.mul(u2, l2);
-        let u2 = b.mul(u2, c2);
-        let u = b.add(u1, u2);
-        let potential = b.un(Unary::Neg, u);
+        let mut g = Graph::new();
+        let parts = models::double_pendulum(&mut g).unwrap();
+        let b = B(g);
         EnergyModel::new(
             2,
-            b.function(kinetic, Inputs::kinetic(2, 5), params),
-            Some(b.function(potential, Inputs::potential(2, 5), params)),
+            b.function(parts.kinetic, Inputs::kinetic(2, 5), params),
+            Some(b.function(parts.potential.unwrap(), Inputs::potential(2, 5), params)),
             None,
             None,
         )

@@ -80,6 +80,7 @@ mod eval;
 mod graph;
 mod ins;
 mod jet;
+pub mod models;
 #[cfg(feature = "jit")]
 mod native;
 mod particles;

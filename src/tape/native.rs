@@ -602,7 +602,7 @@ impl NativeFunction {
 mod tests {
     use super::super::compile::Inputs;
     use super::super::ins::Ins;
-    use super::super::{Binary, Graph, Unary};
+    use super::super::{Binary, Graph, Unary, models};
     use super::*;
     use std::collections::BTreeSet;
     use std::time::Instant;
@@ -835,35 +835,10 @@ mod tests {
         assert!(kinds_seen.len() >= 62);
     }
 
-    /// T and U of the double pendulum (parameters m, l, g).
+    /// T and U of [`models::double_pendulum_equal`] (parameters m, l, g).
     fn double_pendulum(g: &mut Graph) -> (usize, usize) {
-        let b = |g: &mut Graph, f, x, y| g.binary(f, x, y).unwrap();
-        let (m, l, grav) = (g.param(0), g.param(1), g.param(2));
-        let (th1, th2, w1, w2) = (g.coord(0), g.coord(1), g.velocity(0), g.velocity(1));
-        let (half, two) = (g.constant(0.5), g.constant(2.0));
-        let l2 = g.powi(l, 2).unwrap();
-        let k = b(g, Binary::Mul, half, m);
-        let k = b(g, Binary::Mul, k, l2);
-        let w1s = g.powi(w1, 2).unwrap();
-        let w2s = g.powi(w2, 2).unwrap();
-        let a = b(g, Binary::Mul, two, w1s);
-        let a = b(g, Binary::Add, a, w2s);
-        let d = b(g, Binary::Sub, th1, th2);
-        let c = g.unary(Unary::Cos, d).unwrap();
-        let x = b(g, Binary::Mul, two, w1);
-        let x = b(g, Binary::Mul, x, w2);
-        let x = b(g, Binary::Mul, x, c);
-        let a = b(g, Binary::Add, a, x);
-        let kinetic = b(g, Binary::Mul, k, a);
-        let mgl = b(g, Binary::Mul, m, grav);
-        let mgl = b(g, Binary::Mul, mgl, l);
-        let c1 = g.unary(Unary::Cos, th1).unwrap();
-        let c2 = g.unary(Unary::Cos, th2).unwrap();
-        let c1 = b(g, Binary::Mul, two, c1);
-        let s = b(g, Binary::Add, c1, c2);
-        let u = b(g, Binary::Mul, mgl, s);
-        let potential = g.unary(Unary::Neg, u).unwrap();
-        (kinetic, potential)
+        let parts = models::double_pendulum_equal(g).unwrap();
+        (parts.kinetic, parts.potential.unwrap())
     }
 
     #[test]
