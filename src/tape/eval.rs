@@ -13,7 +13,7 @@ use crate::scalar::{Grad, Hyper, with_buf};
 use crate::{Dissipation, GeneralizedForces, KineticEnergy, Potential, Scalar};
 use std::sync::Arc;
 
-/// Calls `$then!` with the chunk sizes of the derivative passes (`derivatives.rs`): (C, 2C) for
+/// Calls `$then!` with the chunk sizes of the derivative passes (`eom/passes.rs`): (C, 2C) for
 /// C = 1..=[`CHUNK`]. The passes on `f64` states take dual numbers of these shapes, and
 /// [`Tape::eval`] evaluates each of them as a jet.
 macro_rules! pass_chunks {
