@@ -430,8 +430,9 @@ class Model:
         factored once), ``separable`` (explicit symplectic methods apply), ``dissipative``,
         ``forced``, ``conservative``; and ``backend``, what computes the accelerations:
         ``"native"`` (eq. 55 derived on the expression graph and compiled to machine code),
-        ``"interpreter"`` (the same, interpreted: particle-route models, or where no native code
-        could be made) or ``"rust"`` (a ready-made scene)."""
+        ``"interpreter"`` (the same, interpreted, where no native code could be made) or
+        ``"rust"`` (a ready-made scene). A model stated by particles gets its T derived from the
+        positions and runs the same way."""
         return dict(self._native.structure())
 
     def with_parameters(self, **values: float) -> "Model":
