@@ -5,15 +5,16 @@
 //! stated through the Python API and print the README's table.
 //!
 //! ```text
-//! cargo bench --bench compiled --features jit -- [--rounds R] [--scenes a,b,…]
+//! cargo bench --bench compiled --features jit -- [--rounds R] [--scenes a,b,…] [--t-scale X]
 //! cargo bench --bench compiled --features jit -- --serve
 //! ```
 //!
 //! Without `--serve` it measures every scene (or those named) and prints one JSON object per
 //! line: the scene (parameters, initial state, reference end state), then per side the
 //! loosest tolerance of a ladder that reaches each target error and its best-of-R time, and the
-//! graph model's build time. With `--serve` it answers one JSON line per request read from
-//! stdin, so that the Python script can alternate its own rounds with these:
+//! graph model's build time; `--t-scale` multiplies every scene's span. With `--serve` it
+//! answers one JSON line per request read from stdin, so that the Python script can alternate
+//! its own rounds with these:
 //!
 //! - `scenes` — every scene as above, with closed-form accelerations at a few states for the
 //!   caller to check its own model against;
@@ -32,7 +33,7 @@ use lagrangian::scenes::{BallInSphere, DoublePendulum, ElasticPendulum, ForcedTw
 use lagrangian::tape::{
     Binary, Energies, EnergyModel, EomProgram, Function, Graph, Inputs, Tape, Unary, models,
 };
-use lagrangian::{Dynamics, Result};
+use lagrangian::{Dynamics, Error, Result};
 use std::io::{BufRead, Write};
 use std::time::Instant;
 
@@ -75,7 +76,8 @@ struct Scene {
     method: Method,
 }
 
-fn scenes() -> Vec<Scene> {
+/// The scenes, their spans multiplied by `t_scale`.
+fn scenes(t_scale: f64) -> Vec<Scene> {
     let dp = DoublePendulum::new(1.0, 1.0, 1.0, 1.0, 9.81);
     let forced = ForcedTwoMass::new(1.0, 0.5, 10.0, 5.0).with_forcing(1.0, 0.5, 2.0);
     let ball = BallInSphere::new(1.0, 0.016, 1.0, 0.2, 9.81);
@@ -156,6 +158,9 @@ fn scenes() -> Vec<Scene> {
             t_end: 2.0,
             method: Method::Dop853,
         });
+    }
+    for s in &mut all {
+        s.t_end *= t_scale;
     }
     all
 }
@@ -501,11 +506,14 @@ impl Prepared {
     }
 
     fn run(&self, side: &str, method: Method, tol: f64, inner: usize) -> Result<Run> {
+        let s = &self.scene;
         match side {
-            "graph" => run(&self.model, &self.scene, method, tol, inner),
-            _ => {
-                with_closed!(&self.scene.kind, closed => run(&closed, &self.scene, method, tol, inner))
-            }
+            "closed" => with_closed!(&s.kind, closed => run(&closed, s, method, tol, inner)),
+            "graph" => run(&self.model, s, method, tol, inner),
+            _ => Err(Error::InvalidInput {
+                what: "side",
+                why: format!("{side:?} is neither \"closed\" nor \"graph\""),
+            }),
         }
     }
 
@@ -677,9 +685,12 @@ fn main() -> Result<()> {
             .and_then(|i| args.get(i + 1))
     };
     let rounds = value("--rounds").and_then(|r| r.parse().ok()).unwrap_or(5);
+    let t_scale = value("--t-scale")
+        .and_then(|r| r.parse().ok())
+        .unwrap_or(1.0);
     let wanted: Option<Vec<&str>> = value("--scenes").map(|s| s.split(',').collect());
     let mut prepared = Vec::new();
-    for scene in scenes() {
+    for scene in scenes(t_scale) {
         if wanted
             .as_ref()
             .is_none_or(|w| w.contains(&scene.name.as_str()))

@@ -140,8 +140,9 @@ BUILDERS: Dict[str, Callable[[Dict[str, float]], Dict[str, Spec]]] = {
 class Rust:
     """``benches/compiled.rs --serve``: one JSON line per request."""
 
-    def __init__(self, scenes: Optional[str]) -> None:
-        cmd = ["cargo", "bench", "--bench", "compiled", "--features", "jit", "--", "--serve"]
+    def __init__(self, scenes: Optional[str], t_scale: float) -> None:
+        cmd = ["cargo", "bench", "--bench", "compiled", "--features", "jit", "--", "--serve",
+               "--t-scale", repr(t_scale)]
         if scenes:
             cmd += ["--scenes", scenes]
         print("$ " + " ".join(cmd), file=sys.stderr, flush=True)
@@ -284,8 +285,12 @@ def measure(rust: Rust, scene: Dict[str, Any], rounds: int, round_seconds: float
                                                    output_every=EVERY)
         choice = sol.stats["method"]
     rows = []
-    for route in models:
+    for route, model in models.items():
+        # The fixed cost of a call: a run of one step.
+        call = best_of(5 * rounds, lambda: model.simulate(
+            scene["q0"], scene["qd0"], 1e-9, method=scene["method"], output_every=EVERY))
         rows.append({
+            "python_call": call,
             "scene": name, "route": route, "method": scene["method"], "auto": choice,
             "backend": models[route].structure.get("backend"),
             "build_python": builds[route], "build_rust_graph": rust_build,
@@ -362,7 +367,7 @@ def table(rows: List[Dict[str, Any]]) -> str:
             name += " (particles)"
         t6, t9 = s["closed_times"]
         method = row["method"] + (f" (auto: {row['auto']})" if row["auto"] else "")
-        graph = ("(same)" if row["route"] == "particles" else
+        graph = ("—" if row["route"] == "particles" else
                  f"{fmt_ratio(s['graph_rhs'])} / {fmt_ratio(s['graph_time_1e-06'])} / "
                  f"{fmt_ratio(s['graph_time_1e-09'])}")
         lines.append(
@@ -374,36 +379,44 @@ def table(rows: List[Dict[str, Any]]) -> str:
 
 
 def targets(rows: List[Dict[str, Any]]) -> str:
-    """Issue 12's targets, met or missed, for the Python models."""
+    """Issue 12's targets for the Python models, one line per row: met or missed."""
     out = []
-
-    def verdict(ok: bool) -> str:
-        return "met" if ok else "MISSED"
-
     for row in rows:
         s = summarize(row)
         label = row["scene"] + ("" if row["route"] == "energy" else f" ({row['route']})")
+        checks = []
+
+        def check(what: str, x: Optional[float], limit: float, text: str) -> None:
+            ok = x is not None and x <= limit
+            checks.append(f"{what} {text} (≤ {limit:g}×: {'met' if ok else 'MISSED'})")
+
         if row["scene"] in ("double_pendulum", "forced_two_mass"):
-            x = s["python_rhs"]
-            out.append(f"- per RHS ≤ {RHS_TARGET}×, {label}: {fmt_ratio(x)} — "
-                       f"{verdict(x is not None and x <= RHS_TARGET)}")
+            check("per RHS", s["python_rhs"], RHS_TARGET, fmt_ratio(s["python_rhs"]))
+        # Every scene: the same method within 1.5× of the hand-written limit; the chain through
+        # the particle route also against the issue's looser 2× for N = 16, 32.
+        limit = TIME_TARGET
         for target in TARGETS:
             x = s[f"python_time_{target:g}"]
-            out.append(f"- time to {target:g} ≤ {TIME_TARGET}×, {label}: {fmt_ratio(x)} — "
-                       f"{verdict(x is not None and x <= TIME_TARGET)}")
-        limit = BUILD_TARGETS.get(row["scene"])
-        if limit is not None:
-            b = row["build_python"]
-            out.append(f"- build ≤ {ms(limit)}, {label}: {ms(b)} — {verdict(b <= limit)}")
+            check(f"to {target:g}", x, limit, fmt_ratio(x))
+        if row["route"] == "particles" and row["scene"] in ("n_pendulum_16", "n_pendulum_32"):
+            x = s["python_time_1e-06"]
+            check("particle route to 1e-06", x, 2.0, fmt_ratio(x))
+        build = BUILD_TARGETS.get(row["scene"])
+        if build is not None and row["route"] == "energy":
+            checks.append(f"build {ms(row['build_python'])} (≤ {ms(build)}: "
+                          f"{'met' if row['build_python'] <= build else 'MISSED'})")
+        out.append(f"- {label}: " + "; ".join(checks))
     return "\n".join(out)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--rounds", type=int, default=3, help="timing rounds per side (best of)")
-    ap.add_argument("--round-seconds", type=float, default=0.02,
+    ap.add_argument("--rounds", type=int, default=7, help="timing rounds per side (best of)")
+    ap.add_argument("--round-seconds", type=float, default=0.05,
                     help="repeat short runs within a round to about this long")
     ap.add_argument("--scenes", default=None, help="comma-separated subset of " + ", ".join(BUILDERS))
+    ap.add_argument("--t-scale", type=float, default=1.0,
+                    help="multiply every scene's span (longer runs amortize a call's fixed cost)")
     ap.add_argument("--json", default=None, help="also write the raw measurements here")
     args = ap.parse_args()
     if args.scenes:
@@ -411,7 +424,7 @@ def main() -> None:
         if unknown:
             ap.error(f"unknown scenes {sorted(unknown)}; known: {', '.join(BUILDERS)}")
     started = time.perf_counter()
-    rust = Rust(args.scenes)
+    rust = Rust(args.scenes, args.t_scale)
     try:
         scenes = rust.ask("scenes")["scenes"]
         rows = []
@@ -429,6 +442,9 @@ def main() -> None:
           "(benches/closed_forms/); ratios are time ÷ closed form's time with the same method, "
           "each side at its own loosest tolerance reaching the error.\n")
     print(table(rows))
+    calls = [r["python_call"] for r in rows]
+    print(f"\nFixed cost of one Python `model.simulate` call, included in the Python times "
+          f"(a one-step run of the cheapest scene): {min(calls) * 1e6:.1f} µs.")
     print("\nIssue 12 targets (Python models):\n")
     print(targets(rows))
 
