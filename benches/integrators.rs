@@ -18,7 +18,7 @@ use lagrangian::Dynamics;
 use lagrangian::integrators::{Method, Options, Output, solve};
 use lagrangian::scenes::{DoublePendulum, NPendulum};
 
-// Only the double pendulum and the chain are used here.
+// Only the double pendulum and the chain (and their check) are used here.
 #[allow(dead_code)]
 mod closed_forms;
 use closed_forms::{ClosedDoublePendulum, ClosedNPendulum};
@@ -125,6 +125,12 @@ fn step_double_pendulum(c: &mut Criterion) {
     let dp = DoublePendulum::new(1.0, 1.0, 1.0, 1.0, 9.81);
     let ad = dp.system();
     let closed = ClosedDoublePendulum(dp);
+    closed_forms::check(
+        "double pendulum",
+        &closed,
+        &ad,
+        &closed_forms::states(2, 0.0),
+    );
     let (q0, qd0) = ([0.7, -0.4], [0.3, 1.2]);
     let dt = 0.01;
     let mut g = config(c, "step_double_pendulum");
@@ -150,6 +156,7 @@ fn step_n_pendulum(c: &mut Criterion) {
         let chain = NPendulum::uniform(n, 1.0, 1.0, 9.81);
         let ad = chain.clone().system();
         let closed = ClosedNPendulum::new(chain.clone());
+        closed_forms::check("N-pendulum", &closed, &ad, &closed_forms::states(n, 0.0));
         let q0: Vec<f64> = (0..n).map(|i| 0.5 * (i as f64 * 0.7).sin()).collect();
         let qd0: Vec<f64> = (0..n).map(|i| 0.3 * (i as f64 * 1.3).cos()).collect();
         let dt = 0.002;
