@@ -20,6 +20,8 @@
 //!   caller to check its own model against;
 //! - `run SCENE SIDE METHOD TOL INNER` — SIDE is `closed` or `graph`: the best of INNER runs at
 //!   rtol = atol = TOL, with the statistics and the error of the end state;
+//! - `call SCENE SIDE REPS` — one accelerations call at a check state, the best per-call time
+//!   over five batches of REPS calls;
 //! - `build SCENE INNER` — the best of INNER builds of the graph model (graph, derivation,
 //!   compilation, binding);
 //! - `quit`.
@@ -34,6 +36,7 @@ use lagrangian::tape::{
     Binary, Energies, EnergyModel, EomProgram, Function, Graph, Inputs, Tape, Unary, models,
 };
 use lagrangian::{Dynamics, Error, Result};
+use std::hint::black_box;
 use std::io::{BufRead, Write};
 use std::time::Instant;
 
@@ -163,6 +166,15 @@ fn scenes(t_scale: f64) -> Vec<Scene> {
         s.t_end *= t_scale;
     }
     all
+}
+
+/// The offset of the first coordinate in the check states: the spring's length stays near 2.
+fn radius(kind: &Kind) -> f64 {
+    if matches!(kind, Kind::Stiff(..)) {
+        2.0
+    } else {
+        0.0
+    }
 }
 
 /// Run `$body` with `$sys` bound to the scene's closed form.
@@ -439,6 +451,26 @@ fn run<S: Dynamics>(sys: &S, scene: &Scene, method: Method, tol: f64, inner: usi
     })
 }
 
+/// The best over five batches of `reps` calls of the accelerations at `state`, per call.
+fn call_seconds<S: Dynamics>(
+    sys: &S,
+    state: &(f64, Vec<f64>, Vec<f64>),
+    reps: usize,
+) -> Result<f64> {
+    let (t, q, qd) = state;
+    let mut out = vec![0.0; q.len()];
+    let mut best = f64::INFINITY;
+    for _ in 0..5 {
+        let start = Instant::now();
+        for _ in 0..reps.max(1) {
+            sys.accelerations_into(black_box(*t), black_box(q), black_box(qd), &mut out)?;
+            black_box(&out);
+        }
+        best = best.min(start.elapsed().as_secs_f64() / reps.max(1) as f64);
+    }
+    Ok(best)
+}
+
 /// A scene ready to measure: its graph model and reference end state.
 struct Prepared {
     scene: Scene,
@@ -517,12 +549,26 @@ impl Prepared {
         }
     }
 
+    /// One accelerations call of `side` at the second check state, best per-call time.
+    fn call(&self, side: &str, reps: usize) -> Result<f64> {
+        let s = &self.scene;
+        let state = &closed_forms::states(s.q0.len(), radius(&s.kind))[1];
+        match side {
+            "closed" => with_closed!(&s.kind, closed => call_seconds(&closed, state, reps)),
+            "graph" => call_seconds(&self.model, state, reps),
+            _ => Err(Error::InvalidInput {
+                what: "side",
+                why: format!("{side:?} is neither \"closed\" nor \"graph\""),
+            }),
+        }
+    }
+
     /// The best of `inner` builds of the graph model.
     fn build_seconds(&self, inner: usize) -> Result<f64> {
         let mut best = f64::INFINITY;
         for _ in 0..inner.max(1) {
             let start = Instant::now();
-            std::hint::black_box(graph_model(&self.scene)?);
+            black_box(graph_model(&self.scene)?);
             best = best.min(start.elapsed().as_secs_f64());
         }
         Ok(best)
@@ -618,6 +664,13 @@ fn measure(p: &Prepared, rounds: usize) -> Result<()> {
             }
         }
     }
+    for side in ["closed", "graph"] {
+        println!(
+            "{{\"kind\": \"call\", \"scene\": \"{}\", \"side\": \"{side}\", \"seconds\": {}}}",
+            p.scene.name,
+            num(p.call(side, 10_000)?)
+        );
+    }
     println!(
         "{{\"kind\": \"build\", \"scene\": \"{}\", \"seconds\": {}}}",
         p.scene.name,
@@ -655,6 +708,17 @@ fn serve(prepared: &[Prepared]) -> Result<()> {
                     _ => failure(&format!("bad request {line:?}")),
                 }
             }
+            ["call", name, side, reps] => match (find(name), reps.parse()) {
+                (Some(p), Ok(reps)) => match p.call(side, reps) {
+                    Ok(s) => format!(
+                        "{{\"kind\": \"call\", \"scene\": \"{name}\", \"side\": \"{side}\", \
+                         \"seconds\": {}}}",
+                        num(s)
+                    ),
+                    Err(e) => failure(&e.to_string()),
+                },
+                _ => failure(&format!("bad request {line:?}")),
+            },
             ["build", name, inner] => match (find(name), inner.parse()) {
                 (Some(p), Ok(inner)) => match p.build_seconds(inner) {
                     Ok(s) => format!(

@@ -14,7 +14,9 @@ maxᵢ |yᵢ − refᵢ| / max(1, |refᵢ|) over y = (q, q̇). Then it is timed 
 the rounds alternating between the sides so that a change in load hits all of them. Per-RHS cost
 is run time over the RHS evaluations the integrator reports (``sol.stats``), taken from the runs
 at the tightest target both sides reached. Build is ``lg.Model(...)`` (derivation and compilation,
-the expressions already written) against building the Graph model in Rust, best of R.
+the expressions already written) against building the Graph model in Rust, best of R. A second
+table gives one accelerations call at a state: the closed form and the Graph model in Rust, and
+``model.accelerations`` from Python.
 
 Run from the repository root after installing the Python module (``pip install .``, or
 ``maturin develop --release``):
@@ -50,6 +52,7 @@ EVERY = 2**62
 # Issue 12's targets.
 RHS_TARGET = 1.5
 TIME_TARGET = 1.5
+CALL_TARGET = 1.5e-6
 BUILD_TARGETS = {"double_pendulum": 10e-3, "n_pendulum_32": 200e-3}
 
 Spec = Dict[str, Any]
@@ -259,6 +262,17 @@ def best_of(rounds: int, f: Callable[[], Any]) -> float:
     return best
 
 
+def per_call(f: Callable[[], Any], reps: int = 2000) -> float:
+    """The best over five batches of `reps` calls, per call."""
+    best = math.inf
+    for _ in range(5):
+        start = time.perf_counter()
+        for _ in range(reps):
+            f()
+        best = min(best, (time.perf_counter() - start) / reps)
+    return best
+
+
 def measure(rust: Rust, scene: Dict[str, Any], rounds: int, round_seconds: float
             ) -> List[Dict[str, Any]]:
     """Every Python route of the scene against the closed form (and the Rust Graph model)."""
@@ -271,6 +285,13 @@ def measure(rust: Rust, scene: Dict[str, Any], rounds: int, round_seconds: float
         models[route] = lg.Model(**spec)
         check_model(route, models[route], scene)
     rust_build = rust.ask(f"build {name} {rounds}")["seconds"]
+    # One accelerations call at a check state, as a user makes it from Python.
+    rust_call = {side: rust.ask(f"call {name} {side} 10000")["seconds"]
+                 for side in ("closed", "graph")}
+    c = scene["checks"][1]
+    q, qd = np.asarray(c["q"], dtype=float), np.asarray(c["qd"], dtype=float)
+    python_call = {route: per_call(lambda: m.accelerations(c["t"], q, qd))
+                   for route, m in models.items()}
     sides = [rust_side(rust, "closed", scene), rust_side(rust, "graph", scene)]
     sides += [python_side(route, m, scene) for route, m in models.items()]
     found = {}
@@ -303,6 +324,8 @@ def measure(rust: Rust, scene: Dict[str, Any], rounds: int, round_seconds: float
             scene["q0"], scene["qd0"], 1e-9, method=scene["method"], output_every=EVERY))
         rows.append({
             "python_call": call,
+            "call_closed": rust_call["closed"], "call_graph": rust_call["graph"],
+            "call_python": python_call[route],
             "scene": name, "route": route, "method": scene["method"], "auto": choice,
             "backend": models[route].structure.get("backend"),
             "build_python": builds[route], "build_rust_graph": rust_build,
@@ -339,7 +362,7 @@ def fmt_ratio(x: Optional[float]) -> str:
 def ns(seconds: Optional[float]) -> str:
     if seconds is None:
         return "—"
-    return f"{seconds * 1e9:.0f} ns" if seconds < 1e-5 else f"{seconds * 1e6:.1f} µs"
+    return f"{seconds * 1e9:.0f} ns" if seconds < 1e-6 else f"{seconds * 1e6:.2f} µs"
 
 
 def summarize(row: Dict[str, Any]) -> Dict[str, Any]:
@@ -391,6 +414,19 @@ def table(rows: List[Dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def calls_table(rows: List[Dict[str, Any]]) -> str:
+    lines = ["| scene | closed form | Rust Graph model | Python `model.accelerations` |",
+             "|---|---|---|---|"]
+    for row in rows:
+        name = row["scene"].replace("n_pendulum_", "N-pendulum N = ").replace("_", " ")
+        if row["route"] == "particles":
+            name += " (particles)"
+        graph = "—" if row["route"] == "particles" else ns(row["call_graph"])
+        lines.append(f"| {name} | {ns(row['call_closed'])} | {graph} | "
+                     f"{ns(row['call_python'])} |")
+    return "\n".join(lines)
+
+
 def targets(rows: List[Dict[str, Any]]) -> str:
     """Issue 12's targets for the Python models, one line per row: met or missed."""
     out = []
@@ -414,6 +450,10 @@ def targets(rows: List[Dict[str, Any]]) -> str:
         if row["route"] == "particles" and row["scene"] in ("n_pendulum_16", "n_pendulum_32"):
             x = s["python_time_1e-06"]
             check("particle route to 1e-06", x, 2.0, fmt_ratio(x))
+        call = row["call_python"]
+        if row["scene"] == "double_pendulum":
+            checks.append(f"`model.accelerations` {ns(call)} (≤ {ns(CALL_TARGET)}: "
+                          f"{'met' if call <= CALL_TARGET else 'MISSED'})")
         build = BUILD_TARGETS.get(row["scene"])
         if build is not None and row["route"] == "energy":
             checks.append(f"build {ms(row['build_python'])} (≤ {ms(build)}: "
@@ -458,6 +498,8 @@ def main() -> None:
     calls = [r["python_call"] for r in rows]
     print(f"\nFixed cost of one Python `model.simulate` call, included in the Python times "
           f"(a one-step run of the cheapest scene): {min(calls) * 1e6:.1f} µs.")
+    print("\nOne accelerations call at a state (best of five batches, per call):\n")
+    print(calls_table(rows))
     print("\nIssue 12 targets (Python models):\n")
     print(targets(rows))
 
