@@ -471,6 +471,13 @@ fn call_seconds<S: Dynamics>(
     Ok(best)
 }
 
+fn bad_side(side: &str) -> Error {
+    Error::InvalidInput {
+        what: "side",
+        why: format!("{side:?} is neither \"closed\" nor \"graph\""),
+    }
+}
+
 /// A scene ready to measure: its graph model and reference end state.
 struct Prepared {
     scene: Scene,
@@ -485,12 +492,7 @@ impl Prepared {
     fn new(scene: Scene) -> Result<Self> {
         let model = graph_model(&scene)?;
         let n = scene.q0.len();
-        let radius = if matches!(scene.kind, Kind::Stiff(..)) {
-            2.0
-        } else {
-            0.0
-        };
-        let states = closed_forms::states(n, radius);
+        let states = closed_forms::states(n, radius(&scene.kind));
         let name = scene.name.as_str();
         with_closed!(&scene.kind, closed => closed_forms::check(name, &closed, &model, &states));
         match &scene.kind {
@@ -542,10 +544,7 @@ impl Prepared {
         match side {
             "closed" => with_closed!(&s.kind, closed => run(&closed, s, method, tol, inner)),
             "graph" => run(&self.model, s, method, tol, inner),
-            _ => Err(Error::InvalidInput {
-                what: "side",
-                why: format!("{side:?} is neither \"closed\" nor \"graph\""),
-            }),
+            _ => Err(bad_side(side)),
         }
     }
 
@@ -556,10 +555,7 @@ impl Prepared {
         match side {
             "closed" => with_closed!(&s.kind, closed => call_seconds(&closed, state, reps)),
             "graph" => call_seconds(&self.model, state, reps),
-            _ => Err(Error::InvalidInput {
-                what: "side",
-                why: format!("{side:?} is neither \"closed\" nor \"graph\""),
-            }),
+            _ => Err(bad_side(side)),
         }
     }
 
@@ -582,12 +578,7 @@ impl Prepared {
             .iter()
             .map(|(k, v)| format!("\"{k}\": {}", num(*v)))
             .collect();
-        let radius = if matches!(s.kind, Kind::Stiff(..)) {
-            2.0
-        } else {
-            0.0
-        };
-        let checks: Vec<String> = closed_forms::states(s.q0.len(), radius)
+        let checks: Vec<String> = closed_forms::states(s.q0.len(), radius(&s.kind))
             .iter()
             .map(|(t, q, qd)| {
                 let a = with_closed!(&s.kind, closed => closed.accelerations(*t, q, qd))
