@@ -62,9 +62,13 @@ class Model:
     ``forces`` Q(t, q, q̇) (one expression per coordinate). Parameters named in the expressions
     get their values from ``parameters``.
 
-    The expressions are compiled once to a tape evaluated in Rust over dual numbers: the
-    equations of motion are derived by automatic differentiation and integrated without running
-    Python.
+    The expressions are compiled once in Rust: the equations of motion (M and the force vector
+    of eq. 55) are derived on the expression graph and compiled to machine code, and the model
+    is integrated without running Python. ``backend="interpreter"`` runs the same derived
+    program through the tape interpreter instead — the reference the machine code is tested
+    against, with the same results bit for bit, only slower. ``structure["backend"]`` says what
+    runs: ``"native"`` or ``"interpreter"`` (the particle route, and platforms Cranelift does
+    not support, always interpret).
 
     >>> import lagrangian as lg
     >>> th, = lg.coordinates("th")
@@ -96,13 +100,16 @@ class Model:
         The particle route: position r_j(t, q) of each point mass instead of ``kinetic``.
     masses : sequence of expressions, optional
         The masses m_j (numbers and parameters only), with ``positions``.
+    backend : {"native", "interpreter"}
+        What evaluates the derived equations of motion: machine code (the default) or the
+        interpreter. Kept by :meth:`with_parameters` and by pickling.
 
     Raises
     ------
     ValueError
         For a symbol that is not a coordinate of the model, a velocity or parameter, a parameter
         without a value or a value for no parameter, a velocity in the potential or positions,
-        wrong lengths.
+        wrong lengths, an unknown ``backend``.
     TypeError
         For something that is not an expression or a number.
     """
@@ -117,6 +124,7 @@ class Model:
         "_positions",
         "_masses",
         "_parameters",
+        "_backend",
         "_native",
     )
 
@@ -128,6 +136,7 @@ class Model:
     _positions: Optional[Tuple[Tuple[Expr, ...], ...]]
     _masses: Optional[Tuple[Expr, ...]]
     _parameters: Dict[str, Any]
+    _backend: str
     _native: Any
 
     def __init__(
@@ -141,7 +150,10 @@ class Model:
         *,
         positions: Optional[Sequence[Sequence[ExprLike]]] = None,
         masses: Optional[Sequence[ExprLike]] = None,
+        backend: str = "native",
     ) -> None:
+        if not isinstance(backend, str):
+            raise TypeError(f"backend must be a string, 'native' or 'interpreter', got {backend!r}")
         coords = check_coordinates(coordinates)
         dof = len(coords)
         t_ = None if kinetic is None else Expr.lift(kinetic)
@@ -221,6 +233,7 @@ class Model:
         self._kinetic, self._potential, self._dissipation = t_, u_, r_
         self._forces, self._positions, self._masses = f_, pos, mass
         self._parameters = values
+        self._backend = backend
         self._native = self._compile()
 
     def _compile(self) -> Any:
@@ -256,6 +269,7 @@ class Model:
             len(self._coordinates),
             [float(v) for v in self._parameters.values()],
             dim=dim,
+            backend=self._backend,
             **{k: at(v) for k, v in slots.items()},
         )
 
@@ -429,8 +443,8 @@ class Model:
         factored once), ``separable`` (explicit symplectic methods apply), ``dissipative``,
         ``forced``, ``conservative``; and ``backend``, what computes the accelerations:
         ``"native"`` (eq. 55 derived on the expression graph and compiled to machine code),
-        ``"interpreter"`` (the same, interpreted: particle-route models, or where no native code
-        could be made) or ``"rust"`` (a ready-made scene)."""
+        ``"interpreter"`` (the same, interpreted: ``backend="interpreter"``, particle-route
+        models, or where no native code could be made) or ``"rust"`` (a ready-made scene)."""
         return dict(self._native.structure())
 
     def with_parameters(self, **values: float) -> "Model":
@@ -743,6 +757,8 @@ class Model:
             parts.append("forces=[" + ", ".join(repr(f) for f in self._forces) + "]")
         if self._parameters:
             parts.append(f"parameters={self._parameters!r}")
+        if self._backend != "native":
+            parts.append(f"backend={self._backend!r}")
         return "Model(" + ", ".join(parts) + ")"
 
     def __reduce__(self) -> Tuple[Any, ...]:
@@ -773,6 +789,7 @@ class Model:
             "roots": ids,
             "layout": layout,
             "parameters": dict(self._parameters),
+            "backend": self._backend,
         }
         return (_model_from_state, (state,))
 
@@ -802,6 +819,7 @@ def _model_from_state(state: Dict[str, Any]) -> Model:
         parameters=state["parameters"],
         positions=positions,
         masses=get("masses"),
+        backend=state.get("backend", "native"),
     )
 
 
