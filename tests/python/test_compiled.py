@@ -428,6 +428,21 @@ def _charged_particle(m: float, e: float, b: float, ex: float, ey: float) -> Dic
                 potential=-e * (ex * x + ey * y))
 
 
+def _spring_rhombus(a: float, k: float, l0: float, m: float, g: float) -> Dict[str, Any]:
+    # Seed §3.2 example 4: the mass hangs at (0, −2a cos θ); the spring's length is 2a sin θ.
+    th, = lg.coordinates("theta")
+    return dict(coordinates=[th], kinetic=0.5 * m * (2 * a * lg.sin(th) * th.d)**2,
+                potential=0.5 * k * (2 * l0 - 2 * a * lg.sin(th))**2
+                - m * g * 2 * a * lg.cos(th))
+
+
+def _two_springs(m1: float, m2: float, k1: float, k2: float, f1: float, f2: float
+                 ) -> Dict[str, Any]:
+    x1, x2 = lg.coordinates("x1 x2")
+    return dict(coordinates=[x1, x2], kinetic=0.5 * m1 * x1.d**2 + 0.5 * m2 * x2.d**2,
+                potential=0.5 * k1 * x1**2 + 0.5 * k2 * (x2 - x1)**2, forces=[f1, f2])
+
+
 SCENES: List[Tuple[str, Dict[str, Any], Callable[..., Dict[str, Any]], float]] = [
     # (scene, arguments, the same energies in Python, scale of q and q̇)
     ("simple_pendulum", dict(m=1.3, l=0.7, g=9.81), _simple_pendulum, 2.0),
@@ -445,6 +460,8 @@ SCENES: List[Tuple[str, Dict[str, Any], Callable[..., Dict[str, Any]], float]] =
     ("henon_heiles", dict(), _henon_heiles, 0.8),
     ("driven_pendulum", dict(m=1.0, l=1.0, g=9.81, a=0.1, omega=20.0), _driven_pendulum, 2.0),
     ("charged_particle", dict(m=1.2, e=0.8, b=1.5, ex=0.3, ey=-0.2), _charged_particle, 2.0),
+    ("spring_rhombus", dict(a=0.7, k=300.0, l0=0.5, m=3.0, g=9.81), _spring_rhombus, 1.0),
+    ("two_springs", dict(m1=1.5, m2=0.5, k1=40.0, k2=25.0, f1=2.0, f2=-3.0), _two_springs, 2.0),
 ]
 
 
@@ -468,6 +485,8 @@ def test_scenes_stated_in_python_match_the_rust_scenes(name, args, energies, sca
         qd = list(rng.uniform(-scale, scale, n))
         if name == "elastic_pendulum":
             q[0] = 1.0 + 0.3 * q[0] / scale  # a stretched spring, r > 0
+        if name == "spring_rhombus":
+            q[0] = 0.8 + 0.5 * q[0]  # away from θ = 0, where M = 4 m a² sin² θ vanishes
         if name == "kepler":
             q[0] += 2.5 * scale  # away from the centre
         y = np.array(q + qd)
