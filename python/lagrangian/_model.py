@@ -153,7 +153,9 @@ class Model:
         backend: str = "native",
     ) -> None:
         if not isinstance(backend, str):
-            raise TypeError(f"backend must be a string, 'native' or 'interpreter', got {backend!r}")
+            raise TypeError(
+                f"backend must be a string, 'native' or 'interpreter', got {backend!r}"
+            )
         coords = check_coordinates(coordinates)
         dof = len(coords)
         t_ = None if kinetic is None else Expr.lift(kinetic)

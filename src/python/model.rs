@@ -214,7 +214,7 @@ impl Backend {
             "native" => Ok(Self::Native),
             "interpreter" => Ok(Self::Interpreter),
             other => Err(Error::InvalidInput {
-                what: "backend",
+                what: "model",
                 why: format!(
                     "unknown backend {other:?}: use \"native\" (compiled to machine code, the \
                      default) or \"interpreter\""
