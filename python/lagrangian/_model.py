@@ -20,6 +20,7 @@ from ._validate import (
     integer,
     number,
     real,
+    states,
     vector,
 )
 
@@ -489,33 +490,60 @@ class Model:
         return other
 
     # -- evaluation --------------------------------------------------------------------
-    def _state(self, t: float, q: object, qd: object) -> Tuple[float, List[float], List[float]]:
+    def _evaluate(self, name: str, t: object, q: object, qd: object) -> Any:
+        """The native ``name`` at (t, q, q̇): straight to Rust when the arguments are floats and
+        float64 arrays or lists (the fast form, checked there), otherwise converted and checked
+        here first, each with a message that says what to give instead."""
+        out = getattr(self._native, name)(t, q, qd)
+        return self._checked(name, t, q, qd) if out is None else out
+
+    def _checked(self, name: str, t: object, q: object, qd: object) -> Any:
+        """The native ``name`` at (t, q, q̇) after converting and checking them here."""
         n = self.dof
-        return (
-            real("t", t),
-            vector("q", q, n).tolist(),
-            vector("qd", qd, n).tolist(),
-        )
+        q_arr, qd_arr = states("q", q, n), states("qd", qd, n)
+        if q_arr.shape != qd_arr.shape:
+            raise ValueError(
+                f"q has shape {q_arr.shape} but qd has shape {qd_arr.shape}: give one "
+                "state, or k states as the rows of both"
+            )
+        return getattr(self._native, name)(real("t", t), q_arr, qd_arr)
 
     def accelerations(self, t: float, q: ArrayLike, qd: ArrayLike) -> FloatArray:
-        """The accelerations q̈ at (t, q, q̇) from Lagrange's equations (seed eq. 55)."""
-        return np.asarray(self._native.accelerations(*self._state(t, q, qd)))
+        """The accelerations q̈ at (t, q, q̇) from Lagrange's equations (seed eq. 55).
+
+        ``q`` and ``qd`` of shape ``(dof,)`` give one state; of shape ``(k, dof)`` they give
+        ``k`` states (one per row), all evaluated in Rust in one call, and the result has the
+        same shape.
+
+        >>> import lagrangian as lg
+        >>> osc = lg.scenes.damped_oscillator(m=2.0, k=8.0, c=0.4)
+        >>> osc.accelerations(0.0, [1.0], [0.5]).tolist()
+        [-4.1]
+        >>> osc.accelerations(0.0, [[1.0], [0.0]], [[0.5], [1.0]]).tolist()
+        [[-4.1], [-0.2]]
+        """
+        out: FloatArray = self._native.accelerations(t, q, qd)  # the fast path, inline
+        return self._checked("accelerations", t, q, qd) if out is None else out
 
     def mass_matrix(self, t: float, q: ArrayLike, qd: ArrayLike) -> FloatArray:
-        """The mass matrix M = ∂²T/∂q̇² at (t, q, q̇), shape (dof, dof)."""
-        return np.asarray(self._native.mass_matrix(*self._state(t, q, qd)))
+        """The mass matrix M = ∂²T/∂q̇² at (t, q, q̇), shape (dof, dof); for ``k`` states as rows
+        of ``q`` and ``qd`` (see :meth:`accelerations`), shape (k, dof, dof)."""
+        out: FloatArray = self._evaluate("mass_matrix", t, q, qd)
+        return out
 
-    def energy(self, t: float, q: ArrayLike, qd: ArrayLike) -> float:
-        """The energy function h = q̇·p − L at (t, q, q̇): T + U for natural systems."""
-        return float(self._native.energy(*self._state(t, q, qd)))
+    def energy(self, t: float, q: ArrayLike, qd: ArrayLike) -> Any:
+        """The energy function h = q̇·p − L at (t, q, q̇): T + U for natural systems. A float;
+        for ``k`` states as rows of ``q`` and ``qd``, an array of shape (k,)."""
+        return self._evaluate("energy", t, q, qd)
 
     def momenta(self, t: float, q: ArrayLike, qd: ArrayLike) -> FloatArray:
-        """The momenta p = ∂L/∂q̇ at (t, q, q̇)."""
-        return np.asarray(self._native.momenta(*self._state(t, q, qd)))
+        """The momenta p = ∂L/∂q̇ at (t, q, q̇), shape (dof,), or (k, dof) for ``k`` states."""
+        out: FloatArray = self._evaluate("momenta", t, q, qd)
+        return out
 
-    def lagrangian(self, t: float, q: ArrayLike, qd: ArrayLike) -> float:
-        """The Lagrangian L = T − U at (t, q, q̇)."""
-        return float(self._native.lagrangian(*self._state(t, q, qd)))
+    def lagrangian(self, t: float, q: ArrayLike, qd: ArrayLike) -> Any:
+        """The Lagrangian L = T − U at (t, q, q̇): a float, or shape (k,) for ``k`` states."""
+        return self._evaluate("lagrangian", t, q, qd)
 
     def rhs(self, t: float, y: ArrayLike) -> FloatArray:
         """The first-order right-hand side dy/dt = (q̇, q̈) at y = (q, q̇), in SciPy's

@@ -290,8 +290,8 @@ def _lyapunov_time(case: Case) -> Optional[float]:
 
 def _energy_change(model: Model, q0: Sequence[float], qd0: Sequence[float], q: np.ndarray,
                    qd: np.ndarray) -> float:
-    e0 = model.energy(0.0, q0, qd0)
-    return abs(model.energy(0.0, q, qd) - e0) / abs(e0)
+    e0 = float(model.energy(0.0, q0, qd0))
+    return abs(float(model.energy(0.0, q, qd)) - e0) / abs(e0)
 
 
 def _measure(case: Case, model: Model, q: np.ndarray, qd: np.ndarray,

@@ -21,6 +21,7 @@ __all__ = [
     "integer",
     "number",
     "real",
+    "states",
     "vector",
 ]
 
@@ -44,6 +45,29 @@ def vector(what: str, value: object, n: int) -> FloatArray:
     bad = np.flatnonzero(~np.isfinite(arr))
     if bad.size:
         raise ValueError(f"{what}[{bad[0]}] = {arr[bad[0]]} is not finite")
+    return np.ascontiguousarray(arr)
+
+
+def states(what: str, value: object, n: int) -> FloatArray:
+    """``value`` as one state (a float vector of length ``n``) or ``k`` states as the rows of a
+    float array of shape ``(k, n)``, or a ``ValueError`` that says why not."""
+    if isinstance(value, (str, bytes)):
+        raise ValueError(f"{what} must be a sequence of {n} numbers, got a string")
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{what} must be a sequence of {n} numbers: {e}") from None
+    if arr.ndim != 2:
+        return vector(what, arr, n)
+    if arr.shape[1] != n:
+        raise ValueError(
+            f"{what} has shape {arr.shape} but needs ({n},) or (k, {n}) for k states: "
+            f"the model has {n} coordinates"
+        )
+    bad = np.argwhere(~np.isfinite(arr))
+    if bad.size:
+        i, j = bad[0]
+        raise ValueError(f"{what}[{i}, {j}] = {arr[i, j]} is not finite")
     return np.ascontiguousarray(arr)
 
 

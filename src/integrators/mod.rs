@@ -65,7 +65,7 @@ mod symplectic;
 mod tableau;
 mod variational;
 
-#[cfg(feature = "python")]
+#[cfg(any(feature = "python", test))]
 pub(crate) use newton::acceleration_jacobian;
 pub use options::{Options, Output};
 pub use solution::{Solution, Statistics};

@@ -17,6 +17,7 @@ mod error;
 mod first_order;
 mod model;
 mod scenes;
+mod states;
 
 use crate::integrators::{Method, Options, Output, solve_with_interrupt};
 use crate::{Dynamics, Error, Stability, StaticsOptions, equilibrium};
@@ -24,12 +25,13 @@ use error::panic_error;
 use model::{AnyModel, Backend, Compiled, RawNode, Spec, WithLoads};
 use numpy::ndarray::{Array2, Array3};
 use numpy::{
-    IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayDyn, PyReadonlyArray1, PyReadonlyArray2,
-    PyReadonlyArrayDyn,
+    IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayDyn, PyArrayMethods, PyReadonlyArray1,
+    PyReadonlyArray2, PyReadonlyArrayDyn,
 };
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
+use states::States;
 use std::cell::Cell;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::str::FromStr;
@@ -123,12 +125,37 @@ pub struct PyModel {
 }
 
 impl PyModel {
-    /// `ValueError` unless (t, q, q̇) is a finite state of the right size.
-    fn check_state(&self, t: f64, q: &[f64], qd: &[f64]) -> PyResult<()> {
-        let n = self.model.dof();
-        check_finite("t", t)?;
-        check_vector("q", q, n)?;
-        check_vector("qd", qd, n)
+    /// `eval` at each state of (t, q, q̇) in the fast form ([`States`]), each writing a value of
+    /// shape `shape` (`[]`: a float); the values as an array of shape `shape`, or (k, *shape)
+    /// for k states. `None` when the arguments are not in the fast form.
+    fn each_state<'py>(
+        &self,
+        py: Python<'py>,
+        t: &Bound<'py, PyAny>,
+        q: &Bound<'py, PyAny>,
+        qd: &Bound<'py, PyAny>,
+        shape: &[usize],
+        eval: impl Fn(f64, &[f64], &[f64], &mut [f64]) -> PyResult<()>,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        guard(|| {
+            let n = self.model.dof();
+            let Some(states) = States::read(t, q, qd, n) else {
+                return Ok(None);
+            };
+            let size = shape.iter().product::<usize>();
+            let mut values = vec![0.0; size * states.count()];
+            for (k, out) in values.chunks_exact_mut(size).enumerate() {
+                let (q, qd) = states.state(k, n);
+                eval(states.t, q, qd, out)?;
+            }
+            let mut dims = states.rows.map(|k| vec![k]).unwrap_or_default();
+            dims.extend_from_slice(shape);
+            Ok(Some(match dims.len() {
+                0 => values[0].into_pyobject(py)?.into_any(),
+                1 => PyArray1::from_vec(py, values).into_any(),
+                _ => PyArray1::from_vec(py, values).reshape(dims)?.into_any(),
+            }))
+        })
     }
 }
 
@@ -212,66 +239,78 @@ impl PyModel {
         Ok(d)
     }
 
-    /// Accelerations q̈ at (t, q, q̇) from Lagrange's equations (seed eq. 55).
+    /// Accelerations q̈ at (t, q, q̇) from Lagrange's equations (seed eq. 55): shape (n,), or
+    /// (k, n) for k states given as rows. `None` when the arguments are not in the fast form of
+    /// [`States`] (the package converts them and calls again).
     fn accelerations<'py>(
         &self,
         py: Python<'py>,
-        t: f64,
-        q: Vec<f64>,
-        qd: Vec<f64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        guard(|| {
-            self.check_state(t, &q, &qd)?;
-            let a = self.model.accelerations(t, &q, &qd)?;
-            Ok(PyArray1::from_slice(py, a.as_slice()))
+        t: &Bound<'py, PyAny>,
+        q: &Bound<'py, PyAny>,
+        qd: &Bound<'py, PyAny>,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let n = self.model.dof();
+        self.each_state(py, t, q, qd, &[n], |t, q, qd, out| {
+            self.model.accelerations_into(t, q, qd, out)?;
+            Ok(())
         })
     }
 
-    /// The mass matrix M = ∂²T/∂q̇² at (t, q, q̇).
+    /// The mass matrix M = ∂²T/∂q̇² at (t, q, q̇): shape (n, n), or (k, n, n).
     fn mass_matrix<'py>(
         &self,
         py: Python<'py>,
-        t: f64,
-        q: Vec<f64>,
-        qd: Vec<f64>,
-    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        guard(|| {
-            self.check_state(t, &q, &qd)?;
-            let m = self.model.mass_matrix(t, &q, &qd)?;
-            let n = m.nrows();
-            let rows = Array2::from_shape_fn((n, n), |(i, j)| m[(i, j)]);
-            Ok(rows.into_pyarray(py))
+        t: &Bound<'py, PyAny>,
+        q: &Bound<'py, PyAny>,
+        qd: &Bound<'py, PyAny>,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let n = self.model.dof();
+        self.each_state(py, t, q, qd, &[n, n], |t, q, qd, out| {
+            out.copy_from_slice(self.model.mass_matrix(t, q, qd)?.transpose().as_slice());
+            Ok(())
         })
     }
 
-    /// The energy function h = q̇·p − L at (t, q, q̇).
-    fn energy(&self, t: f64, q: Vec<f64>, qd: Vec<f64>) -> PyResult<f64> {
-        guard(|| {
-            self.check_state(t, &q, &qd)?;
-            Ok(self.model.energy(t, &q, &qd)?)
+    /// The energy function h = q̇·p − L at (t, q, q̇): a float, or shape (k,).
+    fn energy<'py>(
+        &self,
+        py: Python<'py>,
+        t: &Bound<'py, PyAny>,
+        q: &Bound<'py, PyAny>,
+        qd: &Bound<'py, PyAny>,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.each_state(py, t, q, qd, &[], |t, q, qd, out| {
+            out[0] = self.model.energy(t, q, qd)?;
+            Ok(())
         })
     }
 
-    /// The momenta p = ∂L/∂q̇ at (t, q, q̇).
+    /// The momenta p = ∂L/∂q̇ at (t, q, q̇): shape (n,), or (k, n).
     fn momenta<'py>(
         &self,
         py: Python<'py>,
-        t: f64,
-        q: Vec<f64>,
-        qd: Vec<f64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        guard(|| {
-            self.check_state(t, &q, &qd)?;
-            let p = self.model.momenta(t, &q, &qd)?;
-            Ok(PyArray1::from_slice(py, p.as_slice()))
+        t: &Bound<'py, PyAny>,
+        q: &Bound<'py, PyAny>,
+        qd: &Bound<'py, PyAny>,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let n = self.model.dof();
+        self.each_state(py, t, q, qd, &[n], |t, q, qd, out| {
+            out.copy_from_slice(self.model.momenta(t, q, qd)?.as_slice());
+            Ok(())
         })
     }
 
-    /// The Lagrangian L = T − U at (t, q, q̇).
-    fn lagrangian(&self, t: f64, q: Vec<f64>, qd: Vec<f64>) -> PyResult<f64> {
-        guard(|| {
-            self.check_state(t, &q, &qd)?;
-            Ok(self.model.lagrangian_at(t, &q, &qd)?)
+    /// The Lagrangian L = T − U at (t, q, q̇): a float, or shape (k,).
+    fn lagrangian<'py>(
+        &self,
+        py: Python<'py>,
+        t: &Bound<'py, PyAny>,
+        q: &Bound<'py, PyAny>,
+        qd: &Bound<'py, PyAny>,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.each_state(py, t, q, qd, &[], |t, q, qd, out| {
+            out[0] = self.model.lagrangian_at(t, q, qd)?;
+            Ok(())
         })
     }
 

@@ -2,18 +2,14 @@
 //! that each integrator is compiled once for all of them (the variant is one predictable branch
 //! per evaluation).
 
-use crate::scenes::registry::{Arguments, Drawn, Positions, Scene, scenes};
+use crate::scenes::registry::{Arguments, Drawn, Positions, Scene, positions_of, scenes};
 use crate::scenes::*;
 use crate::tape::{
     Binary, Energies, EnergyModel, EomProgram, Function, Graph, Inputs, Node, Tape, TapeParticles,
-    Unary,
+    Unary, particle_kinetic,
 };
-use crate::{Dynamics, Error, ParticleSystem, Result, Scalar, Structure};
+use crate::{Dynamics, Error, Result, Scalar, Structure};
 use std::sync::Arc;
-
-/// A model stated in Python by particle positions and masses (the particle route).
-pub(crate) type TapeParticleSystem =
-    ParticleSystem<TapeParticles, Option<Function>, Option<Function>, Option<Function>>;
 
 /// The enum over the tape models and every scene of the registry, its dispatch macro `each!`,
 /// and the scenes' construction and positions, all from the one list in
@@ -24,7 +20,9 @@ macro_rules! any_model {
         #[derive(Debug)]
         pub(crate) enum AnyModel {
             Energy(EnergyModel),
-            Particles(TapeParticleSystem),
+            /// Stated by particles: the energy model of T = ½ Σ m |ṙ|² derived from the
+            /// positions, and the particles for drawing.
+            Particles(EnergyModel, TapeParticles),
             $($scene(<$scene as Scene>::System),)*
         }
 
@@ -33,7 +31,7 @@ macro_rules! any_model {
             ($model:expr, $s:ident => $body:expr) => {
                 match $model {
                     AnyModel::Energy($s) => $body,
-                    AnyModel::Particles($s) => $body,
+                    AnyModel::Particles($s, _) => $body,
                     $(AnyModel::$scene($s) => $body,)*
                 }
             };
@@ -56,7 +54,7 @@ macro_rules! any_model {
             pub(crate) fn positions(&self, t: &[f64], q: &[f64]) -> Option<Positions> {
                 match self {
                     AnyModel::Energy(_) => None,
-                    AnyModel::Particles(s) => s.positions(t, q),
+                    AnyModel::Particles(_, p) => Some(positions_of(p, t, q)),
                     $(AnyModel::$scene(s) => s.positions(t, q),)*
                 }
             }
@@ -121,8 +119,9 @@ impl AnyModel {
     /// derivative passes, interpreted) or `"rust"` (a scene written in Rust).
     pub(crate) fn backend(&self) -> &'static str {
         match self {
-            AnyModel::Energy(m) => m.program().map_or("interpreter", |p| p.program().backend()),
-            AnyModel::Particles(_) => "interpreter",
+            AnyModel::Energy(m) | AnyModel::Particles(m, _) => {
+                m.program().map_or("interpreter", |p| p.program().backend())
+            }
             _ => "rust",
         }
     }
@@ -367,11 +366,25 @@ impl Compiled {
                 "give either the kinetic energy or the particles' positions and masses".into(),
             ));
         }
-        // Derived last: its nodes join the graph the tapes above were compiled from.
-        let eom = match spec.kinetic {
+        // Derived last: its nodes join the graph the tapes above were compiled from. A model
+        // stated by its particles gets its T derived from the positions first.
+        let (kinetic, kinetic_node) = match (kinetic, spec.kinetic, &spec.positions, &spec.masses) {
+            (Some(tape), Some(k), _, _) => (Some(tape), Some(node(k, "kinetic energy")?)),
+            (None, None, Some(r), Some(m)) => {
+                let nodes = |o: &[usize], what: &str| -> Result<Vec<usize>> {
+                    o.iter().map(|&o| node(o, what)).collect()
+                };
+                let (r, m) = (nodes(r, "positions")?, nodes(m, "masses")?);
+                let k = particle_kinetic(&mut g, dof, &r, &m, spec.dim)?;
+                let tape = Tape::new(&g, &[k], all, "kinetic energy")?;
+                (Some(Arc::new(tape)), Some(k))
+            }
+            _ => (None, None),
+        };
+        let eom = match kinetic_node {
             Some(k) => {
                 let parts = Energies {
-                    kinetic: node(k, "kinetic energy")?,
+                    kinetic: k,
                     potential: spec.potential.map(|u| node(u, "potential")).transpose()?,
                     dissipation: spec
                         .dissipation
@@ -422,15 +435,17 @@ impl Compiled {
             bind(&self.dissipation)?,
             bind(&self.forces)?,
         );
-        match (&self.kinetic, &self.particles) {
-            (Some(k), _) => {
-                let model = EnergyModel::new(self.dof, Function::new(k.clone(), params)?, u, r, q)?;
-                Ok(AnyModel::Energy(match &self.eom {
-                    Some(eom) => model.with_program(eom.bind(params)?)?,
-                    None => model,
-                }))
-            }
-            (None, Some((positions, dim, masses))) => {
+        let Some(k) = &self.kinetic else {
+            return Err(bad("the model has no kinetic energy".into()));
+        };
+        let model = EnergyModel::new(self.dof, Function::new(k.clone(), params)?, u, r, q)?;
+        let model = match &self.eom {
+            Some(eom) => model.with_program(eom.bind(params)?)?,
+            None => model,
+        };
+        Ok(match &self.particles {
+            None => AnyModel::Energy(model),
+            Some((positions, dim, masses)) => {
                 let m = Function::new(masses.clone(), params)?.constant_values();
                 let p = TapeParticles::new(
                     self.dof,
@@ -438,15 +453,9 @@ impl Compiled {
                     Function::new(positions.clone(), params)?,
                     m,
                 )?;
-                Ok(AnyModel::Particles(
-                    ParticleSystem::new(p)
-                        .with_potential(u)
-                        .with_dissipation(r)
-                        .with_forces(q),
-                ))
+                AnyModel::Particles(model, p)
             }
-            (None, None) => Err(bad("the model has no kinetic energy".into())),
-        }
+        })
     }
 }
 

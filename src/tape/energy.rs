@@ -263,7 +263,10 @@ impl Dynamics for EnergyModel {
                 _ => self.fused::<4, 5>(t, q, qd, out),
             };
         }
-        self.system.accelerations_into(t, q, qd, out)
+        match &self.program {
+            Some(program) => program.accelerations_dual(t, q, qd, out),
+            None => self.system.accelerations_into(t, q, qd, out),
+        }
     }
     #[inline]
     fn lagrangian<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
@@ -276,7 +279,9 @@ mod tests {
     use super::*;
     use crate::ParticleSystem;
     use crate::scenes::{DoublePendulum, DrivenPendulum};
-    use crate::tape::{Binary, Graph, Inputs, Tape, TapeParticles, Unary, models};
+    use crate::tape::{
+        Binary, Energies, EomProgram, Graph, Inputs, Tape, TapeParticles, Unary, models,
+    };
     use approx::assert_relative_eq;
     use std::sync::Arc;
 
@@ -449,9 +454,11 @@ mod tests {
     /// A particle of mass m at r = (x + A sin ωt, y + b x²) in gravity g (T depends on t and q,
     /// M on q), a spring U = ½ k (x² + y²) + κ x y, Φ = ½ c (ẋ² + ẏ²) + ½ c₂ x² ẏ², and
     /// Q″ = (F cos νt, −d y ẋ): every term of eq. 55. As a model stated by its energies (T
-    /// written out, U with gravity) and as particles (the positions, gravity, and the same
+    /// written out, U with gravity), the same with eq. 55 derived on its graph
+    /// ([`EnergyModel::with_program`]), and as particles (the positions, gravity, and the same
     /// spring, Φ and Q″).
     fn every_term() -> (
+        EnergyModel,
         EnergyModel,
         ParticleSystem<TapeParticles, Function, Function, Function>,
     ) {
@@ -532,13 +539,24 @@ mod tests {
             Some(forces.clone()),
         )
         .unwrap();
+        let energies = Energies {
+            kinetic,
+            potential: Some(potential),
+            dissipation: Some(dissipation),
+            forces: Some(vec![q0, q1]),
+        };
+        let program = EomProgram::new(&mut b.0, 2, 0, &energies).unwrap();
+        let derived = model
+            .clone()
+            .with_program(program.bind(&[]).unwrap())
+            .unwrap();
         let positions = TapeParticles::new(2, 2, b.outputs(&[rx, ry], po, &[]), vec![m]).unwrap();
         let particles = ParticleSystem::new(positions)
             .with_gravity([0.0, -g, 0.0])
             .with_potential(b.function(spring, po, &[]))
             .with_dissipation(phi)
             .with_forces(forces);
-        (model, particles)
+        (model, derived, particles)
     }
 
     /// q̈ from the (q, p) form: ṗ = G with ṗ = ∂p/∂t + (∂p/∂q) q̇ + M q̈, so
@@ -567,7 +585,7 @@ mod tests {
     /// term: T depending on t and q, U, Φ and Q″.
     #[test]
     fn accelerations_every_term_four_routes() {
-        let (model, particles) = every_term();
+        let (model, derived, particles) = every_term();
         let energy = particles.energy_route();
         assert!(model.fused);
         let s = model.structure();
@@ -585,6 +603,7 @@ mod tests {
                     model.system().accelerations(t, &q, &qd).unwrap(),
                 ),
                 ("particles", particles.accelerations(t, &q, &qd).unwrap()),
+                ("derived", derived.accelerations(t, &q, &qd).unwrap()),
             ];
             let qp = [
                 ("(q, p) energy", qp_accelerations(&energy, t, &q, &qd)),
@@ -609,10 +628,57 @@ mod tests {
         }
     }
 
+    /// The derived program evaluated over dual numbers (what Radau IIA's Newton iteration and
+    /// `model.jacobian` use) gives the Jacobian ∂q̈/∂(q, q̇) of the energy route, the particle
+    /// route and the tapes' derivative passes on the system with every term.
+    #[test]
+    fn acceleration_jacobian_derived_program_every_term() {
+        use crate::integrators::acceleration_jacobian;
+        use nalgebra::DMatrix;
+        use num_dual::Dual64;
+        let (model, derived, particles) = every_term();
+        let energy = particles.energy_route();
+        let jac = |s: &dyn Fn(&[f64], &mut [Dual64], &mut [Dual64], &mut DMatrix<f64>)| {
+            let y = [0.9, -0.4, 1.3, 0.7];
+            let mut jac = DMatrix::zeros(2, 4);
+            let (mut xd, mut fd) = ([Dual64::from_re(0.0); 4], [Dual64::from_re(0.0); 2]);
+            s(&y, &mut xd, &mut fd, &mut jac);
+            jac
+        };
+        let t = 1.3;
+        let want = jac(&|y, xd, fd, j| acceleration_jacobian(&energy, t, y, xd, fd, j).unwrap());
+        let routes = [
+            (
+                "derived",
+                jac(&|y, xd, fd, j| acceleration_jacobian(&derived, t, y, xd, fd, j).unwrap()),
+            ),
+            (
+                "tape passes",
+                jac(&|y, xd, fd, j| acceleration_jacobian(&model, t, y, xd, fd, j).unwrap()),
+            ),
+            (
+                "particles",
+                jac(&|y, xd, fd, j| acceleration_jacobian(&particles, t, y, xd, fd, j).unwrap()),
+            ),
+        ];
+        assert!(
+            want.iter().all(|x| x.abs() > 1e-3),
+            "every entry is exercised: {want}"
+        );
+        for (name, got) in routes {
+            for (g, w) in got.iter().zip(want.iter()) {
+                assert!(
+                    (g - w).abs() <= 1e-12 * w.abs().max(1.0),
+                    "{name}: {got} vs {want}"
+                );
+            }
+        }
+    }
+
     /// Like every `*_into`, `potential_gradient_into` overwrites its output, on every route.
     #[test]
     fn potential_gradient_into_overwrites() {
-        let (model, particles) = every_term();
+        let (model, _, particles) = every_term();
         let energy = particles.energy_route();
         let (t, q) = (0.4, [0.7, -0.3]);
         // ∂U/∂q of U = m g (y + b x²) + ½ k (x² + y²) + κ x y.

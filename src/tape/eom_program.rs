@@ -18,7 +18,7 @@ use crate::dynamics::check_lengths;
 use crate::eom;
 use crate::error::{Error, Result};
 use crate::linalg::{FactorFailure, ldlt_in_place};
-use crate::scalar::with_buf;
+use crate::scalar::{Scalar, with_buf};
 use std::sync::Arc;
 
 /// The energies of a model as nodes of one [`Graph`]: T, and optionally U, Rayleigh's Φ and Q″
@@ -33,6 +33,61 @@ pub struct Energies {
     pub dissipation: Option<usize>,
     /// The generalized forces Q″(t, q, q̇), one per coordinate.
     pub forces: Option<Vec<usize>>,
+}
+
+/// The kinetic energy of particles as a node: T = ½ Σⱼ mⱼ |ṙⱼ|² (seed eq. 22–25), with ṙⱼ the
+/// tangent of the positions rⱼ(t, q) along (t, q) ↦ (1, q̇), so that a model stated by its
+/// particles gets eq. 55 derived and compiled like one stated by its energies. `positions`
+/// holds `dim` nodes per particle, `masses` one node per particle.
+///
+/// # Errors
+/// [`Error::InvalidInput`] when the counts do not match or a node is not in `graph`.
+pub fn particle_kinetic(
+    graph: &mut Graph,
+    dof: usize,
+    positions: &[usize],
+    masses: &[usize],
+    dim: usize,
+) -> Result<usize> {
+    if masses.is_empty() || positions.len() != dim * masses.len() {
+        return Err(Error::InvalidInput {
+            what: "particles",
+            why: format!(
+                "{} position components for {} masses",
+                positions.len(),
+                masses.len()
+            ),
+        });
+    }
+    let one = graph.constant(1.0);
+    let mut seeds = Seeds::new().time(one);
+    for i in 0..dof {
+        let v = graph.velocity(i);
+        seeds = seeds.coord(i, v);
+    }
+    let velocities = tangents(graph, positions, &seeds)?;
+    let half = graph.constant(0.5);
+    let mut s = Simplify(graph);
+    let mut kinetic = None;
+    for (&m, v) in masses.iter().zip(velocities.chunks_exact(dim)) {
+        let mut speed2 = None;
+        for &vk in v.iter().flatten() {
+            let v2 = s.mul(vk, vk)?;
+            speed2 = Some(match speed2 {
+                Some(sum) => s.add(sum, v2)?,
+                None => v2,
+            });
+        }
+        if let Some(speed2) = speed2 {
+            let hm = s.mul(half, m)?;
+            let term = s.mul(hm, speed2)?;
+            kinetic = Some(match kinetic {
+                Some(sum) => s.add(sum, term)?,
+                None => term,
+            });
+        }
+    }
+    Ok(kinetic.unwrap_or_else(|| s.0.constant(0.0)))
 }
 
 /// The pieces of eq. 55 as nodes of the graph they were derived in.
@@ -364,6 +419,60 @@ impl EomFunction {
         self.function
             .tape
             .run(&self.function.consts, input, |k, v: Num<f64>| emit(k, v.0));
+    }
+
+    /// The accelerations at a state of any scalar type (the dual numbers of the integrators'
+    /// Jacobians and of linearization): the same program run by the interpreter over `D`, so
+    /// its derivatives are those of the derived M and f — one run per dual evaluation instead of
+    /// the hyper-dual derivative passes of T.
+    ///
+    /// # Errors
+    /// As [`accelerations`](Self::accelerations).
+    pub fn accelerations_dual<D: Scalar>(
+        &self,
+        t: D,
+        q: &[D],
+        qd: &[D],
+        out: &mut [D],
+    ) -> Result<()> {
+        let n = self.program.dof;
+        check_lengths(n, q, qd, out)?;
+        let nm = n * (n + 1) / 2;
+        let input = |x: Input| {
+            Num(match x {
+                Input::Time => t,
+                Input::Coord(k) => q[k],
+                Input::Velocity(k) => qd[k],
+            })
+        };
+        with_buf::<D, 64, _>(n * n, D::zero(), |m| {
+            let (mut i, mut j) = (0, 0);
+            self.function
+                .tape
+                .run(&self.function.consts, input, |k, v: Num<D>| {
+                    if k < nm {
+                        // The factorization reads the lower triangle.
+                        m[j * n + i] = v.0;
+                        j += 1;
+                        if j == n {
+                            i += 1;
+                            j = i;
+                        }
+                    } else {
+                        out[k - nm] = v.0;
+                    }
+                });
+            match &self.mass_factor {
+                Some(factor) => {
+                    let factor = factor.as_ref().map_err(|&f| eom::singular(f, t, q))?;
+                    eom::solve(&factor[..], n, t, out)
+                }
+                None => {
+                    eom::factor(m, n, t, q)?;
+                    eom::solve(&*m, n, t, out)
+                }
+            }
+        })
     }
 
     /// The accelerations q̈ = M⁻¹ f at (t, q, q̇), written to `out`.

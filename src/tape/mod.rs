@@ -89,7 +89,7 @@ use compile::Input;
 pub use compile::{Inputs, Tape};
 pub use derive::{Seeds, Wrt, gradient, tangent, tangents};
 pub use energy::{EnergyModel, TapeSystem};
-pub use eom_program::{Energies, EomFunction, EomGraph, EomProgram, eom_graph};
+pub use eom_program::{Energies, EomFunction, EomGraph, EomProgram, eom_graph, particle_kinetic};
 pub use eval::Function;
 pub use graph::{Binary, Graph, Node, Unary};
 #[cfg(feature = "jit")]

@@ -136,7 +136,8 @@ def test_docstring_examples_run(module):
 
 def test_backend_names_what_computes_the_accelerations():
     # A model stated by expressions runs eq. 55 derived on its graph as machine code; the
-    # same system written in Rust is a scene; the particle route keeps its interpreted passes.
+    # same system written in Rust is a scene; a model stated by its particles gets its T derived
+    # from the positions and runs the same way.
     th1, th2 = lg.coordinates("th1 th2")
     m, l, g = lg.parameters("m l g")
     T = 0.5 * m * l**2 * (2 * th1.d**2 + th2.d**2 + 2 * th1.d * th2.d * lg.cos(th1 - th2))
@@ -148,7 +149,7 @@ def test_backend_names_what_computes_the_accelerations():
     assert scene.structure["backend"] == "rust"
     x, = lg.coordinates("x")
     particle = lg.Model(coordinates=[x], positions=[(x, 0.0)], masses=[1.0])
-    assert particle.structure["backend"] == "interpreter"
+    assert particle.structure["backend"] == "native"
     rng = np.random.default_rng(5)
     for _ in range(20):
         q, qd = rng.uniform(-3, 3, 2), rng.uniform(-3, 3, 2)
