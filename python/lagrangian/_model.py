@@ -68,8 +68,9 @@ class Model:
     is integrated without running Python. ``backend="interpreter"`` runs the same derived
     program through the tape interpreter instead — the reference the machine code is tested
     against, with the same results bit for bit, only slower. ``structure["backend"]`` says what
-    runs: ``"native"`` or ``"interpreter"`` (the particle route, and platforms Cranelift does
-    not support, always interpret).
+    runs: ``"native"``, or ``"interpreter"`` (asked for, or on a platform Cranelift does not
+    support). A model stated by particles gets its T derived from the positions and runs the
+    same way.
 
     >>> import lagrangian as lg
     >>> th, = lg.coordinates("th")
@@ -446,8 +447,8 @@ class Model:
         factored once), ``separable`` (explicit symplectic methods apply), ``dissipative``,
         ``forced``, ``conservative``; and ``backend``, what computes the accelerations:
         ``"native"`` (eq. 55 derived on the expression graph and compiled to machine code),
-        ``"interpreter"`` (the same, interpreted: ``backend="interpreter"``, particle-route
-        models, or where no native code could be made) or ``"rust"`` (a ready-made scene)."""
+        ``"interpreter"`` (the same, interpreted: ``backend="interpreter"``, or where no native
+        code could be made) or ``"rust"`` (a ready-made scene)."""
         return dict(self._native.structure())
 
     def with_parameters(self, **values: float) -> "Model":

@@ -309,11 +309,15 @@ def test_unknown_backend_is_a_clear_error():
         _pendulum(backend=1)
 
 
-def test_particle_route_reports_the_interpreter():
+def test_particle_route_takes_the_backend_too():
     th, = lg.coordinates("th")
-    model = lg.Model([th], positions=[(lg.sin(th), -lg.cos(th))], masses=[1.0],
-                     potential=-9.81 * lg.cos(th))
-    assert model.structure["backend"] == "interpreter"
+    for backend in BACKENDS:
+        model = lg.Model([th], positions=[(lg.sin(th), -lg.cos(th))], masses=[1.0],
+                         potential=-9.81 * lg.cos(th), backend=backend)
+        assert model.structure["backend"] == backend
+        again = pickle.loads(pickle.dumps(model.with_parameters()))
+        assert again.structure["backend"] == backend
+        assert abs(again.accelerations(0.0, [0.3], [0.0])[0] + 9.81 * math.sin(0.3)) <= 1e-15
     assert lg.scenes.simple_pendulum().structure["backend"] == "rust"
 
 
