@@ -14,9 +14,14 @@
 //! estimates and from `integrators_meta.json`, which this bench writes next to them.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use lagrangian::Dynamics;
 use lagrangian::integrators::{Method, Options, Output, solve};
 use lagrangian::scenes::{DoublePendulum, NPendulum};
-use lagrangian::{Dynamics, Result, Scalar, Structure};
+
+// Only the double pendulum and the chain (and their check) are used here.
+#[allow(dead_code)]
+mod closed_forms;
+use closed_forms::{ClosedDoublePendulum, ClosedNPendulum};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -33,211 +38,6 @@ const METHODS: [Method; 7] = [
 
 /// Steps per timed run of the per-step benches.
 const STEPS: usize = 100;
-
-// ---------------------------------------------------------------------------------------------
-// Hand-written closed forms of the whole `Dynamics` interface
-
-/// The double pendulum written out by hand: T, U, ∂U/∂q, p = M q̇, M and q̈ (Cramer's rule),
-/// generic over the scalar so the implicit methods can differentiate it too.
-struct ClosedDoublePendulum(DoublePendulum);
-
-impl ClosedDoublePendulum {
-    fn mass<D: Scalar>(&self, q: &[D]) -> (D, D, D) {
-        let DoublePendulum { m1, m2, l1, l2, .. } = self.0;
-        let c = (q[0] - q[1]).cos();
-        (
-            D::from((m1 + m2) * l1 * l1),
-            c * (m2 * l1 * l2),
-            D::from(m2 * l2 * l2),
-        )
-    }
-}
-
-impl Dynamics for ClosedDoublePendulum {
-    fn dof(&self) -> usize {
-        2
-    }
-    fn structure(&self) -> Structure {
-        Structure {
-            dof: 2,
-            time_dependent: false,
-            constant_mass: false,
-            separable: false,
-            dissipative: false,
-            forced: false,
-        }
-    }
-    fn kinetic_energy<D: Scalar>(&self, _t: D, q: &[D], qd: &[D]) -> D {
-        let (a, b, d) = self.mass(q);
-        (a * qd[0] * qd[0] + d * qd[1] * qd[1]) * 0.5 + b * qd[0] * qd[1]
-    }
-    fn potential_energy<D: Scalar>(&self, _t: D, q: &[D]) -> D {
-        let DoublePendulum { m1, m2, l1, l2, g } = self.0;
-        -(q[0].cos() * ((m1 + m2) * g * l1) + q[1].cos() * (m2 * g * l2))
-    }
-    fn potential_gradient_into<D: Scalar>(&self, _t: D, q: &[D], out: &mut [D]) {
-        let DoublePendulum { m1, m2, l1, l2, g } = self.0;
-        out[0] = q[0].sin() * ((m1 + m2) * g * l1);
-        out[1] = q[1].sin() * (m2 * g * l2);
-    }
-    fn generalized_forces_into<D: Scalar>(&self, _t: D, _q: &[D], _qd: &[D], out: &mut [D]) {
-        out.fill(D::zero());
-    }
-    fn dissipative_forces_into<D: Scalar>(&self, _t: D, _q: &[D], _qd: &[D], out: &mut [D]) {
-        out.fill(D::zero());
-    }
-    fn momenta_into<D: Scalar>(&self, _t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        let (a, b, d) = self.mass(q);
-        out[0] = a * qd[0] + b * qd[1];
-        out[1] = b * qd[0] + d * qd[1];
-    }
-    fn mass_matrix_into<D: Scalar>(&self, _t: D, q: &[D], _qd: &[D], out: &mut [D]) {
-        let (a, b, d) = self.mass(q);
-        out.copy_from_slice(&[a, b, b, d]);
-    }
-    fn accelerations_into<D: Scalar>(&self, _t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
-        let DoublePendulum { m1, m2, l1, l2, g } = self.0;
-        let (a, b, d) = self.mass(q);
-        let s = (q[0] - q[1]).sin();
-        let e = -s * qd[1] * qd[1] * (m2 * l1 * l2) - q[0].sin() * ((m1 + m2) * g * l1);
-        let f = s * qd[0] * qd[0] * (m2 * l1 * l2) - q[1].sin() * (m2 * g * l2);
-        let det = a * d - b * b;
-        out[0] = (e * d - b * f) / det;
-        out[1] = (a * f - b * e) / det;
-        Ok(())
-    }
-}
-
-/// The N-pendulum by hand: M_ik = μ_ik l_i l_k cos(θ_i − θ_k), μ_ik = Σ_{j ≥ max(i,k)} m_j, the
-/// velocity terms and gravity written out, M q̈ = rhs by a Cholesky factorization — the O(N²)
-/// assembly and O(N³) solve that hand-written generic code does (as the scene's closed form).
-struct ClosedNPendulum {
-    chain: NPendulum,
-    /// μ_i = Σ_{j ≥ i} m_j.
-    tail: Vec<f64>,
-}
-
-impl ClosedNPendulum {
-    fn new(chain: NPendulum) -> Self {
-        let n = chain.links();
-        let mut tail = vec![0.0; n + 1];
-        for j in (0..n).rev() {
-            tail[j] = tail[j + 1] + chain.masses[j];
-        }
-        Self { chain, tail }
-    }
-
-    fn mass<D: Scalar>(&self, q: &[D], m: &mut [D]) {
-        let n = q.len();
-        let l = &self.chain.lengths;
-        for i in 0..n {
-            for k in 0..n {
-                m[i * n + k] = (q[i] - q[k]).cos() * (self.tail[i.max(k)] * l[i] * l[k]);
-            }
-        }
-    }
-}
-
-impl Dynamics for ClosedNPendulum {
-    fn dof(&self) -> usize {
-        self.chain.links()
-    }
-    fn structure(&self) -> Structure {
-        Structure {
-            dof: self.chain.links(),
-            time_dependent: false,
-            constant_mass: false,
-            separable: false,
-            dissipative: false,
-            forced: false,
-        }
-    }
-    fn kinetic_energy<D: Scalar>(&self, _t: D, q: &[D], qd: &[D]) -> D {
-        let (mut vx, mut vy, mut twice_t) = (D::zero(), D::zero(), D::zero());
-        for (k, (&th, &w)) in q.iter().zip(qd).enumerate() {
-            let (s, c) = th.sin_cos();
-            vx += c * w * self.chain.lengths[k];
-            vy += s * w * self.chain.lengths[k];
-            twice_t += (vx * vx + vy * vy) * self.chain.masses[k];
-        }
-        twice_t * 0.5
-    }
-    fn potential_energy<D: Scalar>(&self, _t: D, q: &[D]) -> D {
-        let (mut y, mut u) = (D::zero(), D::zero());
-        for (k, &th) in q.iter().enumerate() {
-            y -= th.cos() * self.chain.lengths[k];
-            u += y * (self.chain.masses[k] * self.chain.g);
-        }
-        u
-    }
-    fn potential_gradient_into<D: Scalar>(&self, _t: D, q: &[D], out: &mut [D]) {
-        for (k, o) in out.iter_mut().enumerate() {
-            *o = q[k].sin() * (self.tail[k] * self.chain.g * self.chain.lengths[k]);
-        }
-    }
-    fn generalized_forces_into<D: Scalar>(&self, _t: D, _q: &[D], _qd: &[D], out: &mut [D]) {
-        out.fill(D::zero());
-    }
-    fn dissipative_forces_into<D: Scalar>(&self, _t: D, _q: &[D], _qd: &[D], out: &mut [D]) {
-        out.fill(D::zero());
-    }
-    fn momenta_into<D: Scalar>(&self, _t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        let n = q.len();
-        let l = &self.chain.lengths;
-        for i in 0..n {
-            out[i] = D::zero();
-            for k in 0..n {
-                out[i] += (q[i] - q[k]).cos() * qd[k] * (self.tail[i.max(k)] * l[i] * l[k]);
-            }
-        }
-    }
-    fn mass_matrix_into<D: Scalar>(&self, _t: D, q: &[D], _qd: &[D], out: &mut [D]) {
-        self.mass(q, out);
-    }
-    fn accelerations_into<D: Scalar>(&self, _t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
-        let n = q.len();
-        let l = &self.chain.lengths;
-        let mut m = vec![D::zero(); n * n];
-        self.mass(q, &mut m);
-        for i in 0..n {
-            out[i] = -q[i].sin() * (self.tail[i] * self.chain.g * l[i]);
-            for k in 0..n {
-                out[i] -= (q[i] - q[k]).sin() * qd[k] * qd[k] * (self.tail[i.max(k)] * l[i] * l[k]);
-            }
-        }
-        // Cholesky M = L Lᵀ in place, then the two triangular solves.
-        for j in 0..n {
-            let mut d = m[j * n + j];
-            for k in 0..j {
-                d -= m[j * n + k] * m[j * n + k];
-            }
-            let ljj = d.sqrt();
-            m[j * n + j] = ljj;
-            for i in j + 1..n {
-                let mut s = m[i * n + j];
-                for k in 0..j {
-                    s -= m[i * n + k] * m[j * n + k];
-                }
-                m[i * n + j] = s / ljj;
-            }
-        }
-        for i in 0..n {
-            for k in 0..i {
-                let x = out[k] * m[i * n + k];
-                out[i] -= x;
-            }
-            out[i] /= m[i * n + i];
-        }
-        for i in (0..n).rev() {
-            for k in i + 1..n {
-                let x = out[k] * m[k * n + i];
-                out[i] -= x;
-            }
-            out[i] /= m[i * n + i];
-        }
-        Ok(())
-    }
-}
 
 // ---------------------------------------------------------------------------------------------
 // The same closed forms for `ode_solvers`
@@ -325,6 +125,12 @@ fn step_double_pendulum(c: &mut Criterion) {
     let dp = DoublePendulum::new(1.0, 1.0, 1.0, 1.0, 9.81);
     let ad = dp.system();
     let closed = ClosedDoublePendulum(dp);
+    closed_forms::check(
+        "double pendulum",
+        &closed,
+        &ad,
+        &closed_forms::states(2, 0.0),
+    );
     let (q0, qd0) = ([0.7, -0.4], [0.3, 1.2]);
     let dt = 0.01;
     let mut g = config(c, "step_double_pendulum");
@@ -350,6 +156,7 @@ fn step_n_pendulum(c: &mut Criterion) {
         let chain = NPendulum::uniform(n, 1.0, 1.0, 9.81);
         let ad = chain.clone().system();
         let closed = ClosedNPendulum::new(chain.clone());
+        closed_forms::check("N-pendulum", &closed, &ad, &closed_forms::states(n, 0.0));
         let q0: Vec<f64> = (0..n).map(|i| 0.5 * (i as f64 * 0.7).sin()).collect();
         let qd0: Vec<f64> = (0..n).map(|i| 0.3 * (i as f64 * 1.3).cos()).collect();
         let dt = 0.002;

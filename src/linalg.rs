@@ -31,6 +31,23 @@ impl FactorFailure {
 /// Pivots below this fraction of the largest diagonal entry count as zero.
 const RELATIVE_PIVOT_FLOOR: f64 = 1e-13;
 
+/// Whether [`ldlt_in_place`] accepts a matrix with this `diagonal` whose factorization has these
+/// `pivots` d_j: every entry finite, every pivot positive and above the floor. For a solve
+/// computed elsewhere (the compiled programs of small systems) that must fail exactly where the
+/// factorization would.
+#[cfg_attr(not(feature = "jit"), allow(dead_code))]
+pub(crate) fn pivots_hold(pivots: &[f64], diagonal: &[f64]) -> bool {
+    let mut scale = 0.0_f64;
+    for &d in diagonal {
+        if !d.is_finite() {
+            return false;
+        }
+        scale = scale.max(d.abs());
+    }
+    let floor = RELATIVE_PIVOT_FLOOR * scale;
+    scale > 0.0 && pivots.iter().all(|&d| d.is_finite() && d > floor)
+}
+
 /// Factor the row-major `n × n` symmetric positive definite matrix `a` in place as L D Lᵀ.
 ///
 /// Only the lower triangle of `a` is read. Afterwards the strict lower triangle holds the unit

@@ -107,8 +107,8 @@ class NativeModel:
         model stated by its energies only."""
     def simulate(
         self,
-        q0: Sequence[float],
-        qd0: Sequence[float],
+        q0: object,
+        qd0: object,
         t_end: float,
         t0: float = 0.0,
         method: str = "auto",
@@ -118,7 +118,7 @@ class NativeModel:
         t_eval: Optional[_FloatArray] = None,
         max_steps: Optional[int] = None,
         every: Optional[int] = None,
-    ) -> Tuple[_FloatArray, _FloatArray, _FloatArray, _FloatArray, Dict[str, Any]]: ...
+    ) -> Optional[Tuple[_FloatArray, _FloatArray, _FloatArray, _FloatArray, Dict[str, Any]]]: ...
     def equilibrium(
         self,
         q_guess: Sequence[float],

@@ -69,8 +69,7 @@ class Model:
     program through the tape interpreter instead — the reference the machine code is tested
     against, with the same results bit for bit, only slower. ``structure["backend"]`` says what
     runs: ``"native"``, or ``"interpreter"`` (asked for, or on a platform Cranelift does not
-    support). A model stated by particles gets its T derived from the positions and runs the
-    same way.
+    support).
 
     >>> import lagrangian as lg
     >>> th, = lg.coordinates("th")
@@ -448,7 +447,8 @@ class Model:
         ``forced``, ``conservative``; and ``backend``, what computes the accelerations:
         ``"native"`` (eq. 55 derived on the expression graph and compiled to machine code),
         ``"interpreter"`` (the same, interpreted: ``backend="interpreter"``, or where no native
-        code could be made) or ``"rust"`` (a ready-made scene)."""
+        code could be made) or ``"rust"`` (a ready-made scene). A model stated by particles gets
+        its T derived from the positions and runs the same way."""
         return dict(self._native.structure())
 
     def with_parameters(self, **values: float) -> "Model":
@@ -657,10 +657,9 @@ class Model:
         LagrangianError
             When the mathematics fails (subclasses say how).
         """
-        # The options are validated in Rust (one message each); here only their types.
-        n = self.dof
-        q0v = vector("q0", q0, n).tolist()
-        qd0v = vector("qd0", qd0, n).tolist()
+        # The options are validated in Rust (one message each); here only their types. The
+        # initial state goes to Rust as it is when it has the form Rust reads (float64 arrays,
+        # lists of numbers; `None` otherwise), else it is converted and checked here first.
         if not isinstance(method, str):
             raise TypeError(f"method must be a string such as 'dop853', got {method!r}")
         kwargs: Dict[str, Any] = {
@@ -680,9 +679,12 @@ class Model:
             kwargs["max_steps"] = integer("max_steps", max_steps)
         if output_every is not None:
             kwargs["every"] = integer("output_every", output_every)
-        t, q, qd, energy, stats = self._native.simulate(
-            q0v, qd0v, real("t_end", t_end), **kwargs
-        )
+        t_end = real("t_end", t_end)
+        out = self._native.simulate(q0, qd0, t_end, **kwargs)
+        if out is None:
+            n = self.dof
+            out = self._native.simulate(vector("q0", q0, n), vector("qd0", qd0, n), t_end, **kwargs)
+        t, q, qd, energy, stats = out
         return Solution(
             t, q, qd, energy, dict(stats), names=[c.name for c in self._coordinates]
         )

@@ -42,9 +42,9 @@ def vector(what: str, value: object, n: int) -> FloatArray:
         raise ValueError(
             f"{what} has shape {arr.shape} but the model has {n} coordinates"
         )
-    bad = np.flatnonzero(~np.isfinite(arr))
-    if bad.size:
-        raise ValueError(f"{what}[{bad[0]}] = {arr[bad[0]]} is not finite")
+    if not np.isfinite(arr).all():
+        bad = np.flatnonzero(~np.isfinite(arr))[0]
+        raise ValueError(f"{what}[{bad}] = {arr[bad]} is not finite")
     return np.ascontiguousarray(arr)
 
 
@@ -73,9 +73,12 @@ def states(what: str, value: object, n: int) -> FloatArray:
 
 def real(what: str, value: object) -> float:
     """``value`` as a finite float: ``TypeError`` for a non-number, ``ValueError`` if not finite."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+    if type(value) is float:  # the common case, without the ABC check below
+        x = value
+    elif isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(f"{what} must be a real number, got {value!r}")
-    x = float(value)
+    else:
+        x = float(value)
     if not math.isfinite(x):
         raise ValueError(f"{what} = {x} is not finite")
     return x
@@ -153,6 +156,8 @@ def check_symbols(
 def number(what: str, value: object) -> float:
     """``value`` as a float, checking its type only (``TypeError`` for a non-number): for the
     options, whose values are validated in Rust."""
+    if type(value) is float:
+        return value
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(f"{what} must be a real number, got {value!r}")
     return float(value)

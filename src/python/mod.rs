@@ -380,15 +380,17 @@ impl PyModel {
         })
     }
 
-    /// Integrate from (q0, qd0) at t0 to t_end; returns (t, q, qd, energy, stats).
+    /// Integrate from (q0, qd0) at t0 to t_end; returns (t, q, qd, energy, stats), or `None`
+    /// when q0 or qd0 is not in the fast form of [`states::vector`] (the package converts and
+    /// checks them and calls again).
     #[pyo3(signature = (q0, qd0, t_end, t0=0.0, method="auto", dt=None, rtol=1e-6, atol=1e-9,
                         t_eval=None, max_steps=None, every=None))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
         py: Python<'py>,
-        q0: Vec<f64>,
-        qd0: Vec<f64>,
+        q0: &Bound<'py, PyAny>,
+        qd0: &Bound<'py, PyAny>,
         t_end: f64,
         t0: f64,
         method: &str,
@@ -398,10 +400,11 @@ impl PyModel {
         t_eval: Option<PyReadonlyArray1<'py, f64>>,
         max_steps: Option<i64>,
         every: Option<i64>,
-    ) -> PyResult<Bound<'py, PyTuple>> {
+    ) -> PyResult<Option<Bound<'py, PyTuple>>> {
         let n = self.model.dof();
-        check_vector("q0", &q0, n)?;
-        check_vector("qd0", &qd0, n)?;
+        let (Some(q0), Some(qd0)) = (states::vector(q0, n), states::vector(qd0, n)) else {
+            return Ok(None);
+        };
         check_finite("t0", t0)?;
         check_finite("t_end", t_end)?;
         let times = t_eval.map(|t| t.as_array().iter().copied().collect());
@@ -484,6 +487,7 @@ impl PyModel {
             stats,
         )
             .into_pyobject(py)
+            .map(Some)
     }
 
     /// A static equilibrium near `q_guess` by virtual work (seed §3): ∂U/∂q = Q″ + loads.

@@ -50,6 +50,15 @@ impl States {
     }
 }
 
+/// One state vector of `n` finite entries in the fast form (a float64 array of shape (n,) or a
+/// list of n floats or ints), or `None`.
+pub(super) fn vector(v: &Bound<'_, PyAny>, n: usize) -> Option<Vec<f64>> {
+    match entries(v, n)? {
+        (values, None) => Some(values),
+        _ => None,
+    }
+}
+
 /// A float or an int (not a bool), as `f64`.
 fn number(x: &Bound<'_, PyAny>) -> Option<f64> {
     let int = x.is_instance_of::<PyInt>() && !x.is_instance_of::<PyBool>();

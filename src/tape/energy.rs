@@ -1,5 +1,5 @@
-//! [`EnergyModel`]: a model stated at run time by its energies, with the accelerations at `f64`
-//! states from the eq. 55 program derived on its expression graph when it has one
+//! [`EnergyModel`]: a model stated at run time by its energies, with the accelerations from the
+//! eq. 55 program derived on its expression graph when it has one
 //! ([`EnergyModel::with_program`]), otherwise from one fused derivative pass of T.
 
 use super::jet::{Chain, Jet, Lagrange};
@@ -17,11 +17,12 @@ const FUSED_MAX: usize = 4;
 /// A model stated by its energies as tapes: T, and optionally U, Rayleigh's Φ and Q″.
 ///
 /// It is the [`System`] of those [`Function`]s — every derivative pass and every integrator
-/// works on it unchanged — except for the accelerations at `f64` states, the integrators' hot
-/// path:
+/// works on it unchanged — except for the accelerations, the integrators' hot path:
 /// - with the eq. 55 program derived from the expression graph ([`EnergyModel::with_program`],
-///   what the Python module builds), one plain `f64` run of a tape whose outputs are M and the
-///   force vector, then the LDLᵀ tail: no dual numbers at all;
+///   what the Python module builds), at `f64` states one run of that program (machine code
+///   where Cranelift serves the host; for up to 16 coordinates with the solve unrolled in
+///   it, otherwise M and the force vector then the LDLᵀ tail), and over dual numbers (the
+///   integrators' Jacobians) the same program interpreted over them;
 /// - otherwise, for up to four coordinates whose T depends on q or t, one pass of T over a jet
 ///   that carries M, the mixed terms (∂²T/∂q̇∂q) q̇ + ∂²T/∂q̇∂t and ∂T/∂q together, instead of a
 ///   gradient pass and a hyper-dual pass (an interpreted tape pays per instruction).
@@ -638,28 +639,18 @@ mod tests {
         use num_dual::Dual64;
         let (model, derived, particles) = every_term();
         let energy = particles.energy_route();
-        let jac = |s: &dyn Fn(&[f64], &mut [Dual64], &mut [Dual64], &mut DMatrix<f64>)| {
-            let y = [0.9, -0.4, 1.3, 0.7];
+        fn jac<S: Dynamics>(system: &S) -> DMatrix<f64> {
+            let (t, y) = (1.3, [0.9, -0.4, 1.3, 0.7]);
             let mut jac = DMatrix::zeros(2, 4);
             let (mut xd, mut fd) = ([Dual64::from_re(0.0); 4], [Dual64::from_re(0.0); 2]);
-            s(&y, &mut xd, &mut fd, &mut jac);
+            acceleration_jacobian(system, t, &y, &mut xd, &mut fd, &mut jac).unwrap();
             jac
-        };
-        let t = 1.3;
-        let want = jac(&|y, xd, fd, j| acceleration_jacobian(&energy, t, y, xd, fd, j).unwrap());
+        }
+        let want = jac(&energy);
         let routes = [
-            (
-                "derived",
-                jac(&|y, xd, fd, j| acceleration_jacobian(&derived, t, y, xd, fd, j).unwrap()),
-            ),
-            (
-                "tape passes",
-                jac(&|y, xd, fd, j| acceleration_jacobian(&model, t, y, xd, fd, j).unwrap()),
-            ),
-            (
-                "particles",
-                jac(&|y, xd, fd, j| acceleration_jacobian(&particles, t, y, xd, fd, j).unwrap()),
-            ),
+            ("derived", jac(&derived)),
+            ("tape passes", jac(&model)),
+            ("particles", jac(&particles)),
         ];
         assert!(
             want.iter().all(|x| x.abs() > 1e-3),

@@ -17,6 +17,8 @@ use super::{Function, Graph, Input, Inputs, Tape};
 use crate::dynamics::check_lengths;
 use crate::eom;
 use crate::error::{Error, Result};
+#[cfg(feature = "jit")]
+use crate::linalg::pivots_hold;
 use crate::linalg::{FactorFailure, ldlt_in_place};
 use crate::scalar::{Scalar, with_buf};
 use std::sync::Arc;
@@ -215,8 +217,78 @@ pub fn eom_graph(graph: &mut Graph, dof: usize, parts: &Energies) -> Result<EomG
     })
 }
 
+/// Largest number of coordinates whose solve M q̈ = f is unrolled into machine code
+/// ([`solved_graph`]); larger systems factor M at run time. Measured on the pendulum chain
+/// (tests/graph_derivatives.rs, `eom_program_speed`): unrolled, one call costs 0.55× (n = 8) and
+/// 0.51× (n = 16) of the program plus the run-time LDLᵀ; at n = 32 0.76×, but the build grows
+/// from 68 to 151 ms, too close to the 200 ms budget.
+#[cfg(feature = "jit")]
+const SOLVED_MAX: usize = 16;
+
+/// q̈ = M⁻¹ f of a small system written out on the graph: the LDLᵀ factorization of
+/// [`ldlt_in_place`] node by node, then the two triangular solves, so that the accelerations are
+/// one call of machine code. Outputs q̈, the pivots d_j and M's diagonal; the caller checks the
+/// pivots as the factorization does ([`pivots_hold`](crate::linalg::pivots_hold)) and takes the
+/// general path, with its typed errors, when a check fails. A constant M folds to constants.
+#[cfg(feature = "jit")]
+fn solved_graph(graph: &mut Graph, eom: &EomGraph) -> Result<Vec<usize>> {
+    let n = eom.dof;
+    let m = |i: usize, j: usize| eom.mass[upper(n, i.min(j), i.max(j))];
+    let one = graph.constant(1.0);
+    let mut s = Simplify(graph);
+    // l[i][j] = L_ij and w[i][j] = L_ij d_j below the diagonal; d and 1/d on it.
+    let (mut l, mut w) = (vec![vec![one; n]; n], vec![vec![one; n]; n]);
+    let (mut d, mut inv) = (vec![one; n], vec![one; n]);
+    for j in 0..n {
+        let mut dj = m(j, j);
+        for k in 0..j {
+            let p = s.mul(l[j][k], w[j][k])?;
+            dj = s.sub(dj, p)?;
+        }
+        d[j] = dj;
+        inv[j] = s.div(one, dj)?;
+        for i in j + 1..n {
+            let mut wij = m(i, j);
+            for k in 0..j {
+                let p = s.mul(l[i][k], w[j][k])?;
+                wij = s.sub(wij, p)?;
+            }
+            w[i][j] = wij;
+            l[i][j] = s.mul(wij, inv[j])?;
+        }
+    }
+    // L y = f, then D z = y, then Lᵀ q̈ = z.
+    let mut x = eom.force.clone();
+    for i in 0..n {
+        for k in 0..i {
+            let p = s.mul(l[i][k], x[k])?;
+            x[i] = s.sub(x[i], p)?;
+        }
+    }
+    for i in 0..n {
+        x[i] = s.mul(x[i], inv[i])?;
+    }
+    for i in (0..n).rev() {
+        for k in i + 1..n {
+            let p = s.mul(l[k][i], x[k])?;
+            x[i] = s.sub(x[i], p)?;
+        }
+    }
+    let diagonal = (0..n).map(|j| m(j, j));
+    Ok(x.into_iter().chain(d).chain(diagonal).collect())
+}
+
+/// The unrolled solve of a small system as machine code (see [`solved_graph`]).
+#[cfg(feature = "jit")]
+#[derive(Debug, Clone)]
+struct Solved {
+    tape: Arc<Tape>,
+    native: Arc<super::NativeTape>,
+}
+
 /// Eq. 55 compiled: one [`Tape`] whose outputs are M's upper triangle row by row, then f (see
-/// [`EomGraph`]), not yet bound to parameter values.
+/// [`EomGraph`]), not yet bound to parameter values; for up to 16 coordinates with
+/// machine code, also q̈ itself with the solve unrolled.
 #[derive(Debug, Clone)]
 pub struct EomProgram {
     tape: Arc<Tape>,
@@ -226,6 +298,9 @@ pub struct EomProgram {
     /// then the interpreter runs it (same results, bit for bit).
     #[cfg(feature = "jit")]
     native: Option<Arc<super::NativeTape>>,
+    /// q̈ with the solve unrolled, as machine code (up to [`SOLVED_MAX`] coordinates).
+    #[cfg(feature = "jit")]
+    solved: Option<Solved>,
 }
 
 impl EomProgram {
@@ -236,7 +311,19 @@ impl EomProgram {
     /// As [`eom_graph`] and [`Tape::new`].
     pub fn new(graph: &mut Graph, dof: usize, params: usize, parts: &Energies) -> Result<Self> {
         let eom = eom_graph(graph, dof, parts)?;
-        Self::compile(graph, &eom, params)
+        #[cfg_attr(not(feature = "jit"), allow(unused_mut))]
+        let mut program = Self::compile(graph, &eom, params)?;
+        #[cfg(feature = "jit")]
+        if program.native.is_some() && dof <= SOLVED_MAX {
+            let outputs = solved_graph(graph, &eom)?;
+            let inputs = Inputs::kinetic(dof, params);
+            let tape = Tape::new(graph, &outputs, inputs, "equations of motion")?;
+            program.solved = super::NativeTape::compile(&tape).ok().map(|native| Solved {
+                tape: tape.into(),
+                native: native.into(),
+            });
+        }
+        Ok(program)
     }
 
     /// Compile derived pieces `eom` of `graph` for `params` parameters.
@@ -260,6 +347,8 @@ impl EomProgram {
             constant_mass: eom.constant_mass,
             #[cfg(feature = "jit")]
             native,
+            #[cfg(feature = "jit")]
+            solved: None,
         })
     }
 
@@ -269,6 +358,8 @@ impl EomProgram {
         Self {
             #[cfg(feature = "jit")]
             native: None,
+            #[cfg(feature = "jit")]
+            solved: None,
             ..self
         }
     }
@@ -318,10 +409,19 @@ impl EomProgram {
             }
             ldlt_in_place(&mut m, n).map(|()| m.into())
         });
+        #[cfg(feature = "jit")]
+        // A constant singular M folds a pivot's reciprocal to a non-finite constant, which
+        // does not bind: then the general path reports it, at the first evaluation.
+        let solved = self.solved.as_ref().and_then(|s| {
+            let f = Function::new(s.tape.clone(), params).ok()?;
+            Some((s.native.clone(), f.consts))
+        });
         Ok(EomFunction {
             program: self.clone(),
             function,
             mass_factor,
+            #[cfg(feature = "jit")]
+            solved,
         })
     }
 }
@@ -333,6 +433,9 @@ pub struct EomFunction {
     function: Function,
     /// The LDLᵀ factor of a constant M (or why it has none).
     mass_factor: Option<std::result::Result<Arc<[f64]>, FactorFailure>>,
+    /// The unrolled solve and its constants for these parameter values.
+    #[cfg(feature = "jit")]
+    solved: Option<(Arc<super::NativeTape>, Arc<[f64]>)>,
 }
 
 impl EomFunction {
@@ -484,6 +587,23 @@ impl EomFunction {
     pub fn accelerations(&self, t: f64, q: &[f64], qd: &[f64], out: &mut [f64]) -> Result<()> {
         let n = self.program.dof;
         check_lengths(n, q, qd, out)?;
+        #[cfg(feature = "jit")]
+        if let Some((native, consts)) = &self.solved {
+            let done = with_buf::<f64, { 3 * SOLVED_MAX }, _>(3 * n, 0.0, |v| {
+                native.eval(consts, t, q, qd, v);
+                let (a, rest) = v.split_at(n);
+                let (pivots, diagonal) = rest.split_at(n);
+                let fine = pivots_hold(pivots, diagonal) && a.iter().all(|x| x.is_finite());
+                if fine {
+                    out.copy_from_slice(a);
+                }
+                fine
+            });
+            if done {
+                return Ok(());
+            }
+            // A failed check: the general path below reports it as the factorization does.
+        }
         match &self.mass_factor {
             Some(factor) => {
                 let factor = factor.as_ref().map_err(|&f| eom::singular(f, t, q))?;
