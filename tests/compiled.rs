@@ -1,8 +1,9 @@
 //! Eq. 55 compiled, on random models over every function of the expression graph: the machine
-//! code (`EomProgram` with the `jit` feature) against the same program interpreted, bit for bit
-//! and error for error, also where the mathematics fails (log or square root of a negative
-//! number, division by zero, overflow, a singular mass matrix); and the derived program against
-//! the energy route's dual-number passes ([`EnergyModel`]) on models kept inside their domains.
+//! code (`EomProgram` with the `jit` feature) against the same program interpreted — M and f bit
+//! for bit, q̈ to rounding (the machine code has the LDLᵀ solve unrolled into it), errors alike —
+//! also where the mathematics fails (log or square root of a negative number, division by zero,
+//! overflow, a singular mass matrix); and the derived program against the energy route's
+//! dual-number passes ([`EnergyModel`]) on models kept inside their domains.
 //!
 //! `NativeTape` itself is checked instruction by instruction against the interpreter in
 //! `src/tape/native.rs`; here the whole path — derivation, compilation, the LDLᵀ tail — is.
@@ -293,13 +294,15 @@ fn value(rng: &mut Rng) -> f64 {
     }
 }
 
-/// Run both, compare M, f and q̈ (or the error) bit for bit; whether q̈ was finite.
+/// Run both, compare M and f bit for bit, q̈ (or the error) to 1e-13 of its largest entry (the
+/// worst relative difference to `worst`); whether q̈ was finite.
 fn check_state(
     native: &EomFunction,
     interpreted: &EomFunction,
     n: usize,
     (t, q, qd): (f64, &[f64], &[f64]),
     case: usize,
+    worst: &mut f64,
 ) -> bool {
     let (mut m1, mut f1) = (vec![0.0; n * n], vec![0.0; n]);
     let (mut m2, mut f2) = (vec![0.0; n * n], vec![0.0; n]);
@@ -323,15 +326,23 @@ fn check_state(
     );
     if r1.is_ok() {
         assert!(a1.iter().all(|x| x.is_finite()), "case {case}: {a1:?}");
-        assert!(a1.iter().zip(&a2).all(|(x, y)| x.to_bits() == y.to_bits()));
+        // The machine code solves for q̈ with the LDLᵀ unrolled into the program, the
+        // interpreter factors M apart: the same arithmetic up to rounding.
+        let scale = a2.iter().fold(0.0_f64, |s, x| s.max(x.abs()));
+        for (x, y) in a1.iter().zip(&a2) {
+            let err = (x - y).abs();
+            assert!(err <= 1e-13 * scale, "case {case}: q̈ {a1:?} against {a2:?}");
+            *worst = worst.max(err / scale);
+        }
     }
     r1.is_ok()
 }
 
 #[test]
-fn compiled_eom_matches_interpreter_on_random_models_bit_for_bit() {
+fn compiled_eom_matches_interpreter_on_random_models() {
     let mut rng = Rng(0x1e55_0a12);
     let (mut models, mut finite, mut failed, mut rejected) = (0, 0, 0, 0);
+    let mut worst = 0.0_f64;
     let mut errors = std::collections::BTreeSet::new();
     for case in 0..300 {
         let model = random_model(&mut rng, false);
@@ -361,7 +372,7 @@ fn compiled_eom_matches_interpreter_on_random_models_bit_for_bit() {
             let t = value(&mut rng);
             let q: Vec<f64> = (0..n).map(|_| value(&mut rng)).collect();
             let qd: Vec<f64> = (0..n).map(|_| value(&mut rng)).collect();
-            if check_state(&native, &interpreted, n, (t, &q, &qd), case) {
+            if check_state(&native, &interpreted, n, (t, &q, &qd), case, &mut worst) {
                 finite += 1;
             } else {
                 failed += 1;
@@ -379,7 +390,7 @@ fn compiled_eom_matches_interpreter_on_random_models_bit_for_bit() {
     }
     println!(
         "{models} models ({rejected} rejected when bound): {finite} finite states, {failed} \
-         failing ({errors:?})"
+         failing ({errors:?}); q̈ differs by {worst:.2e} of its largest entry at most"
     );
     // Both outcomes well represented, and both typed errors.
     assert!(

@@ -67,7 +67,7 @@ class Model:
     of eq. 55) are derived on the expression graph and compiled to machine code, and the model
     is integrated without running Python. ``backend="interpreter"`` runs the same derived
     program through the tape interpreter instead — the reference the machine code is tested
-    against, with the same results bit for bit, only slower. ``structure["backend"]`` says what
+    against, with the same results to rounding, only slower. ``structure["backend"]`` says what
     runs: ``"native"``, or ``"interpreter"`` (asked for, or on a platform Cranelift does not
     support).
 

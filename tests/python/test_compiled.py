@@ -4,9 +4,10 @@
 A model stated in Python runs its derived equations of motion as machine code
 (``backend="native"``) or through the tape interpreter (``backend="interpreter"``, the
 reference). A property test (hypothesis, derandomized) builds models from random expressions
-over every function of the DSL and checks that both backends give the same numbers — bit for
-bit — and, where the mathematics fails (log or sqrt of a negative number, division by zero,
-overflow, a singular mass matrix), the same typed exception, never a NaN or an infinity. The
+over every function of the DSL and checks that both backends give the same numbers — q̈ to
+1e-13 relative, the rest bit for bit — and, where the mathematics fails (log or sqrt of a
+negative number, division by zero, overflow, a singular mass matrix), the same typed exception,
+never a NaN or an infinity. The
 scenes of the catalog, stated again here by their energies, agree with the hand-written Rust
 scenes to 1e-13 relative.
 """
@@ -75,12 +76,21 @@ def outcome(f: Callable[[], Any]) -> Outcome:
     return "ok", arr
 
 
+# What the machine code computes differently: q̈ comes from M and f with the LDLᵀ solve
+# unrolled into the compiled program, the interpreter factors M apart, so the two round
+# differently (measured: at most 2.4e-16 of the largest entry). Everything else runs the same
+# program the same way: equal bits.
+SOLVED = ("accelerations", "rhs", "rhs (batch)")
+
+
 def same(a: Outcome, b: Outcome, what: str) -> None:
     assert a[0] == b[0], f"{what}: {a} against {b}"
     if a[0] == "error":
         assert a[1] == b[1], f"{what}: {a[1]} against {b[1]}"
+    elif what.split(" at ")[0] in SOLVED:
+        scale = float(np.max(np.abs(b[1])))
+        assert np.all(np.abs(a[1] - b[1]) <= 1e-13 * scale), f"{what}: {a[1]} against {b[1]}"
     else:
-        # The interpreter and the machine code run the same program: equal bits.
         np.testing.assert_array_equal(a[1], b[1], err_msg=what)
 
 
