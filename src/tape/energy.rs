@@ -235,6 +235,20 @@ impl Dynamics for EnergyModel {
     }
     #[inline]
     fn momenta_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
+        if let Some(program) = &self.program
+            && super::jet::is::<D, f64>()
+        {
+            // SAFETY: D is f64 (same TypeId), so these are identity casts.
+            let (t, q, qd, out) = unsafe {
+                (
+                    *super::jet::cast::<D, f64>(&t),
+                    super::jet::cast_slice::<D, f64>(q),
+                    super::jet::cast_slice::<D, f64>(qd),
+                    &mut *(out as *mut [D] as *mut [f64]),
+                )
+            };
+            return program.momenta(t, q, qd, out);
+        }
         self.system.momenta_into(t, q, qd, out)
     }
     #[inline]
@@ -663,6 +677,31 @@ mod tests {
                     "{name}: {got} vs {want}"
                 );
             }
+        }
+    }
+
+    /// The momenta from the derived program's own tape (machine code with `jit`), and the
+    /// energy function h = q̇·p − L built on them, are those of the energy route.
+    #[test]
+    fn momenta_and_energy_derived_program_every_term() {
+        let (_, derived, particles) = every_term();
+        let energy = particles.energy_route();
+        for (t, q, qd) in [
+            (0.2, [0.5, -1.1], [0.9, 0.3]),
+            (3.1, [-0.7, 0.2], [-1.4, 2.2]),
+        ] {
+            let (want, got) = (
+                energy.momenta(t, &q, &qd).unwrap(),
+                derived.momenta(t, &q, &qd).unwrap(),
+            );
+            for i in 0..2 {
+                assert_relative_eq!(got[i], want[i], max_relative = 1e-13);
+            }
+            let (want, got) = (
+                energy.energy(t, &q, &qd).unwrap(),
+                derived.energy(t, &q, &qd).unwrap(),
+            );
+            assert_relative_eq!(got, want, max_relative = 1e-13);
         }
     }
 

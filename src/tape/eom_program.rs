@@ -298,6 +298,11 @@ pub struct EomProgram {
     /// then the interpreter runs it (same results, bit for bit).
     #[cfg(feature = "jit")]
     native: Option<Arc<super::NativeTape>>,
+    /// The momenta p = ∂L/∂q̇ as a tape of their own (the energy h = q̇·p − L and the
+    /// variational methods read them at every step).
+    momenta: Arc<Tape>,
+    #[cfg(feature = "jit")]
+    momenta_native: Option<Arc<super::NativeTape>>,
     /// q̈ with the solve unrolled, as machine code (up to [`SOLVED_MAX`] coordinates).
     #[cfg(feature = "jit")]
     solved: Option<Solved>,
@@ -338,13 +343,21 @@ impl EomProgram {
             Inputs::kinetic(eom.dof, params),
             "equations of motion",
         )?;
+        let inputs = Inputs::kinetic(eom.dof, params);
+        let momenta = Tape::new(graph, &eom.momenta, inputs, "momenta")?;
         // Machine code where Cranelift serves the host; any failure leaves the interpreter.
         #[cfg(feature = "jit")]
-        let native = super::NativeTape::compile(&tape).ok().map(Arc::new);
+        let (native, momenta_native) = (
+            super::NativeTape::compile(&tape).ok().map(Arc::new),
+            super::NativeTape::compile(&momenta).ok().map(Arc::new),
+        );
         Ok(Self {
             tape: tape.into(),
             dof: eom.dof,
             constant_mass: eom.constant_mass,
+            momenta: momenta.into(),
+            #[cfg(feature = "jit")]
+            momenta_native,
             #[cfg(feature = "jit")]
             native,
             #[cfg(feature = "jit")]
@@ -358,6 +371,8 @@ impl EomProgram {
         Self {
             #[cfg(feature = "jit")]
             native: None,
+            #[cfg(feature = "jit")]
+            momenta_native: None,
             #[cfg(feature = "jit")]
             solved: None,
             ..self
@@ -419,6 +434,7 @@ impl EomProgram {
         Ok(EomFunction {
             program: self.clone(),
             function,
+            momenta: Function::new(self.momenta.clone(), params)?,
             mass_factor,
             #[cfg(feature = "jit")]
             solved,
@@ -431,6 +447,8 @@ impl EomProgram {
 pub struct EomFunction {
     program: EomProgram,
     function: Function,
+    /// The momenta's tape bound to the same parameter values.
+    momenta: Function,
     /// The LDLᵀ factor of a constant M (or why it has none).
     mass_factor: Option<std::result::Result<Arc<[f64]>, FactorFailure>>,
     /// The unrolled solve and its constants for these parameter values.
@@ -455,6 +473,23 @@ impl EomFunction {
     /// As [`Function::new`].
     pub fn with_parameters(&self, params: &[f64]) -> Result<Self> {
         self.program.bind(params)
+    }
+
+    /// The momenta p = ∂L/∂q̇ at (t, q, q̇), written to `out`.
+    ///
+    /// # Panics
+    /// If a slice has the wrong length.
+    pub fn momenta(&self, t: f64, q: &[f64], qd: &[f64], out: &mut [f64]) {
+        let n = self.program.dof;
+        assert!(
+            q.len() == n && qd.len() == n && out.len() == n,
+            "wrong lengths"
+        );
+        #[cfg(feature = "jit")]
+        if let Some(native) = &self.program.momenta_native {
+            return native.eval(&self.momenta.consts, t, q, qd, out);
+        }
+        self.momenta.eval_into(t, q, qd, out)
     }
 
     /// M (full, row-major n × n) and f at (t, q, q̇).
