@@ -124,7 +124,8 @@ pub trait Dynamics {
     fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
         let p = self.momenta(t, q, qd)?;
         let l = self.lagrangian_at(t, q, qd)?;
-        Ok(p.iter().zip(qd).map(|(p, v)| p * v).sum::<f64>() - l)
+        let h = p.iter().zip(qd).map(|(p, v)| p * v).sum::<f64>() - l;
+        finite(&[h], "energy", t).map(|()| h)
     }
 }
 

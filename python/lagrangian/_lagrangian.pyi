@@ -85,6 +85,7 @@ class NativeModel:
         positions: Optional[Sequence[int]] = None,
         dim: int = 0,
         masses: Optional[Sequence[int]] = None,
+        backend: str = "native",
     ) -> "NativeModel": ...
     def with_parameters(self, params: Sequence[float]) -> "NativeModel": ...
     @property

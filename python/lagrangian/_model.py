@@ -63,9 +63,13 @@ class Model:
     ``forces`` Q(t, q, q̇) (one expression per coordinate). Parameters named in the expressions
     get their values from ``parameters``.
 
-    The expressions are compiled once to a tape evaluated in Rust over dual numbers: the
-    equations of motion are derived by automatic differentiation and integrated without running
-    Python.
+    The expressions are compiled once in Rust: the equations of motion (M and the force vector
+    of eq. 55) are derived on the expression graph and compiled to machine code, and the model
+    is integrated without running Python. ``backend="interpreter"`` runs the same derived
+    program through the tape interpreter instead — the reference the machine code is tested
+    against, with the same results to rounding, only slower. ``structure["backend"]`` says what
+    runs: ``"native"``, or ``"interpreter"`` (asked for, or on a platform Cranelift does not
+    support).
 
     >>> import lagrangian as lg
     >>> th, = lg.coordinates("th")
@@ -97,13 +101,16 @@ class Model:
         The particle route: position r_j(t, q) of each point mass instead of ``kinetic``.
     masses : sequence of expressions, optional
         The masses m_j (numbers and parameters only), with ``positions``.
+    backend : {"native", "interpreter"}
+        What evaluates the derived equations of motion: machine code (the default) or the
+        interpreter. Kept by :meth:`with_parameters` and by pickling.
 
     Raises
     ------
     ValueError
         For a symbol that is not a coordinate of the model, a velocity or parameter, a parameter
         without a value or a value for no parameter, a velocity in the potential or positions,
-        wrong lengths.
+        wrong lengths, an unknown ``backend``.
     TypeError
         For something that is not an expression or a number.
     """
@@ -118,6 +125,7 @@ class Model:
         "_positions",
         "_masses",
         "_parameters",
+        "_backend",
         "_native",
     )
 
@@ -129,6 +137,7 @@ class Model:
     _positions: Optional[Tuple[Tuple[Expr, ...], ...]]
     _masses: Optional[Tuple[Expr, ...]]
     _parameters: Dict[str, Any]
+    _backend: str
     _native: Any
 
     def __init__(
@@ -142,7 +151,12 @@ class Model:
         *,
         positions: Optional[Sequence[Sequence[ExprLike]]] = None,
         masses: Optional[Sequence[ExprLike]] = None,
+        backend: str = "native",
     ) -> None:
+        if not isinstance(backend, str):
+            raise TypeError(
+                f"backend must be a string, 'native' or 'interpreter', got {backend!r}"
+            )
         coords = check_coordinates(coordinates)
         dof = len(coords)
         t_ = None if kinetic is None else Expr.lift(kinetic)
@@ -222,6 +236,7 @@ class Model:
         self._kinetic, self._potential, self._dissipation = t_, u_, r_
         self._forces, self._positions, self._masses = f_, pos, mass
         self._parameters = values
+        self._backend = backend
         self._native = self._compile()
 
     def _compile(self) -> Any:
@@ -257,6 +272,7 @@ class Model:
             len(self._coordinates),
             [float(v) for v in self._parameters.values()],
             dim=dim,
+            backend=self._backend,
             **{k: at(v) for k, v in slots.items()},
         )
 
@@ -430,9 +446,9 @@ class Model:
         factored once), ``separable`` (explicit symplectic methods apply), ``dissipative``,
         ``forced``, ``conservative``; and ``backend``, what computes the accelerations:
         ``"native"`` (eq. 55 derived on the expression graph and compiled to machine code),
-        ``"interpreter"`` (the same, interpreted, where no native code could be made) or
-        ``"rust"`` (a ready-made scene). A model stated by particles gets its T derived from the
-        positions and runs the same way."""
+        ``"interpreter"`` (the same, interpreted: ``backend="interpreter"``, or where no native
+        code could be made) or ``"rust"`` (a ready-made scene). A model stated by particles gets
+        its T derived from the positions and runs the same way."""
         return dict(self._native.structure())
 
     def with_parameters(self, **values: float) -> "Model":
@@ -774,6 +790,8 @@ class Model:
             parts.append("forces=[" + ", ".join(repr(f) for f in self._forces) + "]")
         if self._parameters:
             parts.append(f"parameters={self._parameters!r}")
+        if self._backend != "native":
+            parts.append(f"backend={self._backend!r}")
         return "Model(" + ", ".join(parts) + ")"
 
     def __reduce__(self) -> Tuple[Any, ...]:
@@ -804,6 +822,7 @@ class Model:
             "roots": ids,
             "layout": layout,
             "parameters": dict(self._parameters),
+            "backend": self._backend,
         }
         return (_model_from_state, (state,))
 
@@ -833,6 +852,7 @@ def _model_from_state(state: Dict[str, Any]) -> Model:
         parameters=state["parameters"],
         positions=positions,
         masses=get("masses"),
+        backend=state.get("backend", "native"),
     )
 
 

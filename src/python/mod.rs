@@ -22,7 +22,7 @@ mod states;
 use crate::integrators::{Method, Options, Output, solve_with_interrupt};
 use crate::{Dynamics, Error, Stability, StaticsOptions, equilibrium};
 use error::panic_error;
-use model::{AnyModel, Compiled, RawNode, Spec, WithLoads};
+use model::{AnyModel, Backend, Compiled, RawNode, Spec, WithLoads};
 use numpy::ndarray::{Array2, Array3};
 use numpy::{
     IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayDyn, PyArrayMethods, PyReadonlyArray1,
@@ -162,10 +162,11 @@ impl PyModel {
 #[pymethods]
 impl PyModel {
     /// Compile a model from serialized expression nodes `(op, number, i, j)` and the node
-    /// indices of its parts, bound to the parameter values `params`.
+    /// indices of its parts, bound to the parameter values `params`; `backend` says what runs
+    /// the derived eq. 55 program (`"native"` or `"interpreter"`).
     #[staticmethod]
     #[pyo3(signature = (nodes, dof, params, kinetic=None, potential=None, dissipation=None,
-                        forces=None, positions=None, dim=0, masses=None))]
+                        forces=None, positions=None, dim=0, masses=None, backend="native"))]
     #[allow(clippy::too_many_arguments)]
     fn compile(
         nodes: Vec<RawNode>,
@@ -178,9 +179,11 @@ impl PyModel {
         positions: Option<Vec<usize>>,
         dim: usize,
         masses: Option<Vec<usize>>,
+        backend: &str,
     ) -> PyResult<Self> {
         guard(|| {
             let spec = Spec {
+                backend: Backend::named(backend)?,
                 nodes: &nodes,
                 dof,
                 params: params.len(),

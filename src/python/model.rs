@@ -193,6 +193,36 @@ pub(crate) struct Compiled {
     pub(crate) eom: Option<EomProgram>,
 }
 
+/// What runs a model's derived eq. 55 program at `f64` states, as Python names it
+/// (`Model(..., backend=...)`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Backend {
+    /// Machine code from Cranelift where the platform has it, else the interpreter.
+    Native,
+    /// The same program interpreted: the reference the machine code is tested against.
+    Interpreter,
+}
+
+impl Backend {
+    /// The backend named `name`.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] for any other name.
+    pub(crate) fn named(name: &str) -> Result<Self> {
+        match name {
+            "native" => Ok(Self::Native),
+            "interpreter" => Ok(Self::Interpreter),
+            other => Err(Error::InvalidInput {
+                what: "model",
+                why: format!(
+                    "unknown backend {other:?}: use \"native\" (compiled to machine code, the \
+                     default) or \"interpreter\""
+                ),
+            }),
+        }
+    }
+}
+
 /// What the Python side sends for one model.
 pub(crate) struct Spec<'a> {
     pub(crate) nodes: &'a [RawNode],
@@ -205,6 +235,7 @@ pub(crate) struct Spec<'a> {
     pub(crate) positions: Option<Vec<usize>>,
     pub(crate) dim: usize,
     pub(crate) masses: Option<Vec<usize>>,
+    pub(crate) backend: Backend,
 }
 
 /// Graph node ids of the serialized outputs (serialized node k may have merged into an earlier
@@ -365,7 +396,11 @@ impl Compiled {
                         .map(|f| f.iter().map(|&o| node(o, "generalized forces")).collect())
                         .transpose()?,
                 };
-                Some(EomProgram::new(&mut g, dof, params, &parts)?)
+                let program = EomProgram::new(&mut g, dof, params, &parts)?;
+                Some(match spec.backend {
+                    Backend::Native => program,
+                    Backend::Interpreter => program.interpreted(),
+                })
             }
             None => None,
         };
