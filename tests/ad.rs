@@ -153,3 +153,53 @@ fn energy_balance_dissipative_and_driven() {
         assert!(explicit_time_rate(&s, t, &q, &qd).abs() > 1e-3);
     }
 }
+
+/// atan2 over dual numbers (the tapes' generic path, the integrators' Jacobians) has finite
+/// derivatives at x = 0, where num-dual's atan(y/x) gives NaN.
+#[test]
+fn atan2_dual_at_zero() {
+    use lagrangian::tape::{Binary, EnergyModel, Function, Graph, Inputs, Tape};
+    use std::sync::Arc;
+    // T = ½ q̇², U = atan2(1, q) or atan2(q, 1): the force −∂U/∂q = ±1/(1+q²).
+    for swap in [false, true] {
+        let mut g = Graph::new();
+        let (q, v) = (g.coord(0), g.velocity(0));
+        let one = g.constant(1.0);
+        let v2 = g.powi(v, 2).unwrap();
+        let h = g.constant(0.5);
+        let t = g.binary(Binary::Mul, h, v2).unwrap();
+        let (a, b) = if swap { (q, one) } else { (one, q) };
+        let u = g.binary(Binary::Atan2, a, b).unwrap();
+        let tape = |root, inputs| {
+            Function::new(
+                Arc::new(Tape::new(&g, &[root], inputs, "part").unwrap()),
+                &[],
+            )
+            .unwrap()
+        };
+        let m = EnergyModel::new(
+            1,
+            tape(t, Inputs::kinetic(1, 0)),
+            Some(tape(u, Inputs::potential(1, 0))),
+            None,
+            None,
+        )
+        .unwrap();
+        for x in [0.0, 0.3, -2.0] {
+            let mut out = [Dual64::from_re(0.0)];
+            m.accelerations_into(
+                Dual64::from_re(0.0),
+                &[Dual64::new(x, 1.0)],
+                &[Dual64::from_re(0.0)],
+                &mut out,
+            )
+            .unwrap();
+            let s = if swap { -1.0 } else { 1.0 };
+            let want = (s / (1.0 + x * x), -s * 2.0 * x / (1.0 + x * x).powi(2));
+            assert!(
+                (out[0].re - want.0).abs() < 1e-15 && (out[0].eps - want.1).abs() < 1e-15,
+                "{swap} {x}: {out:?} {want:?}"
+            );
+        }
+    }
+}

@@ -59,6 +59,25 @@ pub(super) trait Arith: Copy {
     fn powi(self, n: i32) -> Self;
 }
 
+/// atan2(y, x) of dual numbers with derivatives wherever (x, y) ≠ 0: num-dual's is atan(y/x),
+/// whose derivatives are NaN at x = 0. atan(y/x) where |x| ≥ |y|, −atan(x/y) elsewhere (the
+/// same derivatives), its value replaced by `f64::atan2` of the real parts bit for bit (also
+/// −0.0); where the ratio is not finite (the origin, infinities), num-dual's.
+#[inline(always)]
+fn atan2<D: Scalar>(y: D, x: D) -> D {
+    let (yr, xr) = (y.re(), x.re());
+    let a = if xr.abs() >= yr.abs() {
+        (y / x).atan()
+    } else {
+        -(x / y).atan()
+    };
+    if !a.re().is_finite() {
+        return y.atan2(x);
+    }
+    // a.re − a has the value +0.0 and the derivatives of −a.
+    D::from(yr.atan2(xr)) - (D::from(a.re()) - a)
+}
+
 /// Any [`Scalar`], evaluated with its own (num-dual) arithmetic.
 #[derive(Debug, Clone, Copy)]
 #[repr(transparent)]
@@ -127,15 +146,15 @@ impl<D: Scalar> Arith for Num<D> {
     }
     #[inline(always)]
     fn atan2(self, o: Self) -> Self {
-        Num(self.0.atan2(o.0))
+        Num(atan2(self.0, o.0))
     }
     #[inline(always)]
     fn atan2_c(self, c: f64) -> Self {
-        Num(self.0.atan2(D::from(c)))
+        Num(atan2(self.0, D::from(c)))
     }
     #[inline(always)]
     fn c_atan2(self, c: f64) -> Self {
-        Num(D::from(c).atan2(self.0))
+        Num(atan2(D::from(c), self.0))
     }
     #[inline(always)]
     fn sin(self) -> Self {
