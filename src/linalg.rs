@@ -52,7 +52,8 @@ pub(crate) fn pivots_hold(pivots: &[f64], diagonal: &[f64]) -> bool {
 ///
 /// Only the lower triangle of `a` is read. Afterwards the strict lower triangle holds the unit
 /// lower factor L, the diagonal holds the reciprocal pivots 1/d_j, and the strict upper triangle
-/// holds the scratch products L_ij d_j; only [`ldlt_solve`] should read the result.
+/// holds the scratch products w_jk = L_jk d_k (k < j) of each row j, packed contiguously into
+/// row n − 1 − j (see [`scratch`]); only [`ldlt_solve`] should read the result.
 #[inline(always)]
 pub(crate) fn ldlt_in_place<D: Scalar>(a: &mut [D], n: usize) -> Result<(), FactorFailure> {
     debug_assert_eq!(a.len(), n * n);
@@ -68,8 +69,9 @@ pub(crate) fn ldlt_in_place<D: Scalar>(a: &mut [D], n: usize) -> Result<(), Fact
         return ldlt_2x2(a, scale);
     }
     for j in 0..n {
-        // d_j = a_jj − Σ_k L_jk (L_jk d_k), the products kept in the upper triangle at (k, j).
-        let d = a[j * n + j] - dot(a, n, j, j);
+        // d_j = a_jj − Σ_k L_jk w_jk: row j of L and row j of the scratch, both contiguous.
+        let wj = scratch(n, j);
+        let d = a[j * n + j] - dot(&a[j * n..j * n + j], &a[wj..wj + j]);
         let dr = d.re();
         if !dr.is_finite() {
             return Err(FactorFailure::NonFinite);
@@ -83,31 +85,37 @@ pub(crate) fn ldlt_in_place<D: Scalar>(a: &mut [D], n: usize) -> Result<(), Fact
         let inv = d.recip();
         a[j * n + j] = inv;
         for i in j + 1..n {
-            // L_ij d_j = a_ij − Σ_k L_ik (L_jk d_k).
-            let w = a[i * n + j] - dot(a, n, i, j);
-            a[j * n + i] = w;
+            // w_ij = L_ij d_j = a_ij − Σ_k L_ik w_jk.
+            let w = a[i * n + j] - dot(&a[i * n..i * n + j], &a[wj..wj + j]);
+            a[scratch(n, i) + j] = w;
             a[i * n + j] = w * inv;
         }
     }
     Ok(())
 }
 
-/// Σ_{k<j} L_ik (L_jk d_k) of [`ldlt_in_place`]: row i of the strict lower triangle times column
-/// j of the strict upper one. Four partial sums, so that the additions do not wait for each
-/// other (one chain of n³/6 dependent additions was most of the time of the factorization at
-/// n = 32).
+/// Where row j of the scratch products w_jk (k < j) starts in [`ldlt_in_place`]'s matrix: the
+/// j entries of row n − 1 − j right of the diagonal, so that each row of w is contiguous like the
+/// rows of L (read as a column of the upper triangle, one entry per row, it was most of the
+/// factorization's time at n = 32).
 #[inline(always)]
-fn dot<D: Scalar>(a: &[D], n: usize, i: usize, j: usize) -> D {
-    let (row, mut s) = (&a[i * n..i * n + j], [D::zero(); 4]);
-    let mut k = 0;
-    while k + 4 <= j {
-        for (l, s) in s.iter_mut().enumerate() {
-            *s += row[k + l] * a[(k + l) * n + j];
+fn scratch(n: usize, j: usize) -> usize {
+    (n - 1 - j) * n + (n - j)
+}
+
+/// x · y in four partial sums, so that the additions do not wait for each other.
+#[inline(always)]
+fn dot<F: Copy, D: Scalar + std::ops::Mul<F, Output = D>>(x: &[D], y: &[F]) -> D {
+    let mut s = [D::zero(); 4];
+    let (xs, ys) = (x.chunks_exact(4), y.chunks_exact(4));
+    let (xr, yr) = (xs.remainder(), ys.remainder());
+    for (x, y) in xs.zip(ys) {
+        for l in 0..4 {
+            s[l] += x[l] * y[l];
         }
-        k += 4;
     }
-    for k in k..j {
-        s[0] += row[k] * a[k * n + j];
+    for (&x, &y) in xr.iter().zip(yr) {
+        s[0] += x * y;
     }
     (s[0] + s[1]) + (s[2] + s[3])
 }
@@ -151,22 +159,19 @@ pub(crate) fn ldlt_solve<F: Copy, D>(f: &[F], n: usize, b: &mut [D])
 where
     D: Scalar + std::ops::Mul<F, Output = D>,
 {
+    // L y = b by rows of L, D z = y, then Lᵀ x = z by rows of L again (x_k, once known, is
+    // taken out of every earlier entry): both read L row by row, contiguously.
     for i in 1..n {
-        let mut s = b[i];
-        for k in 0..i {
-            s -= b[k] * f[i * n + k];
-        }
-        b[i] = s;
+        b[i] -= dot(&b[..i], &f[i * n..i * n + i]);
     }
     for i in 0..n {
         b[i] = b[i] * f[i * n + i];
     }
-    for i in (0..n.saturating_sub(1)).rev() {
-        let mut s = b[i];
-        for k in i + 1..n {
-            s -= b[k] * f[k * n + i];
+    for k in (1..n).rev() {
+        let x = b[k];
+        for (b, &l) in b[..k].iter_mut().zip(&f[k * n..k * n + k]) {
+            *b -= x * l;
         }
-        b[i] = s;
     }
 }
 
