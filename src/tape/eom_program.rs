@@ -298,8 +298,8 @@ pub struct EomProgram {
     /// then the interpreter runs it (same results, bit for bit).
     #[cfg(feature = "jit")]
     native: Option<Arc<super::NativeTape>>,
-    /// The momenta p = ∂L/∂q̇ as a tape of their own (the energy h = q̇·p − L and the
-    /// variational methods read them at every step).
+    /// The momenta p = ∂L/∂q̇ as a tape of their own (the energy h = q̇·p − L that `simulate`
+    /// reports at every output step reads them).
     momenta: Arc<Tape>,
     #[cfg(feature = "jit")]
     momenta_native: Option<Arc<super::NativeTape>>,
