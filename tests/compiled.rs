@@ -14,69 +14,11 @@ use lagrangian::tape::{
 use lagrangian::{Dynamics, Result};
 use std::sync::Arc;
 
-/// A deterministic generator (xorshift64*).
-struct Rng(u64);
+mod common;
+use common::Rng;
 
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
-const UNARY: [Unary; 12] = [
-    Unary::Neg,
-    Unary::Sin,
-    Unary::Cos,
-    Unary::Tan,
-    Unary::Exp,
-    Unary::Ln,
-    Unary::Sqrt,
-    Unary::Sinh,
-    Unary::Cosh,
-    Unary::Tanh,
-    Unary::Abs,
-    Unary::Sign,
-];
-
-const BINARY: [Binary; 6] = [
-    Binary::Add,
-    Binary::Sub,
-    Binary::Mul,
-    Binary::Div,
-    Binary::Pow,
-    Binary::Atan2,
-];
-
-/// Every variant is listed above: a new one fails to compile here until it is added.
-#[allow(dead_code)]
-fn every_function_is_listed(u: Unary, b: Binary) {
-    match u {
-        Unary::Neg
-        | Unary::Sin
-        | Unary::Cos
-        | Unary::Tan
-        | Unary::Exp
-        | Unary::Ln
-        | Unary::Sqrt
-        | Unary::Sinh
-        | Unary::Cosh
-        | Unary::Tanh
-        | Unary::Abs
-        | Unary::Sign => {}
-    }
-    match b {
-        Binary::Add | Binary::Sub | Binary::Mul | Binary::Div | Binary::Pow | Binary::Atan2 => {}
-    }
-}
+const UNARY: [Unary; 12] = Unary::ALL;
+const BINARY: [Binary; 6] = Binary::ALL;
 
 /// Random expressions on a graph; `safe` keeps every function inside its domain and away from
 /// overflow (arguments of ln, √, a variable power's base and a divisor are ≥ ½; those of exp,

@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::time;
+use common::{Rng, time};
 use lagrangian::num_dual::Dual64;
 use lagrangian::tape::{
     Binary, Energies, EnergyModel, EomProgram, Function, Graph, Inputs, Seeds, Tape, Unary, Wrt,
@@ -17,25 +17,6 @@ use lagrangian::{Dynamics, Error};
 use std::hint::black_box;
 use std::sync::Arc;
 use std::time::Instant;
-
-/// A deterministic pseudo-random generator (SplitMix64).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
 
 /// Shorthands over a [`Graph`].
 struct B<'g>(&'g mut Graph);

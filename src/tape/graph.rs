@@ -52,6 +52,58 @@ pub enum Binary {
     Atan2,
 }
 
+impl Unary {
+    /// Every function of one argument (for tests and generators that must cover them all).
+    pub const ALL: [Unary; 12] = [
+        Unary::Neg,
+        Unary::Sin,
+        Unary::Cos,
+        Unary::Tan,
+        Unary::Exp,
+        Unary::Ln,
+        Unary::Sqrt,
+        Unary::Sinh,
+        Unary::Cosh,
+        Unary::Tanh,
+        Unary::Abs,
+        Unary::Sign,
+    ];
+}
+
+impl Binary {
+    /// Every function of two arguments.
+    pub const ALL: [Binary; 6] = [
+        Binary::Add,
+        Binary::Sub,
+        Binary::Mul,
+        Binary::Div,
+        Binary::Pow,
+        Binary::Atan2,
+    ];
+}
+
+/// `ALL` lists every variant: a new one fails to compile here until it is added there.
+#[allow(dead_code)]
+fn every_function_is_listed(u: Unary, b: Binary) {
+    match u {
+        Unary::Neg
+        | Unary::Sin
+        | Unary::Cos
+        | Unary::Tan
+        | Unary::Exp
+        | Unary::Ln
+        | Unary::Sqrt
+        | Unary::Sinh
+        | Unary::Cosh
+        | Unary::Tanh
+        | Unary::Abs
+        | Unary::Sign => {}
+    }
+    match b {
+        Binary::Add | Binary::Sub | Binary::Mul | Binary::Div | Binary::Pow | Binary::Atan2 => {}
+    }
+}
+
 /// One node of a [`Graph`]; operands are indices of earlier nodes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Node {

@@ -607,28 +607,8 @@ mod tests {
     use std::collections::BTreeSet;
     use std::time::Instant;
 
-    const UNARY: [Unary; 12] = [
-        Unary::Neg,
-        Unary::Sin,
-        Unary::Cos,
-        Unary::Tan,
-        Unary::Exp,
-        Unary::Ln,
-        Unary::Sqrt,
-        Unary::Sinh,
-        Unary::Cosh,
-        Unary::Tanh,
-        Unary::Abs,
-        Unary::Sign,
-    ];
-    const BINARY: [Binary; 6] = [
-        Binary::Add,
-        Binary::Sub,
-        Binary::Mul,
-        Binary::Div,
-        Binary::Pow,
-        Binary::Atan2,
-    ];
+    const UNARY: [Unary; 12] = Unary::ALL;
+    const BINARY: [Binary; 6] = Binary::ALL;
 
     /// A deterministic generator (xorshift64*).
     struct Rng(u64);

@@ -1,4 +1,5 @@
-//! Helpers shared by the integration tests (`mod common;` in each test file).
+//! Helpers shared by the integration tests (`mod common;` in each test file; each uses some).
+#![allow(dead_code)]
 
 use std::time::Instant;
 
@@ -15,4 +16,23 @@ pub fn time(calls: usize, mut f: impl FnMut(usize)) -> f64 {
             start.elapsed().as_secs_f64() * 1e9 / per_round as f64
         })
         .fold(f64::INFINITY, f64::min)
+}
+
+/// A deterministic pseudo-random generator (SplitMix64).
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next() % n as u64) as usize
+    }
+    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * (self.next() >> 11) as f64 / (1u64 << 53) as f64
+    }
 }
