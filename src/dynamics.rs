@@ -70,6 +70,15 @@ pub trait Dynamics {
     /// factored or the result is not finite.
     fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()>;
 
+    /// The eq. 55 program derived on the system's expression graph, when it has one
+    /// ([`EnergyModel::with_program`](crate::tape::EnergyModel::with_program)): the integrators
+    /// take the accelerations' Jacobian and the (q, p) form of the implicit symplectic methods
+    /// from its machine code instead of from dual numbers. A wrapper that changes the equations
+    /// must not pass it on.
+    fn derived_program(&self) -> Option<&crate::tape::EomFunction> {
+        None
+    }
+
     /// The Lagrangian L = T − U.
     fn lagrangian<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
         self.kinetic_energy(t, q, qd) - self.potential_energy(t, q)

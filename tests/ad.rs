@@ -203,3 +203,27 @@ fn atan2_dual_at_zero() {
         }
     }
 }
+
+/// tanh over dual numbers (the tapes' generic path, the integrators' Jacobians) is finite at
+/// large arguments, where num-dual's sinh/cosh is ∞/∞ = NaN, and exact near 0.
+#[test]
+fn tanh_dual_at_large_and_small_arguments() {
+    use lagrangian::tape::{Function, Graph, Inputs, Tape, Unary};
+    use std::sync::Arc;
+    let mut g = Graph::new();
+    let q = g.coord(0);
+    let u = g.unary(Unary::Tanh, q).unwrap();
+    let tape = Arc::new(Tape::new(&g, &[u], Inputs::potential(1, 0), "tanh").unwrap());
+    let f = Function::new(tape, &[]).unwrap();
+    for x in [0.0_f64, 1e-9, -3e-5, 0.4, -2.5, 30.0, 800.0, -1e4] {
+        let mut out = [Dual64::from_re(0.0)];
+        f.eval_into(Dual64::from_re(0.0), &[Dual64::new(x, 1.0)], &[], &mut out);
+        let sech2 = 1.0 / x.cosh().powi(2);
+        assert_eq!(out[0].re, x.tanh(), "value at {x}");
+        assert!(
+            (out[0].eps - sech2).abs() <= 4.0 * f64::EPSILON * sech2,
+            "derivative at {x}: {} vs {sech2}",
+            out[0].eps
+        );
+    }
+}

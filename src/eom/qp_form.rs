@@ -28,6 +28,26 @@ impl ForceParts {
         }
     }
 
+    /// p = ∂L/∂q̇ into `p` and G into `g` at an `f64` state: one run of the system's derived
+    /// program when it has one, otherwise `momenta_into` and [`force_into`](Self::force_into).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn momenta_and_force<S: Dynamics + ?Sized>(
+        self,
+        system: &S,
+        t: f64,
+        q: &[f64],
+        v: &[f64],
+        p: &mut [f64],
+        g: &mut [f64],
+        tmp: &mut [f64],
+    ) {
+        if let Some(program) = system.derived_program() {
+            return program.qp_form(t, q, v, p, g);
+        }
+        system.momenta_into(t, q, v, p);
+        self.force_into(system, t, q, v, g, tmp);
+    }
+
     /// G = ∂L/∂q + Q″ − ∂Φ/∂q̇ at (t, q, q̇) into `g`: the right-hand side of ṗ = G, the
     /// (q, p) form of eq. 55. `tmp` has the length of q.
     pub(crate) fn force_into<S: Dynamics + ?Sized, D: Scalar>(

@@ -236,19 +236,25 @@ impl<'t> Stepper<'t> {
         let parts = self.parts;
         let td = Dual64::from_re(t);
         let tmp_d = &mut self.tmp_d;
-        newton::jacobian(
-            &self.y,
-            &mut self.xd,
-            &mut self.fd,
-            &mut self.jac,
-            |x, out| {
-                let (q, v) = x.split_at(n);
-                let (p, g) = out.split_at_mut(n);
-                system.momenta_into(td, q, v, p);
-                parts.force_into(system, td, q, v, g, tmp_d);
-                Ok(())
-            },
-        )?;
+        let (q, v) = self.y.split_at(n);
+        let compiled = system
+            .derived_program()
+            .is_some_and(|program| program.qp_jacobian(t, q, v, self.jac.as_mut_slice()));
+        if !compiled {
+            newton::jacobian(
+                &self.y,
+                &mut self.xd,
+                &mut self.fd,
+                &mut self.jac,
+                |x, out| {
+                    let (q, v) = x.split_at(n);
+                    let (p, g) = out.split_at_mut(n);
+                    system.momenta_into(td, q, v, p);
+                    parts.force_into(system, td, q, v, g, tmp_d);
+                    Ok(())
+                },
+            )?;
+        }
         run.stats.jacobian_evaluations += 1;
         let jac = &self.jac;
         let k = self.lu.matrix();
@@ -294,13 +300,12 @@ impl<'t> Stepper<'t> {
             }
             let ti = t + c[i] * h;
             let (qi, vi) = (&self.qs[i * n..(i + 1) * n], &self.vs[i * n..(i + 1) * n]);
-            run.system
-                .momenta_into(ti, qi, vi, &mut self.ps[i * n..(i + 1) * n]);
-            self.parts.force_into(
+            self.parts.momenta_and_force(
                 run.system,
                 ti,
                 qi,
                 vi,
+                &mut self.ps[i * n..(i + 1) * n],
                 &mut self.gs[i * n..(i + 1) * n],
                 &mut self.tmp,
             );

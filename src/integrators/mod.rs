@@ -67,6 +67,8 @@ mod variational;
 
 #[cfg(any(feature = "python", test))]
 pub(crate) use newton::acceleration_jacobian;
+#[cfg(test)]
+pub(crate) use newton::jacobian;
 pub use options::{Options, Output};
 pub use solution::{Solution, Statistics};
 pub use symplectic::SymplecticTableau;

@@ -133,7 +133,9 @@ pub(crate) fn jacobian(
 }
 
 /// ∂a/∂(q, q̇) at (t, q, q̇), the lower half of the Jacobian of the first-order system
-/// y = (q, q̇), ẏ = (q̇, a): `jac` is n × 2n. `xd` has length 2n, `fd` length n.
+/// y = (q, q̇), ẏ = (q̇, a): `jac` is n × 2n. `xd` has length 2n, `fd` length n. From the
+/// machine code of the system's derived program when it has one, otherwise (and when that
+/// code's checks fail, so that the error is the accelerations' own) by dual numbers.
 pub(crate) fn acceleration_jacobian<S: Dynamics + ?Sized>(
     system: &S,
     t: f64,
@@ -143,6 +145,11 @@ pub(crate) fn acceleration_jacobian<S: Dynamics + ?Sized>(
     jac: &mut DMatrix<f64>,
 ) -> Result<()> {
     let n = y.len() / 2;
+    if let Some(program) = system.derived_program()
+        && program.acceleration_jacobian(t, &y[..n], &y[n..], jac.as_mut_slice())
+    {
+        return Ok(());
+    }
     let td = Dual64::from_re(t);
     jacobian(y, xd, fd, jac, |x, out| {
         system.accelerations_into(td, &x[..n], &x[n..], out)

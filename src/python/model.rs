@@ -106,6 +106,9 @@ impl Dynamics for AnyModel {
     fn lagrangian<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
         each!(self, s => s.lagrangian(t, q, qd))
     }
+    fn derived_program(&self) -> Option<&crate::tape::EomFunction> {
+        each!(self, s => s.derived_program())
+    }
 }
 
 impl AnyModel {

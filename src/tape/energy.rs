@@ -287,6 +287,9 @@ impl Dynamics for EnergyModel {
     fn lagrangian<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
         self.system.lagrangian(t, q, qd)
     }
+    fn derived_program(&self) -> Option<&EomFunction> {
+        self.program.as_ref()
+    }
 }
 
 #[cfg(test)]
@@ -661,8 +664,21 @@ mod tests {
             jac
         }
         let want = jac(&energy);
+        // The derived program over dual numbers, without its compiled Jacobian.
+        let program = derived.derived_program().unwrap();
+        let (t, y) = (1.3, [0.9, -0.4, 1.3, 0.7]);
+        let mut dual = DMatrix::zeros(2, 4);
+        let (mut xd, mut fd) = ([Dual64::from_re(0.0); 4], [Dual64::from_re(0.0); 2]);
+        crate::integrators::jacobian(&y, &mut xd, &mut fd, &mut dual, |x, out| {
+            program.accelerations_dual(Dual64::from_re(t), &x[..2], &x[2..], out)
+        })
+        .unwrap();
+        let mut compiled = DMatrix::zeros(2, 4);
+        let has = program.acceleration_jacobian(t, &y[..2], &y[2..], compiled.as_mut_slice());
+        assert_eq!(has, cfg!(feature = "jit"), "machine code exactly with jit");
         let routes = [
             ("derived", jac(&derived)),
+            ("derived, dual numbers", dual),
             ("tape passes", jac(&model)),
             ("particles", jac(&particles)),
         ];
@@ -676,6 +692,54 @@ mod tests {
                     (g - w).abs() <= 1e-12 * w.abs().max(1.0),
                     "{name}: {got} vs {want}"
                 );
+            }
+        }
+    }
+
+    /// The (q, p) form of the implicit symplectic methods from the derived program — p and
+    /// G = Q″ + ∂L/∂q − ∂Φ/∂q̇ in one run, and their Jacobian ∂(p, G)/∂(q, q̇) as machine code
+    /// (with `jit`) — against the energy route's parts and their dual-number Jacobian.
+    #[test]
+    fn qp_form_derived_program_every_term() {
+        use nalgebra::DMatrix;
+        use num_dual::Dual64;
+        let (_, derived, particles) = every_term();
+        let energy = particles.energy_route();
+        let parts = crate::eom::ForceParts::of(&energy);
+        let program = derived.derived_program().unwrap();
+        for (t, q, v) in [
+            (0.2, [0.5, -1.1], [0.9, 0.3]),
+            (3.1, [-0.7, 0.2], [-1.4, 2.2]),
+        ] {
+            let (mut p, mut g, mut tmp) = ([0.0; 2], [0.0; 2], [0.0; 2]);
+            program.qp_form(t, &q, &v, &mut p, &mut g);
+            let (mut pw, mut gw) = ([0.0; 2], [0.0; 2]);
+            energy.momenta_into(t, &q, &v, &mut pw);
+            parts.force_into(&energy, t, &q, &v, &mut gw, &mut tmp);
+            for i in 0..2 {
+                assert_relative_eq!(p[i], pw[i], max_relative = 1e-13);
+                assert_relative_eq!(g[i], gw[i], max_relative = 1e-13);
+            }
+            let y = [q[0], q[1], v[0], v[1]];
+            let mut want = DMatrix::zeros(4, 4);
+            let (mut xd, mut fd) = ([Dual64::from_re(0.0); 4], [Dual64::from_re(0.0); 4]);
+            let mut tmp = [Dual64::from_re(0.0); 2];
+            let td = Dual64::from_re(t);
+            crate::integrators::jacobian(&y, &mut xd, &mut fd, &mut want, |x, out| {
+                let (p, g) = out.split_at_mut(2);
+                energy.momenta_into(td, &x[..2], &x[2..], p);
+                parts.force_into(&energy, td, &x[..2], &x[2..], g, &mut tmp);
+                Ok(())
+            })
+            .unwrap();
+            let mut got = DMatrix::zeros(4, 4);
+            let has = program.qp_jacobian(t, &q, &v, got.as_mut_slice());
+            assert_eq!(has, cfg!(feature = "jit"), "machine code exactly with jit");
+            if has {
+                assert!(want.iter().filter(|x| x.abs() > 1e-3).count() >= 12);
+                for (g, w) in got.iter().zip(want.iter()) {
+                    assert!((g - w).abs() <= 1e-13 * w.abs().max(1.0), "{got} vs {want}");
+                }
             }
         }
     }

@@ -101,6 +101,9 @@ pub struct EomGraph {
     pub mass: Vec<usize>,
     /// f, one node per coordinate.
     pub force: Vec<usize>,
+    /// G = Q″ + ∂L/∂q − ∂Φ/∂q̇, the force of the (q, p) form ṗ = G that the implicit symplectic
+    /// methods integrate (f without the mixed terms, which they take from p itself).
+    pub qp_force: Vec<usize>,
     /// The momenta p = ∂L/∂q̇ = ∂T/∂q̇ (not compiled into the accelerations' tape; for a tape of
     /// their own).
     pub momenta: Vec<usize>,
@@ -182,14 +185,15 @@ pub fn eom_graph(graph: &mut Graph, dof: usize, parts: &Energies) -> Result<EomG
         Some(phi) => gradient(graph, phi, Wrt::Velocity, dof)?,
         None => vec![None; dof],
     };
-    let mut force = Vec::with_capacity(dof);
+    let (mut force, mut qp_force) = (Vec::with_capacity(dof), Vec::with_capacity(dof));
     for i in 0..dof {
         let (dl, dphi) = (dl[i], dphi[i]);
         let q = parts.forces.as_ref().map(|q| q[i]);
         let mut s = Simplify(graph);
-        let f = s.sum(q, dl)?;
-        let f = s.diff(f, mixed[i])?;
-        let f = s.diff(f, dphi)?;
+        let g = s.sum(q, dl)?;
+        let g = s.diff(g, dphi)?;
+        let f = s.diff(g, mixed[i])?;
+        qp_force.push(g.unwrap_or(zero));
         force.push(f.unwrap_or(zero));
     }
     let momenta: Vec<usize> = p.iter().map(|d| d.unwrap_or(zero)).collect();
@@ -210,6 +214,7 @@ pub fn eom_graph(graph: &mut Graph, dof: usize, parts: &Energies) -> Result<EomG
         dof,
         mass,
         force,
+        qp_force,
         momenta,
         energy,
         constant_mass,
@@ -218,12 +223,97 @@ pub fn eom_graph(graph: &mut Graph, dof: usize, parts: &Energies) -> Result<EomG
 }
 
 /// Largest number of coordinates whose solve M q̈ = f is unrolled into machine code
-/// ([`solved_graph`]); larger systems factor M at run time. Measured on the pendulum chain
-/// (tests/graph_derivatives.rs, `eom_program_speed`): unrolled, one call costs 0.55× (n = 8) and
-/// 0.51× (n = 16) of the program plus the run-time LDLᵀ of the time; at n = 32 0.76×, but the
-/// build grows from 68 to 151 ms, too close to the 200 ms budget.
+/// ([`solved_graph`]), and whose Jacobians are compiled ([`jacobian_graph`], [`columns`]);
+/// larger systems factor M at run time and take the Jacobians from dual numbers. Measured on the
+/// pendulum chain (tests/graph_derivatives.rs, `eom_program_speed`): unrolled, one call costs
+/// 0.55× (n = 8) and 0.51× (n = 16) of the program plus the run-time LDLᵀ of the time; at
+/// n = 32 0.76×, but the build grows from 68 to 151 ms, too close to the 200 ms budget.
 #[cfg(feature = "jit")]
 const SOLVED_MAX: usize = 16;
+
+/// The Jacobians of the implicit methods ([`jacobian_graph`], [`columns`]) are compiled only
+/// for small systems whose Jacobian tapes have at most [`JACOBIAN_INSTRUCTIONS_MAX`]
+/// instructions: Cranelift's time grows faster than the tapes (measured on the pendulum chain,
+/// both Jacobians: n = 2 1.0 ms, n = 4 11 ms, n = 8 80 ms, n = 16 270 ms), while a Jacobian
+/// from dual numbers over the derived program saves little more than that over a run of a
+/// thousand Jacobians (double pendulum: 672 ns on dual numbers, 146 ns compiled; n = 16: 249
+/// and 16 µs). Larger systems take their Jacobians from dual numbers.
+#[cfg(feature = "jit")]
+const JACOBIAN_DOF_MAX: usize = 8;
+
+/// See [`JACOBIAN_DOF_MAX`]: about 4 ms of compilation at most.
+#[cfg(feature = "jit")]
+const JACOBIAN_INSTRUCTIONS_MAX: usize = 600;
+
+/// The LDLᵀ factors of M written out on the graph, node by node as [`ldlt_in_place`] computes
+/// them: L below the diagonal, the pivots d and their reciprocals.
+#[cfg(feature = "jit")]
+struct Factors {
+    l: Vec<Vec<usize>>,
+    d: Vec<usize>,
+    inv: Vec<usize>,
+}
+
+#[cfg(feature = "jit")]
+impl Factors {
+    fn of(graph: &mut Graph, eom: &EomGraph) -> Result<Self> {
+        let n = eom.dof;
+        let m = |i: usize, j: usize| eom.mass[upper(n, i.min(j), i.max(j))];
+        let one = graph.constant(1.0);
+        let mut s = Simplify(graph);
+        // l[i][j] = L_ij and w[i][j] = L_ij d_j below the diagonal; d and 1/d on it.
+        let (mut l, mut w) = (vec![vec![one; n]; n], vec![vec![one; n]; n]);
+        let (mut d, mut inv) = (vec![one; n], vec![one; n]);
+        for j in 0..n {
+            let mut dj = m(j, j);
+            for k in 0..j {
+                let p = s.mul(l[j][k], w[j][k])?;
+                dj = s.sub(dj, p)?;
+            }
+            d[j] = dj;
+            inv[j] = s.div(one, dj)?;
+            for i in j + 1..n {
+                let mut wij = m(i, j);
+                for k in 0..j {
+                    let p = s.mul(l[i][k], w[j][k])?;
+                    wij = s.sub(wij, p)?;
+                }
+                w[i][j] = wij;
+                l[i][j] = s.mul(wij, inv[j])?;
+            }
+        }
+        Ok(Self { l, d, inv })
+    }
+
+    /// M⁻¹ b: L y = b, then D z = y, then Lᵀ x = z.
+    fn solve(&self, graph: &mut Graph, mut x: Vec<usize>) -> Result<Vec<usize>> {
+        let (n, l) = (x.len(), &self.l);
+        let mut s = Simplify(graph);
+        for i in 0..n {
+            for k in 0..i {
+                let p = s.mul(l[i][k], x[k])?;
+                x[i] = s.sub(x[i], p)?;
+            }
+        }
+        for i in 0..n {
+            x[i] = s.mul(x[i], self.inv[i])?;
+        }
+        for i in (0..n).rev() {
+            for k in i + 1..n {
+                let p = s.mul(l[k][i], x[k])?;
+                x[i] = s.sub(x[i], p)?;
+            }
+        }
+        Ok(x)
+    }
+
+    /// The pivots, then M's diagonal: the outputs [`pivots_hold`] checks.
+    fn checks(&self, eom: &EomGraph) -> impl Iterator<Item = usize> {
+        let n = eom.dof;
+        let diagonal = (0..n).map(move |j| eom.mass[upper(n, j, j)]);
+        self.d.clone().into_iter().chain(diagonal)
+    }
+}
 
 /// q̈ = M⁻¹ f of a small system written out on the graph: the LDLᵀ factorization of
 /// [`ldlt_in_place`] node by node, then the two triangular solves, so that the accelerations are
@@ -232,63 +322,152 @@ const SOLVED_MAX: usize = 16;
 /// general path, with its typed errors, when a check fails. A constant M folds to constants.
 #[cfg(feature = "jit")]
 fn solved_graph(graph: &mut Graph, eom: &EomGraph) -> Result<Vec<usize>> {
-    let n = eom.dof;
-    let m = |i: usize, j: usize| eom.mass[upper(n, i.min(j), i.max(j))];
-    let one = graph.constant(1.0);
-    let mut s = Simplify(graph);
-    // l[i][j] = L_ij and w[i][j] = L_ij d_j below the diagonal; d and 1/d on it.
-    let (mut l, mut w) = (vec![vec![one; n]; n], vec![vec![one; n]; n]);
-    let (mut d, mut inv) = (vec![one; n], vec![one; n]);
-    for j in 0..n {
-        let mut dj = m(j, j);
-        for k in 0..j {
-            let p = s.mul(l[j][k], w[j][k])?;
-            dj = s.sub(dj, p)?;
-        }
-        d[j] = dj;
-        inv[j] = s.div(one, dj)?;
-        for i in j + 1..n {
-            let mut wij = m(i, j);
-            for k in 0..j {
-                let p = s.mul(l[i][k], w[j][k])?;
-                wij = s.sub(wij, p)?;
-            }
-            w[i][j] = wij;
-            l[i][j] = s.mul(wij, inv[j])?;
-        }
-    }
-    // L y = f, then D z = y, then Lᵀ q̈ = z.
-    let mut x = eom.force.clone();
-    for i in 0..n {
-        for k in 0..i {
-            let p = s.mul(l[i][k], x[k])?;
-            x[i] = s.sub(x[i], p)?;
-        }
-    }
-    for i in 0..n {
-        x[i] = s.mul(x[i], inv[i])?;
-    }
-    for i in (0..n).rev() {
-        for k in i + 1..n {
-            let p = s.mul(l[k][i], x[k])?;
-            x[i] = s.sub(x[i], p)?;
-        }
-    }
-    let diagonal = (0..n).map(|j| m(j, j));
-    Ok(x.into_iter().chain(d).chain(diagonal).collect())
+    let factors = Factors::of(graph, eom)?;
+    let accelerations = factors.solve(graph, eom.force.clone())?;
+    Ok(accelerations
+        .into_iter()
+        .chain(factors.checks(eom))
+        .collect())
 }
 
-/// The unrolled solve of a small system as machine code (see [`solved_graph`]).
+/// The seeds of the state coordinate x_j of x = (q, q̇).
 #[cfg(feature = "jit")]
+fn state_seed(graph: &mut Graph, n: usize, j: usize) -> Seeds {
+    let one = graph.constant(1.0);
+    if j < n {
+        Seeds::new().coord(j, one)
+    } else {
+        Seeds::new().velocity(j - n, one)
+    }
+}
+
+/// ∂q̈/∂(q, q̇) of a small system on the graph, for Radau IIA's Newton iteration and
+/// `model.jacobian`. Along a state coordinate x_j, M q̈ = f gives
+/// M ∂q̈/∂x_j = ∂f/∂x_j − (∂M/∂x_j) q̈: one tangent sweep of M and f per coordinate, solved with
+/// the factors of the unrolled solve (which are not themselves differentiated). Outputs the
+/// n × 2n Jacobian column by column (nalgebra's order), then q̈, the pivots and M's diagonal,
+/// checked as for q̈ alone, so that the Jacobian is given exactly where q̈ is.
+#[cfg(feature = "jit")]
+fn jacobian_graph(graph: &mut Graph, eom: &EomGraph) -> Result<Vec<usize>> {
+    let n = eom.dof;
+    let factors = Factors::of(graph, eom)?;
+    let accelerations = factors.solve(graph, eom.force.clone())?;
+    let roots: Vec<usize> = eom.mass.iter().chain(&eom.force).copied().collect();
+    let zero = graph.constant(0.0);
+    let mut outputs = Vec::with_capacity(2 * n * n + 2 * n);
+    for j in 0..2 * n {
+        let seeds = state_seed(graph, n, j);
+        let d = tangents(graph, &roots, &seeds)?;
+        let (dm, df) = d.split_at(eom.mass.len());
+        let mut s = Simplify(graph);
+        let mut rhs = Vec::with_capacity(n);
+        for i in 0..n {
+            let mut r = df[i];
+            for (k, &a) in accelerations.iter().enumerate() {
+                if let Some(dmik) = dm[upper(n, i.min(k), i.max(k))] {
+                    let p = s.mul(dmik, a)?;
+                    r = s.diff(r, Some(p))?;
+                }
+            }
+            rhs.push(r.unwrap_or(zero));
+        }
+        outputs.extend(factors.solve(graph, rhs)?);
+    }
+    outputs.extend(accelerations);
+    outputs.extend(factors.checks(eom));
+    Ok(outputs)
+}
+
+/// The Jacobian of `roots` with respect to x = (q, q̇), column by column (nalgebra's order): one
+/// tangent sweep per state coordinate.
+#[cfg(feature = "jit")]
+fn columns(graph: &mut Graph, n: usize, roots: &[usize]) -> Result<Vec<usize>> {
+    let zero = graph.constant(0.0);
+    let mut outputs = Vec::with_capacity(2 * n * roots.len());
+    for j in 0..2 * n {
+        let seeds = state_seed(graph, n, j);
+        let d = tangents(graph, roots, &seeds)?;
+        outputs.extend(d.into_iter().map(|x| x.unwrap_or(zero)));
+    }
+    Ok(outputs)
+}
+
+/// A tape and its machine code, where Cranelift compiled it (feature `jit`; otherwise the
+/// interpreter runs the tape, with the same results bit for bit).
 #[derive(Debug, Clone)]
-struct Solved {
+struct Part {
     tape: Arc<Tape>,
-    native: Arc<super::NativeTape>,
+    #[cfg(feature = "jit")]
+    native: Option<Arc<super::NativeTape>>,
+}
+
+impl Part {
+    fn new(
+        graph: &Graph,
+        outputs: &[usize],
+        dof: usize,
+        params: usize,
+        what: &str,
+    ) -> Result<Self> {
+        let tape = Tape::new(graph, outputs, Inputs::kinetic(dof, params), what)?;
+        Ok(Self::of(tape))
+    }
+
+    fn of(tape: Tape) -> Self {
+        Self {
+            // Any failure of Cranelift leaves the interpreter.
+            #[cfg(feature = "jit")]
+            native: super::NativeTape::compile(&tape).ok().map(Arc::new),
+            tape: tape.into(),
+        }
+    }
+
+    /// The part only where it compiled to machine code.
+    #[cfg(feature = "jit")]
+    fn native_only(self) -> Option<Self> {
+        self.native.is_some().then_some(self)
+    }
+
+    fn interpreted(self) -> Self {
+        Self {
+            #[cfg(feature = "jit")]
+            native: None,
+            ..self
+        }
+    }
+
+    fn bind(&self, params: &[f64]) -> Result<BoundPart> {
+        Ok(BoundPart {
+            function: Function::new(self.tape.clone(), params)?,
+            #[cfg(feature = "jit")]
+            native: self.native.clone(),
+        })
+    }
+}
+
+/// A [`Part`] bound to parameter values.
+#[derive(Debug, Clone)]
+struct BoundPart {
+    function: Function,
+    #[cfg(feature = "jit")]
+    native: Option<Arc<super::NativeTape>>,
+}
+
+impl BoundPart {
+    /// The outputs at (t, q, q̇) into `out`.
+    #[inline]
+    fn eval(&self, t: f64, q: &[f64], qd: &[f64], out: &mut [f64]) {
+        #[cfg(feature = "jit")]
+        if let Some(native) = &self.native {
+            return native.eval(&self.function.consts, t, q, qd, out);
+        }
+        self.function.eval_into(t, q, qd, out)
+    }
 }
 
 /// Eq. 55 compiled: one [`Tape`] whose outputs are M's upper triangle row by row, then f (see
-/// [`EomGraph`]), not yet bound to parameter values; for up to 16 coordinates with
-/// machine code, also q̈ itself with the solve unrolled.
+/// [`EomGraph`]), not yet bound to parameter values; for up to 16 coordinates with machine
+/// code, also q̈ itself with the solve unrolled and the Jacobians the implicit methods need.
 #[derive(Debug, Clone)]
 pub struct EomProgram {
     tape: Arc<Tape>,
@@ -298,14 +477,20 @@ pub struct EomProgram {
     /// then the interpreter runs it (same results, bit for bit).
     #[cfg(feature = "jit")]
     native: Option<Arc<super::NativeTape>>,
-    /// The momenta p = ∂L/∂q̇ as a tape of their own (the energy h = q̇·p − L that `simulate`
-    /// reports at every output step reads them).
-    momenta: Arc<Tape>,
+    /// The momenta p = ∂L/∂q̇ (the energy h = q̇·p − L that `simulate` reports at every output
+    /// step reads them).
+    momenta: Part,
+    /// p, then G: the (q, p) form of the implicit symplectic methods.
+    qp_form: Part,
+    /// ∂(p, G)/∂(q, q̇), column by column (up to [`SOLVED_MAX`] coordinates).
     #[cfg(feature = "jit")]
-    momenta_native: Option<Arc<super::NativeTape>>,
+    qp_jacobian: Option<Part>,
     /// q̈ with the solve unrolled, as machine code (up to [`SOLVED_MAX`] coordinates).
     #[cfg(feature = "jit")]
-    solved: Option<Solved>,
+    solved: Option<Part>,
+    /// ∂q̈/∂(q, q̇) with the solves unrolled, as machine code ([`jacobian_graph`]).
+    #[cfg(feature = "jit")]
+    jacobian: Option<Part>,
 }
 
 impl EomProgram {
@@ -321,12 +506,20 @@ impl EomProgram {
         #[cfg(feature = "jit")]
         if program.native.is_some() && dof <= SOLVED_MAX {
             let outputs = solved_graph(graph, &eom)?;
-            let inputs = Inputs::kinetic(dof, params);
-            let tape = Tape::new(graph, &outputs, inputs, "equations of motion")?;
-            program.solved = super::NativeTape::compile(&tape).ok().map(|native| Solved {
-                tape: tape.into(),
-                native: native.into(),
-            });
+            program.solved =
+                Part::new(graph, &outputs, dof, params, "equations of motion")?.native_only();
+            if dof <= JACOBIAN_DOF_MAX {
+                let small = |graph: &Graph, outputs: &[usize], what: &str| -> Result<_> {
+                    let tape = Tape::new(graph, outputs, Inputs::kinetic(dof, params), what)?;
+                    let small = tape.instructions() <= JACOBIAN_INSTRUCTIONS_MAX;
+                    Ok(small.then(|| Part::of(tape)).and_then(Part::native_only))
+                };
+                let outputs = jacobian_graph(graph, &eom)?;
+                program.jacobian = small(graph, &outputs, "Jacobian of the accelerations")?;
+                let roots: Vec<usize> = eom.momenta.iter().chain(&eom.qp_force).copied().collect();
+                let outputs = columns(graph, dof, &roots)?;
+                program.qp_jacobian = small(graph, &outputs, "Jacobian of the (q, p) form")?;
+            }
         }
         Ok(program)
     }
@@ -337,44 +530,44 @@ impl EomProgram {
     /// As [`Tape::new`].
     pub fn compile(graph: &Graph, eom: &EomGraph, params: usize) -> Result<Self> {
         let outputs: Vec<usize> = eom.mass.iter().chain(&eom.force).copied().collect();
-        let tape = Tape::new(
-            graph,
-            &outputs,
-            Inputs::kinetic(eom.dof, params),
-            "equations of motion",
-        )?;
-        let inputs = Inputs::kinetic(eom.dof, params);
-        let momenta = Tape::new(graph, &eom.momenta, inputs, "momenta")?;
-        // Machine code where Cranelift serves the host; any failure leaves the interpreter.
-        #[cfg(feature = "jit")]
-        let (native, momenta_native) = (
-            super::NativeTape::compile(&tape).ok().map(Arc::new),
-            super::NativeTape::compile(&momenta).ok().map(Arc::new),
-        );
+        let main = Part::new(graph, &outputs, eom.dof, params, "equations of motion")?;
+        let momenta = Part::new(graph, &eom.momenta, eom.dof, params, "momenta")?;
+        let qp: Vec<usize> = eom.momenta.iter().chain(&eom.qp_force).copied().collect();
+        let qp_form = Part::new(graph, &qp, eom.dof, params, "the (q, p) form")?;
         Ok(Self {
-            tape: tape.into(),
+            tape: main.tape,
+            #[cfg(feature = "jit")]
+            native: main.native,
             dof: eom.dof,
             constant_mass: eom.constant_mass,
-            momenta: momenta.into(),
+            momenta,
+            qp_form,
             #[cfg(feature = "jit")]
-            momenta_native,
-            #[cfg(feature = "jit")]
-            native,
+            qp_jacobian: None,
             #[cfg(feature = "jit")]
             solved: None,
+            #[cfg(feature = "jit")]
+            jacobian: None,
         })
     }
 
     /// The same program run by the interpreter: the reference the native code is tested
-    /// against (without the `jit` feature, the program itself).
+    /// against (without the `jit` feature, the program itself). The Jacobians stay the derived
+    /// ones, interpreted: they differ from dual numbers over the program where a function is not
+    /// differentiable (|x| and sign at 0, atan2 at the origin), where the derived ones take the
+    /// symbolic rule.
     pub fn interpreted(self) -> Self {
         Self {
+            momenta: self.momenta.interpreted(),
+            qp_form: self.qp_form.interpreted(),
             #[cfg(feature = "jit")]
             native: None,
             #[cfg(feature = "jit")]
-            momenta_native: None,
+            qp_jacobian: self.qp_jacobian.map(Part::interpreted),
             #[cfg(feature = "jit")]
             solved: None,
+            #[cfg(feature = "jit")]
+            jacobian: self.jacobian.map(Part::interpreted),
             ..self
         }
     }
@@ -424,20 +617,22 @@ impl EomProgram {
             }
             ldlt_in_place(&mut m, n).map(|()| m.into())
         });
-        #[cfg(feature = "jit")]
         // A constant singular M folds a pivot's reciprocal to a non-finite constant, which
         // does not bind: then the general path reports it, at the first evaluation.
-        let solved = self.solved.as_ref().and_then(|s| {
-            let f = Function::new(s.tape.clone(), params).ok()?;
-            Some((s.native.clone(), f.consts))
-        });
+        #[cfg(feature = "jit")]
+        let unrolled = |part: &Option<Part>| part.as_ref().and_then(|p| p.bind(params).ok());
         Ok(EomFunction {
             program: self.clone(),
             function,
-            momenta: Function::new(self.momenta.clone(), params)?,
+            momenta: self.momenta.bind(params)?,
+            qp_form: self.qp_form.bind(params)?,
             mass_factor,
             #[cfg(feature = "jit")]
-            solved,
+            qp_jacobian: unrolled(&self.qp_jacobian),
+            #[cfg(feature = "jit")]
+            solved: unrolled(&self.solved),
+            #[cfg(feature = "jit")]
+            jacobian: unrolled(&self.jacobian),
         })
     }
 }
@@ -447,13 +642,17 @@ impl EomProgram {
 pub struct EomFunction {
     program: EomProgram,
     function: Function,
-    /// The momenta's tape bound to the same parameter values.
-    momenta: Function,
+    momenta: BoundPart,
+    qp_form: BoundPart,
     /// The LDLᵀ factor of a constant M (or why it has none).
     mass_factor: Option<std::result::Result<Arc<[f64]>, FactorFailure>>,
-    /// The unrolled solve and its constants for these parameter values.
     #[cfg(feature = "jit")]
-    solved: Option<(Arc<super::NativeTape>, Arc<[f64]>)>,
+    qp_jacobian: Option<BoundPart>,
+    /// The unrolled solve for these parameter values.
+    #[cfg(feature = "jit")]
+    solved: Option<BoundPart>,
+    #[cfg(feature = "jit")]
+    jacobian: Option<BoundPart>,
 }
 
 impl EomFunction {
@@ -485,11 +684,75 @@ impl EomFunction {
             q.len() == n && qd.len() == n && out.len() == n,
             "wrong lengths"
         );
+        self.momenta.eval(t, q, qd, out)
+    }
+
+    /// The (q, p) form of the implicit symplectic methods at (t, q, q̇): p = ∂L/∂q̇ into `p` and
+    /// G = Q″ + ∂L/∂q − ∂Φ/∂q̇ into `g` (what `eom`'s `ForceParts` computes from the parts).
+    ///
+    /// # Panics
+    /// If a slice has the wrong length.
+    pub fn qp_form(&self, t: f64, q: &[f64], qd: &[f64], p: &mut [f64], g: &mut [f64]) {
+        let n = self.program.dof;
+        assert!(q.len() == n && qd.len() == n, "wrong state lengths");
+        assert!(p.len() == n && g.len() == n, "wrong output lengths");
+        with_buf::<f64, 64, _>(2 * n, 0.0, |out| {
+            self.qp_form.eval(t, q, qd, out);
+            p.copy_from_slice(&out[..n]);
+            g.copy_from_slice(&out[n..]);
+        })
+    }
+
+    /// ∂(p, G)/∂(q, q̇) of the (q, p) form at (t, q, q̇) into `jac` (2n × 2n, column by column
+    /// as nalgebra stores it), derived on the graph and compiled: `false`, and `jac` untouched,
+    /// when the program has none (without the `jit` feature, and for systems whose Jacobians
+    /// are too large to compile quickly, see `JACOBIAN_DOF_MAX`) — then differentiate
+    /// [`qp_form`](Self::qp_form)'s parts on dual numbers.
+    ///
+    /// # Panics
+    /// If a slice has the wrong length.
+    #[cfg_attr(not(feature = "jit"), allow(unused_variables))]
+    pub fn qp_jacobian(&self, t: f64, q: &[f64], qd: &[f64], jac: &mut [f64]) -> bool {
+        let n = self.program.dof;
+        assert!(q.len() == n && qd.len() == n, "wrong state lengths");
+        assert!(jac.len() == 4 * n * n, "wrong output length");
         #[cfg(feature = "jit")]
-        if let Some(native) = &self.program.momenta_native {
-            return native.eval(&self.momenta.consts, t, q, qd, out);
+        if let Some(part) = &self.qp_jacobian {
+            part.eval(t, q, qd, jac);
+            return true;
         }
-        self.momenta.eval_into(t, q, qd, out)
+        false
+    }
+
+    /// ∂q̈/∂(q, q̇) at (t, q, q̇) into `jac` (n × 2n, column by column as nalgebra stores it),
+    /// derived on the graph and compiled with the solves unrolled: `false`, and `jac`
+    /// untouched, when the program has none (as for [`qp_jacobian`](Self::qp_jacobian)) or a
+    /// pivot or finiteness check fails — then differentiate
+    /// [`accelerations_dual`](Self::accelerations_dual), which also says what failed.
+    ///
+    /// # Panics
+    /// If a slice has the wrong length.
+    #[cfg_attr(not(feature = "jit"), allow(unused_variables))]
+    pub fn acceleration_jacobian(&self, t: f64, q: &[f64], qd: &[f64], jac: &mut [f64]) -> bool {
+        let n = self.program.dof;
+        assert!(q.len() == n && qd.len() == n, "wrong state lengths");
+        assert!(jac.len() == 2 * n * n, "wrong output length");
+        #[cfg(feature = "jit")]
+        if let Some(part) = &self.jacobian {
+            const MAX: usize = (2 * JACOBIAN_DOF_MAX + 3) * JACOBIAN_DOF_MAX;
+            return with_buf::<f64, MAX, _>(jac.len() + 3 * n, 0.0, |v| {
+                part.eval(t, q, qd, v);
+                let (values, checks) = v.split_at(jac.len() + n);
+                let (pivots, diagonal) = checks.split_at(n);
+                let fine = pivots_hold(pivots, diagonal) && values.iter().all(|x| x.is_finite());
+                let j = &values[..jac.len()];
+                if fine {
+                    jac.copy_from_slice(j);
+                }
+                fine
+            });
+        }
+        false
     }
 
     /// M (full, row-major n × n) and f at (t, q, q̇).
@@ -623,9 +886,9 @@ impl EomFunction {
         let n = self.program.dof;
         check_lengths(n, q, qd, out)?;
         #[cfg(feature = "jit")]
-        if let Some((native, consts)) = &self.solved {
+        if let Some(solved) = &self.solved {
             let done = with_buf::<f64, { 3 * SOLVED_MAX }, _>(3 * n, 0.0, |v| {
-                native.eval(consts, t, q, qd, v);
+                solved.eval(t, q, qd, v);
                 let (a, rest) = v.split_at(n);
                 let (pivots, diagonal) = rest.split_at(n);
                 let fine = pivots_hold(pivots, diagonal) && a.iter().all(|x| x.is_finite());

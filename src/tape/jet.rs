@@ -78,6 +78,21 @@ fn atan2<D: Scalar>(y: D, x: D) -> D {
     D::from(yr.atan2(xr)) - (D::from(a.re()) - a)
 }
 
+/// tanh of dual numbers at every argument: num-dual's is sinh/cosh, ∞/∞ = NaN beyond
+/// |x| ≈ 710. −sign(x) e/(e + 2) with e = expm1(−2|x|) (the same derivatives, without
+/// cancellation near 0), its value replaced by `f64::tanh` of the real part bit for bit.
+#[inline(always)]
+fn tanh<D: Scalar>(x: D) -> D {
+    if is::<D, f64>() {
+        return x.tanh();
+    }
+    let e = (x.abs() * D::from(-2.0)).exp_m1();
+    let a = -e / (e + D::from(2.0));
+    let a = if x.re() < 0.0 { -a } else { a };
+    // a.re − a has the value +0.0 and the derivatives of −a.
+    D::from(x.re().tanh()) - (D::from(a.re()) - a)
+}
+
 /// Any [`Scalar`], evaluated with its own (num-dual) arithmetic.
 #[derive(Debug, Clone, Copy)]
 #[repr(transparent)]
@@ -195,7 +210,7 @@ impl<D: Scalar> Arith for Num<D> {
     }
     #[inline(always)]
     fn tanh(self) -> Self {
-        Num(self.0.tanh())
+        Num(tanh(self.0))
     }
     #[inline(always)]
     fn abs(self) -> Self {
