@@ -104,6 +104,21 @@ fn scenes(t_scale: f64) -> Vec<Scene> {
             method: Method::Dop853,
         },
         Scene {
+            name: "double_pendulum_gauss4".into(),
+            kind: Kind::Double(dp),
+            params: vec![
+                ("m1", 1.0),
+                ("m2", 1.0),
+                ("l1", 1.0),
+                ("l2", 1.0),
+                ("g", 9.81),
+            ],
+            q0: vec![1.0, 0.5],
+            qd0: vec![0.0, 0.0],
+            t_end: 10.0,
+            method: Method::Gauss4,
+        },
+        Scene {
             name: "forced_two_mass".into(),
             kind: Kind::Forced(forced),
             params: vec![
@@ -419,10 +434,30 @@ impl Run {
     }
 }
 
-/// The best of `inner` runs of `sys` over the scene at rtol = atol = `tol`, keeping only the
-/// initial and final states.
+/// The order p of a fixed-step method (`None` for an adaptive one).
+fn fixed_order(method: Method) -> Option<usize> {
+    method
+        .order()
+        .filter(|_| method.is_adaptive() == Some(false))
+}
+
+/// The options a ladder tolerance τ stands for: rtol = atol = τ, or for a fixed-step method of
+/// order p the step τ^(1/p) (so that its error scales like τ), shortened so that whole steps
+/// end at t_end. `benches/compiled_models.py` (`options`) computes the same.
+fn options(scene: &Scene, method: Method, tol: f64) -> Options {
+    match fixed_order(method) {
+        Some(p) => {
+            let steps = (scene.t_end / tol.powf(1.0 / p as f64)).ceil();
+            Options::fixed(scene.t_end / steps)
+        }
+        None => Options::adaptive(tol, tol),
+    }
+}
+
+/// The best of `inner` runs of `sys` over the scene at the ladder tolerance `tol` (see
+/// [`options`]), keeping only the initial and final states.
 fn run<S: Dynamics>(sys: &S, scene: &Scene, method: Method, tol: f64, inner: usize) -> Result<Run> {
-    let opts = Options::adaptive(tol, tol).with_output(Output::Every(usize::MAX));
+    let opts = options(scene, method, tol).with_output(Output::Every(usize::MAX));
     let mut best = f64::INFINITY;
     let mut last = None;
     for _ in 0..inner.max(1) {
@@ -594,8 +629,8 @@ impl Prepared {
             .collect();
         format!(
             "{{\"kind\": \"scene\", \"scene\": \"{}\", \"dof\": {}, \"params\": {{{}}}, \
-             \"q0\": {}, \"qd0\": {}, \"t_end\": {}, \"method\": \"{}\", \"reference\": {}, \
-             \"reference_spread\": {}, \"backend\": \"{}\", \"checks\": [{}]}}",
+             \"q0\": {}, \"qd0\": {}, \"t_end\": {}, \"method\": \"{}\", \"fixed_order\": {}, \
+             \"reference\": {}, \"reference_spread\": {}, \"backend\": \"{}\", \"checks\": [{}]}}",
             s.name,
             s.q0.len(),
             params.join(", "),
@@ -603,6 +638,7 @@ impl Prepared {
             nums(&s.qd0),
             num(s.t_end),
             s.method,
+            fixed_order(s.method).map_or("null".into(), |p| p.to_string()),
             nums(&self.reference),
             num(self.spread),
             self.model

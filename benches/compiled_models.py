@@ -129,6 +129,7 @@ def n_pendulum(n: int) -> Callable[[Dict[str, float]], Dict[str, Spec]]:
 
 BUILDERS: Dict[str, Callable[[Dict[str, float]], Dict[str, Spec]]] = {
     "double_pendulum": double_pendulum,
+    "double_pendulum_gauss4": double_pendulum,
     "forced_two_mass": forced_two_mass,
     "ball_in_sphere": ball_in_sphere,
     "stiff_spring": stiff_spring,
@@ -189,6 +190,17 @@ class Side:
         self.run = run
 
 
+def options(scene: Dict[str, Any], tol: float) -> Dict[str, float]:
+    """The options a ladder tolerance τ stands for: rtol = atol = τ, or for a fixed-step method
+    of order p the step τ^(1/p) (its error then scales like τ), shortened so that whole steps end
+    at t_end — as `options` in benches/compiled.rs."""
+    p = scene["fixed_order"]
+    if p is None:
+        return dict(rtol=tol, atol=tol)
+    steps = math.ceil(scene["t_end"] / tol ** (1.0 / p))
+    return dict(dt=scene["t_end"] / steps)
+
+
 def python_side(label: str, model: Any, scene: Dict[str, Any]) -> Side:
     def run(tol: float, inner: int) -> Dict[str, Any]:
         best = math.inf
@@ -196,8 +208,8 @@ def python_side(label: str, model: Any, scene: Dict[str, Any]) -> Side:
             start = time.perf_counter()
             try:
                 sol = model.simulate(scene["q0"], scene["qd0"], scene["t_end"],
-                                     method=scene["method"], rtol=tol, atol=tol,
-                                     output_every=EVERY)
+                                     method=scene["method"], output_every=EVERY,
+                                     **options(scene, tol))
             except lg.LagrangianError as e:
                 # A run that fails (too many steps at a tight tolerance, …) reaches no target.
                 print(f"  {label} at tol {tol:g}: {e}", file=sys.stderr)
@@ -312,7 +324,7 @@ def measure(rust: Rust, scene: Dict[str, Any], rounds: int, round_seconds: float
                 if key not in timings or r["seconds"] < timings[key]["seconds"]:
                     timings[key] = dict(r, tol=tol)
     choice = None
-    if scene["method"] != "dop853":
+    if scene["method"] not in ("dop853", "gauss4"):
         sol = next(iter(models.values())).simulate(scene["q0"], scene["qd0"], scene["t_end"],
                                                    method="auto", rtol=1e-6, atol=1e-6,
                                                    output_every=EVERY)
@@ -320,8 +332,10 @@ def measure(rust: Rust, scene: Dict[str, Any], rounds: int, round_seconds: float
     rows = []
     for route, model in models.items():
         # The fixed cost of a call: a run of one step.
+        one_step = dict(dt=1e-9) if scene["fixed_order"] else {}
         call = best_of(5 * rounds, lambda: model.simulate(
-            scene["q0"], scene["qd0"], 1e-9, method=scene["method"], output_every=EVERY))
+            scene["q0"], scene["qd0"], 1e-9, method=scene["method"], output_every=EVERY,
+            **one_step))
         rows.append({
             "python_call": call,
             "call_closed": rust_call["closed"], "call_graph": rust_call["graph"],
