@@ -65,7 +65,6 @@ mod symplectic;
 mod tableau;
 mod variational;
 
-#[cfg(any(feature = "python", test))]
 pub(crate) use newton::acceleration_jacobian;
 pub use options::{Options, Output};
 pub use solution::{Solution, Statistics};
