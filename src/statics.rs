@@ -25,7 +25,10 @@
 //! A system whose equations depend on t explicitly has no static equilibrium in general: a
 //! configuration balanced at one instant is not at the next. Unless the caller asks for the
 //! balance at a frozen time ([`StaticsOptions::frozen_time`]), [`equilibrium`] checks that r does
-//! not change with t and fails with [`Error::NoStaticEquilibrium`] when it does. The structure
+//! not change with t at the root it finds and fails with [`Error::NoStaticEquilibrium`] when it
+//! does. A root that stays one (a driven pendulum hanging straight) is returned, but when its
+//! linearization changes with t (parametric excitation) it is classified neutral: the
+//! eigenvalues of one instant do not decide its stability. The structure
 //! hints decide whether to look: a system that is neither time dependent, forced nor dissipative
 //! ([`crate::Structure::conservative`]) cannot depend on t; any other is checked numerically,
 //! which lets a steady rotation written with t in it (a hoop turning at a constant rate, stated by
@@ -192,9 +195,6 @@ pub fn equilibrium<S: Dynamics>(
     check_state(system.dof(), t, q_guess, None)?;
     let mut problem = StaticProblem::new(system, t);
     let steady = !options.frozen_time && !system.structure().conservative();
-    if steady {
-        problem.check_steady(q_guess)?;
-    }
     let solution = newton(&mut problem, DVector::from_column_slice(q_guess), options)?;
     if steady {
         problem.check_steady(solution.q.as_slice())?;
@@ -203,6 +203,13 @@ pub fn equilibrium<S: Dynamics>(
     let q = solution.q.as_slice();
     let (stability, reason, spectrum) =
         match crate::linearize::modes_unchecked(system, t, q, options.stability_tolerance) {
+            Ok(modes) if steady && parametric(system, &modes.linearization)? => (
+                Stability::Neutral,
+                "the linearized equations change with t here (parametric excitation, a driven \
+                 support): the eigenvalues at one instant do not decide, Floquet theory does"
+                    .to_string(),
+                Some(modes.eigenvalues),
+            ),
             Ok(modes) => (modes.stability, modes.reason, Some(modes.eigenvalues)),
             Err(Error::SingularMassMatrix { .. }) => {
                 let (stability, why) = static_verdict;
@@ -224,6 +231,19 @@ pub fn equilibrium<S: Dynamics>(
         stiffness: solution.k,
         spectrum,
     })
+}
+
+/// Whether the state matrix A at the equilibrium changes with t (at the [`STEADY_OFFSETS`]).
+fn parametric<S: Dynamics>(system: &S, lin: &crate::Linearization) -> Result<bool> {
+    let q = lin.q.as_slice();
+    let rest = vec![0.0; q.len()];
+    for dt in STEADY_OFFSETS {
+        let other = crate::linearize(system, lin.t + dt, q, &rest)?;
+        if (&other.a - &lin.a).amax() > STEADY_TOLERANCE * lin.a.amax().max(other.a.amax()) {
+            return Ok(true);
+        }
+    }
+    Ok(false)
 }
 
 /// The stiffness K = ∂r/∂q at (t, q, q̇ = 0), r as in the module documentation, by one dual pass

@@ -6,8 +6,8 @@
 
 use approx::assert_relative_eq;
 use lagrangian::scenes::{
-    BallInSphere, ChargedParticle, DampedOscillator, DoublePendulum, ForcedTwoMass, NPendulum,
-    SimplePendulum,
+    BallInSphere, ChargedParticle, DampedOscillator, DoublePendulum, DrivenPendulum, ForcedTwoMass,
+    NPendulum, SimplePendulum,
 };
 use lagrangian::{
     Dynamics, Error, KineticEnergy, ModeProblem, ParticleSystem, Particles, Potential, Scalar,
@@ -479,4 +479,47 @@ fn stiffness_includes_the_centrifugal_part() {
             assert_relative_eq!(k[(0, 0)], want, max_relative = 1e-12, epsilon = 1e-13);
         }
     }
+}
+
+#[test]
+fn driven_pivot_stiffness_has_the_time_derivative_of_the_momentum() {
+    // T = ½ m [(l cos θ θ̇)² + (l sin θ θ̇ − a ω sin ωt)²]: at q̇ = 0 the pivot's acceleration
+    // enters only through −∂²T/∂q̇∂t, so K = m l (g − a ω² cos ωt) cos θ, on both routes and
+    // equal to the K of the linearization.
+    let (m, l, g, a, w) = (0.8, 0.7, 9.81, 0.1, 20.0);
+    let scene = DrivenPendulum::new(m, l, g, a, w);
+    for t in [0.0, 0.13, 0.4] {
+        for theta in [0.0_f64, 0.5] {
+            let want = m * l * (g - a * w * w * (w * t).cos()) * theta.cos();
+            let k = static_stiffness(&scene.system(), t, &[theta]).unwrap();
+            assert_relative_eq!(k[(0, 0)], want, max_relative = 1e-12);
+            let k = static_stiffness(&scene.particles(), t, &[theta]).unwrap();
+            assert_relative_eq!(k[(0, 0)], want, max_relative = 1e-12);
+        }
+        let lin = linearize(&scene.system(), t, &[0.0], &[0.0]).unwrap();
+        assert_relative_eq!(
+            lin.k[(0, 0)],
+            m * l * (g - a * w * w * (w * t).cos()),
+            max_relative = 1e-12
+        );
+    }
+}
+
+#[test]
+fn driven_pendulum_hanging_is_an_equilibrium_its_stability_parametric() {
+    // θ = 0 stays an equilibrium at every t (sin 0 = 0), but its linearization changes with t:
+    // neutral, with the reason, not the verdict of one instant.
+    let scene = DrivenPendulum::new(1.0, 1.0, 9.81, 0.1, 20.0);
+    let eq = equilibrium(&scene.system(), 0.0, &[0.0], &opts()).unwrap();
+    assert_eq!(eq.q[0], 0.0);
+    assert_eq!(eq.stability, Stability::Neutral);
+    assert!(eq.reason.contains("parametric"), "{}", eq.reason);
+    // Frozen at an instant, the same root, classified by that instant's eigenvalues.
+    let frozen = StaticsOptions {
+        frozen_time: true,
+        ..opts()
+    };
+    let at = equilibrium(&scene.system(), 0.0, &[0.0], &frozen).unwrap();
+    assert_eq!(at.q[0], 0.0);
+    assert_ne!(at.stability, Stability::Neutral, "{}", at.reason);
 }

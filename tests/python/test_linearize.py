@@ -179,3 +179,12 @@ def test_bad_input():
     # The statics-only lever: K alone classifies it, and says so.
     eq = lg.scenes.lever().equilibrium([0.3])
     assert eq.spectrum is None and "statics only" in eq.reason
+
+
+def test_driven_pendulum_parametric():
+    # Hanging straight stays an equilibrium under the driven pivot, but its linearization
+    # changes with t: neutral, with the reason; frozen at t it is that instant's verdict.
+    model = lg.scenes.driven_pendulum(a=0.1, omega=20.0)
+    eq = model.equilibrium([0.0])
+    assert eq.q[0] == 0.0 and eq.stability == "neutral" and "parametric" in eq.reason
+    assert model.equilibrium([0.0], t=0.0).stability != "neutral"
