@@ -28,9 +28,10 @@ use crate::statics::{Stability, classify, static_residual, static_stiffness_of};
 use nalgebra::{Cholesky, Complex, DMatrix, DVector, Schur, SymmetricEigen};
 use num_dual::Dual64;
 
-/// Eigenvalues within this fraction of the largest count as zero, and real parts beyond it as
-/// positive or negative (the default of [`crate::StaticsOptions::stability_tolerance`]).
-pub const STABILITY_TOLERANCE: f64 = 1e-9;
+/// λ with |λ|² below this fraction of max |λ|² count as zero (ω² or K relative to the largest,
+/// as the statics' energy criterion counts K's eigenvalues), real parts beyond it times max |λ|
+/// as positive or negative (the default of [`crate::StaticsOptions::stability_tolerance`]).
+const STABILITY_TOLERANCE: f64 = 1e-9;
 
 /// C (relative to √(|M| |K|)) and the antisymmetric part of K (relative to |K|) below this are
 /// round-off: the undamped problem K φ = ω² M φ applies.
