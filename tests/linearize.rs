@@ -377,8 +377,17 @@ fn gyroscopic_stabilization_and_flutter() {
     let b = strong.eb * strong.eb - 2.0 * strong.k;
     let disc = (b * b - 4.0 * strong.k * strong.k).sqrt();
     let w2 = [(b - disc) / 2.0, (b + disc) / 2.0];
+    let lin = &found.linearization;
+    let cplx = |m: &nalgebra::DMatrix<f64>| m.map(|x| nalgebra::Complex::new(x, 0.0));
+    let (m, c, k) = (cplx(&lin.m), cplx(&lin.c), cplx(&lin.k));
     for i in 0..2 {
         assert_relative_eq!(found.frequencies[i], w2[i].sqrt(), max_relative = 1e-12);
+        // The whirl shapes: (K + λC + λ²M) φ = 0 at λ = iω, and φᴴ M φ = 1.
+        let lambda = nalgebra::Complex::new(0.0, found.frequencies[i]);
+        let phi = found.shapes.column(i).into_owned();
+        let r = (&k + &c * lambda + &m * (lambda * lambda)) * &phi;
+        assert!(r.norm() < 1e-12 * k.norm(), "residual {}", r.norm());
+        assert_relative_eq!(phi.dotc(&(&m * &phi)).re, 1.0, max_relative = 1e-12);
     }
     let weak = Trap { eb: 1.0, k: 1.0 };
     let system = System::new(2, weak).with_potential(weak);

@@ -188,3 +188,26 @@ def test_driven_pendulum_parametric():
     eq = model.equilibrium([0.0])
     assert eq.q[0] == 0.0 and eq.stability == "neutral" and "parametric" in eq.reason
     assert model.equilibrium([0.0], t=0.0).stability != "neutral"
+
+
+@pytest.mark.parametrize("eb, verdict, word", [(3.0, "stable", "gyroscopic"), (1.0, "unstable", "flutter")])
+def test_gyroscopic_stabilization(eb, verdict, word):
+    # A charge on a potential hill U = −½ k r² in the field B ẑ (m = 1): held when (eB)² ≥ 4k,
+    # λ⁴ + ((eB)² − 2k) λ² + k² = 0.
+    k = 1.0
+    x, y = lg.coordinates("x y")
+    model = lg.Model(
+        coordinates=[x, y],
+        kinetic=0.5 * (x.d**2 + y.d**2) + 0.5 * eb * (x * y.d - y * x.d),
+        potential=-0.5 * k * (x**2 + y**2),
+    )
+    eq = model.equilibrium([0.1, -0.2])
+    assert np.abs(eq.q).max() < 1e-14
+    assert eq.stability == verdict and word in eq.reason, eq.reason
+    assert np.all(eq.eigenvalues < 0)  # K alone would say unstable
+    if verdict == "stable":
+        modes = model.modes([0.0, 0.0])
+        b = eb * eb - 2 * k
+        disc = math.sqrt(b * b - 4 * k * k)
+        assert_allclose(modes.frequencies, np.sqrt([(b - disc) / 2, (b + disc) / 2]), rtol=1e-12)
+        assert modes.problem == "state_space" and np.iscomplexobj(modes.shapes)
