@@ -232,10 +232,10 @@ pub(crate) fn modes_unchecked<S: Dynamics + ?Sized>(
         order.iter().map(|&i| {
             let (w2, sum) = pairs[i];
             let w = w2.abs().sqrt();
-            if w > 0.0 {
-                -sum / (2.0 * w)
-            } else if sum == 0.0 {
+            if sum == 0.0 {
                 0.0
+            } else if w > 0.0 {
+                -sum / (2.0 * w)
             } else {
                 -sum.signum() * f64::INFINITY
             }
@@ -453,10 +453,10 @@ fn verdict(
         .filter(|v| v.re > tol * scale)
     {
         let kind = if v.im.abs() <= tol * scale {
-            format!("the real eigenvalue λ = {:e} > 0: a divergence", v.re)
+            format!("the real eigenvalue λ = {:.6e} > 0: a divergence", v.re)
         } else {
             format!(
-                "the eigenvalues λ = {:e} ± {:e}i with a positive real part: flutter (an \
+                "the eigenvalues λ = {:.6e} ± {:.6e}i with a positive real part: flutter (an \
                  oscillation that grows)",
                 v.re,
                 v.im.abs()
@@ -480,7 +480,7 @@ fn verdict(
         return (
             Stability::Stable,
             format!(
-                "every eigenvalue has a negative real part (slowest decay rate {slowest:e}): \
+                "every eigenvalue has a negative real part (slowest decay rate {slowest:.6e}): \
                  asymptotically stable"
             ),
         );

@@ -285,7 +285,7 @@ pub(crate) fn classify(k: &DMatrix<f64>, tol: f64) -> (DVector<f64>, (Stability,
     let verdict = if let Some(&v) = values.iter().find(|&&v| v < -zero) {
         (
             Stability::Unstable,
-            format!("K has the negative eigenvalue {v:e} (a maximum or saddle of the potential)"),
+            format!("K has the negative eigenvalue {v:.6e} (a maximum or saddle of the potential)"),
         )
     } else if scale > 0.0 && values.iter().all(|&v| v > zero) {
         (
