@@ -180,6 +180,14 @@ pub fn linearize<S: Dynamics + ?Sized>(
 /// assert_relative_eq!(found.frequencies[0], (30.0 - root).sqrt(), max_relative = 1e-13);
 /// assert_relative_eq!(found.frequencies[1], (30.0 + root).sqrt(), max_relative = 1e-13);
 /// assert_eq!(found.stability, Stability::Stable);
+/// // Forced by F cos Ωt, F = (1, 0): the amplitude (K − Ω² M)⁻¹ F grows without bound as Ω
+/// // nears ω₁.
+/// let lin = &found.linearization;
+/// let amplitude = |w: f64| {
+///     let f = nalgebra::DVector::from_vec(vec![1.0, 0.0]);
+///     (&lin.k - &lin.m * (w * w)).lu().solve(&f).unwrap().norm()
+/// };
+/// assert!(amplitude(found.frequencies[0] * (1.0 + 1e-6)) > 1e5 * amplitude(0.0));
 /// ```
 pub fn modes<S: Dynamics + ?Sized>(system: &S, t: f64, q: &[f64]) -> Result<Modes> {
     check_state(system.dof(), t, q, None)?;

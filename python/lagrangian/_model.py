@@ -850,8 +850,18 @@ class Model:
 
         >>> import lagrangian as lg
         >>> two = lg.scenes.forced_two_mass(m1=1.0, m2=2.0, k1=30.0, k2=20.0)
-        >>> [round(float(w), 6) for w in two.modes([0.0, 0.0]).frequencies]
+        >>> modes = two.modes([0.0, 0.0])
+        >>> [round(float(w), 6) for w in modes.frequencies]
         [2.346295, 7.382066]
+
+        Forced by F cos Ωt with F = (1, 0), the amplitude (K − Ω² M)⁻¹ F near ω₁ dwarfs the
+        static deflection:
+
+        >>> import numpy as np
+        >>> lin = modes.linearization
+        >>> amplitude = lambda w: np.linalg.norm(np.linalg.solve(lin.K - w**2 * lin.M, [1.0, 0.0]))
+        >>> bool(amplitude(modes.frequencies[0] * (1 + 1e-6)) > 1e5 * amplitude(0.0))
+        True
 
         Parameters
         ----------
