@@ -76,6 +76,25 @@ pub enum Error {
         q: Vec<f64>,
     },
 
+    /// The equations of motion depend on t explicitly, so what balances at one instant does
+    /// not at the next: no static equilibrium exists in general.
+    #[error(
+        "no static equilibrium: the equations of motion depend on t explicitly (at q = {q:?} the \
+         forces at rest change by {change:e} between t = {t} and t = {other}), so a system at \
+         rest there does not stay at rest; pass the time to solve at (t= in Python, \
+         StaticsOptions::frozen_time in Rust) for the balance of the forces frozen at that instant"
+    )]
+    NoStaticEquilibrium {
+        /// Time asked for.
+        t: f64,
+        /// A later time at which the forces differ.
+        other: f64,
+        /// Configuration at which they were compared.
+        q: Vec<f64>,
+        /// Norm of the change of the residual between the two times.
+        change: f64,
+    },
+
     /// An adaptive step size fell below its floor (`Options::min_step`, at least 10 ε |t|).
     #[error(
         "step size {h:e} at t = {t} fell below its floor: the solution may be singular there, \

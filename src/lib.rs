@@ -36,6 +36,7 @@ mod eom;
 mod error;
 pub mod integrators;
 mod linalg;
+mod linearize;
 mod particles;
 #[cfg(feature = "python")]
 mod python;
@@ -49,6 +50,7 @@ pub use dynamics::{Dynamics, Structure};
 pub use error::{Error, Result};
 pub use integrators::solve_with_interrupt;
 pub use integrators::{Method, Options, Output, Solution, Statistics, solve};
+pub use linearize::{Linearization, ModeProblem, Modes, linearize, modes};
 pub use particles::{
     CartesianForces, EnergyRoute, MappedForces, ParticleGravity, ParticleKinetic, ParticleSystem,
     Particles,

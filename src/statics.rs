@@ -1,32 +1,52 @@
-//! Statics by the principle of virtual work (seed §3.1–3.2).
+//! Equilibria of the equations of motion, and statics by the principle of virtual work (seed
+//! §3.1–3.2).
 //!
-//! A configuration is in equilibrium when the forces do no virtual work in any virtual
-//! displacement (eq. 27). With the conservative forces in U and all others in Q″ this reads
-//! δ*W = Σᵢ (Q″ᵢ − ∂U/∂qᵢ) δqᵢ = 0 for every δq (eq. 28, 29), so the equilibria are the roots of
+//! A system at rest stays at rest where the accelerations vanish at q̇ = 0, that is where the
+//! force side of eq. 55 vanishes:
 //!
-//! r(q) = ∂U/∂q − Q″(t, q, q̇ = 0).
+//! r(q) = −[∂L/∂q + Q″ − ∂Φ/∂q̇ − ∂²L/∂q̇∂t](t, q, q̇ = 0)
+//!      = ∂U/∂q − Q″ − ∂T/∂q + ∂Φ/∂q̇ + ∂²T/∂q̇∂t   (all at q̇ = 0).
 //!
-//! Inertia plays no part: a system built only for statics may have massless points (its
-//! accelerations then fail with [`Error::SingularMassMatrix`], as they should).
+//! When T is a quadratic form in q̇ (the seed's statics) only ∂U/∂q − Q″ is left: the forces do
+//! no virtual work in any virtual displacement (eq. 27–29). When T has a part T₀ that does not
+//! vanish at q̇ = 0 (a bead on a spinning hoop, coordinates in a rotating frame), −∂T₀/∂q is the
+//! centrifugal force and the roots are the relative equilibria, the stationary points of the
+//! effective potential U − T₀. Neither needs M: a system built only for statics may have
+//! massless points (its accelerations then fail with [`Error::SingularMassMatrix`], as they
+//! should).
 //!
 //! The solver is Newton's method with the exact stiffness K = ∂r/∂q from dual numbers (one
 //! `Dual64` pass per coordinate through the model's own generic code, no finite differences),
 //! globalised by a backtracking (Armijo) line search on ½|r|² and by Levenberg–Marquardt damping
-//! when K is singular or a Newton step fails. The eigenvalues of the symmetric part of K at the
-//! root classify the equilibrium.
+//! when K is singular or a Newton step fails. The equilibrium is classified from the eigenvalues
+//! of the linearized equations of motion there ([`crate::modes`]), which see damping, gyroscopic
+//! and centrifugal terms; only where M is singular does K alone decide (the energy criterion).
+//!
+//! A system whose equations depend on t explicitly has no static equilibrium in general: a
+//! configuration balanced at one instant is not at the next. Unless the caller asks for the
+//! balance at a frozen time ([`StaticsOptions::frozen_time`]), [`equilibrium`] checks that r does
+//! not change with t at the root it finds and fails with [`Error::NoStaticEquilibrium`] when it
+//! does. A root that stays one (a driven pendulum hanging straight) is returned, but when its
+//! linearization changes with t (parametric excitation) it is classified neutral: the
+//! eigenvalues of one instant do not decide its stability. The structure
+//! hints decide whether to look: a system that is neither time dependent, forced nor dissipative
+//! ([`crate::Structure::conservative`]) cannot depend on t; any other is checked numerically,
+//! which lets a steady rotation written with t in it (a hoop turning at a constant rate, stated by
+//! particle positions r(t, q)) through.
 
 use crate::Scalar;
 use crate::dynamics::{Dynamics, check_state};
 use crate::error::{Error, Result};
-use nalgebra::{DMatrix, DVector};
-use num_dual::Dual64;
+use nalgebra::{Complex, DMatrix, DVector};
+use num_dual::{Dual, Dual64};
 
 /// Stopping rules and tolerances of [`equilibrium`].
 ///
 /// The iteration stops successfully when either
-/// - |r| ≤ `abs_tolerance` + `rel_tolerance` · F, where F is the largest of |∂U/∂q| and |Q″| met
-///   at any accepted iterate (the guess included) — the size of the loads being balanced, since
-///   the total residual may cancel to zero at the root (Euclidean norms throughout); or
+/// - |r| ≤ `abs_tolerance` + `rel_tolerance` · F, where F is the largest of |∂U/∂q| and of the
+///   other forces |Q″ + ∂T/∂q − ∂Φ/∂q̇ − ∂²T/∂q̇∂t| met at any accepted iterate (the guess
+///   included) — the size of the loads being balanced, since the total residual may cancel to
+///   zero at the root (Euclidean norms throughout); or
 /// - an undamped Newton step Δq satisfies |Δq|∞ ≤ `step_tolerance` · |q|∞: Newton converges
 ///   quadratically there, so the step is taken and its end point returned.
 ///
@@ -50,8 +70,13 @@ pub struct StaticsOptions {
     /// Largest change of any coordinate in one iteration, |Δq|∞ (default ∞: no limit; set it to
     /// keep angles within one well, say).
     pub max_step: f64,
-    /// Eigenvalues of K within ± `stability_tolerance` · max|λ| count as zero (default 1e-9).
+    /// Eigenvalues within ± `stability_tolerance` of the largest count as zero when the
+    /// equilibrium is classified (default 1e-9; see [`crate::Modes::stability`]).
     pub stability_tolerance: f64,
+    /// Solve for the balance of the forces frozen at the given t even when the equations depend
+    /// on t (default `false`: such a system has no static equilibrium in general, and
+    /// [`equilibrium`] fails with [`Error::NoStaticEquilibrium`]).
+    pub frozen_time: bool,
 }
 
 impl Default for StaticsOptions {
@@ -63,6 +88,7 @@ impl Default for StaticsOptions {
             max_iterations: 100,
             max_step: f64::INFINITY,
             stability_tolerance: 1e-9,
+            frozen_time: false,
         }
     }
 }
@@ -96,48 +122,59 @@ impl StaticsOptions {
     }
 }
 
-/// The character of an equilibrium, from the eigenvalues λ of the symmetric part of K.
+/// The character of an equilibrium.
 ///
-/// For conservative loads (U, plus loads Q″ that derive from a potential, such as the constant
-/// Cartesian loads of the statics scenes) K is the Hessian of the total potential and this is
-/// the energy criterion (seed §3.2 (3)): a strict minimum of the total potential is stable. For
-/// non-conservative Q″ (follower loads) K is not symmetric and the classification is only the
-/// static (divergence) test, not a verdict on flutter.
+/// Decided from the eigenvalues of the linearized equations of motion ([`crate::modes`]; the
+/// reason is stated in [`Equilibrium::reason`]): an eigenvalue with a positive real part makes
+/// it unstable, a zero eigenvalue neutral, and it is stable when every eigenvalue has a
+/// negative real part, or when K is positive definite (a strict minimum of the effective
+/// potential U − T₀) with the rest on the imaginary axis, or when gyroscopic forces hold every
+/// eigenvalue on the imaginary axis although K is not. Where M is singular (a model for statics
+/// only) the eigenvalues λ of the symmetric part of K decide, the energy criterion of seed §3.2
+/// (3): all λ > 0 stable, some λ < 0 unstable, else neutral.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stability {
-    /// Every λ > tol · max|λ|: a strict minimum.
+    /// Small disturbances stay small.
     Stable,
-    /// Some λ < −tol · max|λ|: a maximum or a saddle.
+    /// Some small disturbance grows.
     Unstable,
-    /// No λ below −tol · max|λ| but some within ±tol · max|λ|: decided by higher-order terms
-    /// (a neutral balance, such as a lever whose loads balance at every angle).
+    /// The linearization does not decide (a zero eigenvalue, such as a lever whose loads
+    /// balance at every angle, or eigenvalues on the imaginary axis under circulatory forces).
     Neutral,
 }
 
-/// A static equilibrium found by [`equilibrium`].
+/// An equilibrium found by [`equilibrium`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Equilibrium {
     /// The equilibrium configuration.
     pub q: DVector<f64>,
-    /// |r(q)| = |∂U/∂q − Q″| at `q` (Euclidean norm).
+    /// |r(q)| at `q` (Euclidean norm).
     pub residual: f64,
     /// Iterations used (0 when the guess already satisfies the tolerance).
     pub iterations: usize,
     /// Stable, unstable or neutral.
     pub stability: Stability,
+    /// Why: which eigenvalues decided, in words.
+    pub reason: String,
     /// Eigenvalues of the symmetric part of K at `q`, ascending.
     pub eigenvalues: DVector<f64>,
-    /// The stiffness K = ∂r/∂q = ∂²U/∂q² − ∂Q″/∂q at `q`.
+    /// The stiffness K = ∂r/∂q at `q`: ∂²U/∂q² − ∂Q″/∂q, plus the centrifugal −∂²T₀/∂q².
     pub stiffness: DMatrix<f64>,
+    /// Eigenvalues of the state matrix A of the linearization at (q, q̇ = 0)
+    /// ([`crate::Modes::eigenvalues`]); `None` where M is singular.
+    pub spectrum: Option<DVector<Complex<f64>>>,
 }
 
-/// Find a static equilibrium r(q) = ∂U/∂q − Q″(t, q, 0) = 0 (eq. 27–29) near `q_guess`.
+/// Find an equilibrium of the equations of motion near `q_guess`: r(q) = 0 at q̇ = 0 (see the
+/// module documentation), which is ∂U/∂q = Q″ (virtual work, eq. 27–29) when T is quadratic
+/// in q̇ and the relative equilibrium of U − T₀ otherwise.
 ///
-/// Loads are frozen at time `t`. Fails with [`Error::NoConvergence`] when no root is reached
-/// within the options' bounds (there may be none: a net load that nothing balances),
-/// [`Error::DimensionMismatch`] or [`Error::NonFinite`] for a bad guess, [`Error::NonFinite`]
-/// when the model returns a non-finite residual at the guess or cannot avoid one, and
-/// [`Error::InvalidInput`] for bad options.
+/// The residual is evaluated at time `t`. Fails with [`Error::NoStaticEquilibrium`] when the
+/// equations depend on t and `options.frozen_time` is not set, [`Error::NoConvergence`] when no
+/// root is reached within the options' bounds (there may be none: a net load that nothing
+/// balances), [`Error::DimensionMismatch`] or [`Error::NonFinite`] for a bad guess,
+/// [`Error::NonFinite`] when the model returns a non-finite residual at the guess or cannot
+/// avoid one, and [`Error::InvalidInput`] for bad options.
 ///
 /// ```
 /// use lagrangian::{equilibrium, Stability, StaticsOptions};
@@ -157,42 +194,111 @@ pub fn equilibrium<S: Dynamics>(
     options.validate()?;
     check_state(system.dof(), t, q_guess, None)?;
     let mut problem = StaticProblem::new(system, t);
+    let steady = !options.frozen_time && !system.structure().conservative();
     let solution = newton(&mut problem, DVector::from_column_slice(q_guess), options)?;
-    let (eigenvalues, stability) = classify(&solution.k, options.stability_tolerance);
+    if steady {
+        problem.check_steady(solution.q.as_slice())?;
+    }
+    let (eigenvalues, static_verdict) = classify(&solution.k, options.stability_tolerance);
+    let q = solution.q.as_slice();
+    let (stability, reason, spectrum) =
+        match crate::linearize::modes_unchecked(system, t, q, options.stability_tolerance) {
+            Ok(modes) if steady && parametric(system, &modes.linearization)? => (
+                Stability::Neutral,
+                "the linearized equations change with t here (parametric excitation, a driven \
+                 support): the eigenvalues at one instant do not decide, Floquet theory does"
+                    .to_string(),
+                Some(modes.eigenvalues),
+            ),
+            Ok(modes) => (modes.stability, modes.reason, Some(modes.eigenvalues)),
+            Err(Error::SingularMassMatrix { .. }) => {
+                let (stability, why) = static_verdict;
+                let reason = format!(
+                    "M is singular here (a model for statics only), so the stiffness alone \
+                     decides (energy criterion): {why}"
+                );
+                (stability, reason, None)
+            }
+            Err(e) => return Err(e),
+        };
     Ok(Equilibrium {
         q: solution.q,
         residual: solution.r.norm(),
         iterations: solution.iterations,
         stability,
+        reason,
         eigenvalues,
         stiffness: solution.k,
+        spectrum,
     })
 }
 
-/// The stiffness K = ∂(∂U/∂q − Q″)/∂q at (t, q, q̇ = 0), by one dual pass per coordinate.
+/// Whether the state matrix A at the equilibrium changes with t (at the [`STEADY_OFFSETS`]).
+fn parametric<S: Dynamics>(system: &S, lin: &crate::Linearization) -> Result<bool> {
+    let q = lin.q.as_slice();
+    let rest = vec![0.0; q.len()];
+    for dt in STEADY_OFFSETS {
+        let other = crate::linearize(system, lin.t + dt, q, &rest)?;
+        if (&other.a - &lin.a).amax() > STEADY_TOLERANCE * lin.a.amax().max(other.a.amax()) {
+            return Ok(true);
+        }
+    }
+    Ok(false)
+}
+
+/// The stiffness K = ∂r/∂q at (t, q, q̇ = 0), r as in the module documentation, by one dual pass
+/// per coordinate.
 ///
-/// At an equilibrium of a conservative system this is the K of the linearised equations
-/// M δq̈ + K δq = 0.
+/// At an equilibrium this is the K of the linearised equations M δq̈ + C δq̇ + K δq = 0,
+/// centrifugal stiffness included.
 pub fn static_stiffness<S: Dynamics>(system: &S, t: f64, q: &[f64]) -> Result<DMatrix<f64>> {
     check_state(system.dof(), t, q, None)?;
     StaticProblem::new(system, t).jacobian(q)
 }
 
-/// Eigenvalues of the symmetric part of K, ascending, and the stability they imply.
-fn classify(k: &DMatrix<f64>, tol: f64) -> (DVector<f64>, Stability) {
+/// [`static_stiffness`] for any system, inputs unchecked.
+pub(crate) fn static_stiffness_of<S: Dynamics + ?Sized>(
+    system: &S,
+    t: f64,
+    q: &[f64],
+) -> Result<DMatrix<f64>> {
+    StaticProblem::new(system, t).jacobian(q)
+}
+
+/// r(q) at (t, q, q̇ = 0) and the load scale F it balances (see [`StaticsOptions`]).
+pub(crate) fn static_residual<S: Dynamics + ?Sized>(
+    system: &S,
+    t: f64,
+    q: &[f64],
+) -> Result<(DVector<f64>, f64)> {
+    StaticProblem::new(system, t).residual(q)
+}
+
+/// Eigenvalues of the symmetric part of K, ascending, and the stability they imply with the
+/// reason.
+pub(crate) fn classify(k: &DMatrix<f64>, tol: f64) -> (DVector<f64>, (Stability, String)) {
     let sym = (k + k.transpose()) * 0.5;
     let mut values: Vec<f64> = sym.symmetric_eigenvalues().iter().copied().collect();
     values.sort_by(f64::total_cmp);
     let scale = values.iter().fold(0.0_f64, |s, v| s.max(v.abs()));
     let zero = tol * scale;
-    let stability = if values.iter().any(|&v| v < -zero) {
-        Stability::Unstable
+    let verdict = if let Some(&v) = values.iter().find(|&&v| v < -zero) {
+        (
+            Stability::Unstable,
+            format!("K has the negative eigenvalue {v:.6e} (a maximum or saddle of the potential)"),
+        )
     } else if scale > 0.0 && values.iter().all(|&v| v > zero) {
-        Stability::Stable
+        (
+            Stability::Stable,
+            "K is positive definite (a strict minimum of the potential)".to_string(),
+        )
     } else {
-        Stability::Neutral
+        (
+            Stability::Neutral,
+            "K has a zero eigenvalue (higher-order terms decide)".to_string(),
+        )
     };
-    (DVector::from_vec(values), stability)
+    (DVector::from_vec(values), verdict)
 }
 
 /// A residual r(q) with its Jacobian: what the Newton core solves.
@@ -203,49 +309,123 @@ trait Residual {
     fn jacobian(&mut self, q: &[f64]) -> Result<DMatrix<f64>>;
 }
 
-/// r(q) = ∂U/∂q − Q″(t, q, 0) of a system at a frozen time.
-struct StaticProblem<'a, S> {
+/// r(q) of a system at time t, q̇ = 0.
+struct StaticProblem<'a, S: ?Sized> {
     system: &'a S,
     t: f64,
     forced: bool,
+    dissipative: bool,
+    time_dependent: bool,
 }
 
-impl<'a, S: Dynamics> StaticProblem<'a, S> {
+/// Times after t at which r is compared with r(t) to see whether it depends on t: irrational
+/// offsets, so that no periodic forcing is caught at the same phase.
+const STEADY_OFFSETS: [f64; 3] = [
+    0.618_033_988_749_894_9,
+    std::f64::consts::SQRT_2,
+    7.389_056_098_930_65,
+];
+/// A change of r with t beyond this fraction of the load scale is a time-dependent balance.
+const STEADY_TOLERANCE: f64 = 1e-9;
+
+impl<'a, S: Dynamics + ?Sized> StaticProblem<'a, S> {
     fn new(system: &'a S, t: f64) -> Self {
+        let s = system.structure();
         Self {
             system,
             t,
-            forced: system.structure().forced,
+            forced: s.forced,
+            dissipative: s.dissipative,
+            time_dependent: s.time_dependent,
         }
     }
 
-    /// ∂U/∂q into `grad` and Q″(t, q, 0) into `load`, on any scalar.
-    fn terms<D: Scalar>(&self, q: &[D], grad: &mut [D], load: &mut [D]) {
-        let t = D::from(self.t);
+    /// ∂U/∂q into `grad` and the other forces at rest, Q″ + ∂T/∂q − ∂Φ/∂q̇ − ∂²T/∂q̇∂t at
+    /// (t, q, 0), into `load`, on any scalar (r = grad − load).
+    fn terms<D: Scalar>(&self, t: f64, q: &[D], grad: &mut [D], load: &mut [D]) {
+        let n = q.len();
+        let t = D::from(t);
         self.system.potential_gradient_into(t, q, grad);
         load.fill(D::zero());
+        let at_rest = vec![D::zero(); n];
+        let mut work = vec![D::zero(); n];
         if self.forced {
-            let at_rest = vec![D::zero(); q.len()];
-            self.system.generalized_forces_into(t, q, &at_rest, load);
+            self.system
+                .generalized_forces_into(t, q, &at_rest, &mut work);
+            add(load, &work, 1.0);
+        }
+        if self.dissipative {
+            self.system
+                .dissipative_forces_into(t, q, &at_rest, &mut work);
+            add(load, &work, 1.0);
+        }
+        // ∂T/∂q at q̇ = 0: the centrifugal force of T₀, one dual pass per coordinate.
+        let tt = Dual::from_re(t);
+        let rest = vec![Dual::from_re(D::zero()); n];
+        let mut qs: Vec<Dual<D>> = q.iter().map(|&x| Dual::from_re(x)).collect();
+        for i in 0..n {
+            qs[i].eps = D::one();
+            load[i] += self.system.kinetic_energy(tt, &qs, &rest).eps;
+            qs[i].eps = D::zero();
+        }
+        if self.time_dependent {
+            // −∂²T/∂q̇∂t at q̇ = 0: p = ∂T/∂q̇ seeded in t.
+            let qs: Vec<Dual<D>> = q.iter().map(|&x| Dual::from_re(x)).collect();
+            let mut p = vec![Dual::from_re(D::zero()); n];
+            self.system
+                .momenta_into(Dual::new(t, D::one()), &qs, &rest, &mut p);
+            for (l, p) in load.iter_mut().zip(&p) {
+                *l -= p.eps;
+            }
         }
     }
-}
 
-impl<S: Dynamics> Residual for StaticProblem<'_, S> {
-    fn residual(&mut self, q: &[f64]) -> Result<(DVector<f64>, f64)> {
+    fn residual_at(&self, t: f64, q: &[f64]) -> Result<(DVector<f64>, f64)> {
         let n = q.len();
         let (mut grad, mut load) = (vec![0.0; n], vec![0.0; n]);
-        self.terms(q, &mut grad, &mut load);
+        self.terms(t, q, &mut grad, &mut load);
         let r = DVector::from_iterator(n, grad.iter().zip(&load).map(|(g, f)| g - f));
         let scale = norm(&grad).max(norm(&load));
         if r.iter().all(|v| v.is_finite()) && scale.is_finite() {
             Ok((r, scale))
         } else {
             Err(Error::NonFinite {
-                what: "static residual ∂U/∂q − Q″",
-                t: self.t,
+                what: "static residual ∂U/∂q − Q″ − ∂T/∂q + ∂Φ/∂q̇ (at q̇ = 0)",
+                t,
             })
         }
+    }
+
+    /// `Err(NoStaticEquilibrium)` when r(q) changes with t.
+    fn check_steady(&self, q: &[f64]) -> Result<()> {
+        let (r, scale) = self.residual_at(self.t, q)?;
+        for dt in STEADY_OFFSETS {
+            let other = self.t + dt;
+            let (r2, scale2) = self.residual_at(other, q)?;
+            let change = (&r2 - &r).norm();
+            if change > STEADY_TOLERANCE * scale.max(scale2) {
+                return Err(Error::NoStaticEquilibrium {
+                    t: self.t,
+                    other,
+                    q: q.to_vec(),
+                    change,
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `acc += s · x`.
+fn add<D: Scalar>(acc: &mut [D], x: &[D], s: f64) {
+    for (a, &x) in acc.iter_mut().zip(x) {
+        *a += x * s;
+    }
+}
+
+impl<S: Dynamics + ?Sized> Residual for StaticProblem<'_, S> {
+    fn residual(&mut self, q: &[f64]) -> Result<(DVector<f64>, f64)> {
+        self.residual_at(self.t, q)
     }
 
     fn jacobian(&mut self, q: &[f64]) -> Result<DMatrix<f64>> {
@@ -257,7 +437,7 @@ impl<S: Dynamics> Residual for StaticProblem<'_, S> {
             for (i, (s, &x)) in qs.iter_mut().zip(q).enumerate() {
                 *s = Dual64::new(x, if i == j { 1.0 } else { 0.0 });
             }
-            self.terms(&qs, &mut grad, &mut load);
+            self.terms(self.t, &qs, &mut grad, &mut load);
             for i in 0..n {
                 k[(i, j)] = grad[i].eps - load[i].eps;
             }
@@ -637,21 +817,21 @@ mod tests {
         let tol = 1e-9;
         let m = |v: &[f64]| DMatrix::from_row_slice(2, 2, v);
         assert_eq!(
-            classify(&m(&[2.0, 1.0, 1.0, 2.0]), tol).1,
+            classify(&m(&[2.0, 1.0, 1.0, 2.0]), tol).1.0,
             Stability::Stable
         );
         assert_eq!(
-            classify(&m(&[1.0, 2.0, 2.0, 1.0]), tol).1,
+            classify(&m(&[1.0, 2.0, 2.0, 1.0]), tol).1.0,
             Stability::Unstable
         );
         assert_eq!(
-            classify(&m(&[1.0, 1.0, 1.0, 1.0]), tol).1,
+            classify(&m(&[1.0, 1.0, 1.0, 1.0]), tol).1.0,
             Stability::Neutral
         );
-        assert_eq!(classify(&m(&[0.0; 4]), tol).1, Stability::Neutral);
+        assert_eq!(classify(&m(&[0.0; 4]), tol).1.0, Stability::Neutral);
         // Only the symmetric part counts: a pure rotation generator is neutral.
         assert_eq!(
-            classify(&m(&[0.0, 1.0, -1.0, 0.0]), tol).1,
+            classify(&m(&[0.0, 1.0, -1.0, 0.0]), tol).1.0,
             Stability::Neutral
         );
         let (values, _) = classify(&m(&[3.0, 1.0, 1.0, 3.0]), tol);

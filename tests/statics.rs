@@ -1,5 +1,6 @@
 //! Statics by virtual work (seed §3.1–3.2): the five examples against the seed's closed forms,
-//! the stability of their equilibria, and the solver's failures as typed errors.
+//! the stability of their equilibria (by K where M is singular, by the linearization where it is
+//! not), and the solver's failures as typed errors.
 
 use approx::assert_relative_eq;
 use lagrangian::scenes::{
@@ -54,6 +55,32 @@ fn lever_massless_accelerations_fail() {
     let system = Lever::new(1.0, 1.0, 1.0, 1.0).particles();
     let e = system.accelerations(0.0, &[0.3], &[0.0]).unwrap_err();
     assert!(matches!(e, Error::SingularMassMatrix { .. }), "{e:?}");
+    // Statics needs no M: K alone classifies the equilibrium, and says so.
+    let eq = equilibrium(&system, 0.0, &[0.3], &opts()).unwrap();
+    assert_eq!(eq.stability, Stability::Stable);
+    assert!(eq.spectrum.is_none());
+    assert!(eq.reason.contains("statics only"), "{}", eq.reason);
+}
+
+#[test]
+fn moving_systems_classified_by_their_eigenvalues() {
+    // The pendulum has mass, so the linearization decides: ±i√(g/l) at the bottom, ±√(g/l) on
+    // top.
+    let (m, l, g) = (1.5, 0.8, 9.81);
+    let system = SimplePendulum::new(m, l, g).system();
+    let w = (g / l).sqrt();
+    let bottom = equilibrium(&system, 0.0, &[0.4], &opts()).unwrap();
+    let spectrum = bottom.spectrum.unwrap();
+    assert_relative_eq!(spectrum[1].im, w, max_relative = 1e-13);
+    assert!(
+        bottom.reason.contains("positive definite"),
+        "{}",
+        bottom.reason
+    );
+    let top = equilibrium(&system, 0.0, &[2.5], &opts()).unwrap();
+    let spectrum = top.spectrum.unwrap();
+    assert_relative_eq!(spectrum[1].re, w, max_relative = 1e-13);
+    assert!(top.reason.contains("divergence"), "{}", top.reason);
 }
 
 #[test]

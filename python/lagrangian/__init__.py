@@ -53,8 +53,9 @@ from ._lagrangian import (
     TooManyStepsError,
     __version__,
 )
+from ._linear import Equilibrium, Linearization, Modes
 from ._model import Model, methods
-from ._solution import Equilibrium, Solution
+from ._solution import Solution
 from ._sympy import from_sympy
 from ._workprec import WorkPrecision, work_precision
 
@@ -64,7 +65,9 @@ __all__ = [
     "Equilibrium",
     "Expr",
     "LagrangianError",
+    "Linearization",
     "Model",
+    "Modes",
     "NonFiniteError",
     "Parameter",
     "SingularMassMatrixError",

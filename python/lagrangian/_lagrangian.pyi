@@ -127,7 +127,38 @@ class NativeModel:
         params: Sequence[float] = ...,
         max_iterations: int = 100,
         max_step: float = ...,
-    ) -> Tuple[_FloatArray, float, int, str, _FloatArray, _FloatArray]: ...
+        frozen: bool = False,
+    ) -> Tuple[
+        _FloatArray,
+        float,
+        int,
+        str,
+        _FloatArray,
+        _FloatArray,
+        str,
+        Optional[_FloatArray],
+        Optional[_FloatArray],
+    ]:
+        """(q, residual, iterations, stability, eigenvalues of K's symmetric part, K, reason,
+        spectrum re, spectrum im); the spectrum is None where M is singular."""
+    def linearize(
+        self, t: float, q: Sequence[float], qd: Sequence[float]
+    ) -> Tuple[
+        float,
+        _FloatArray,
+        _FloatArray,
+        _FloatArray,
+        _FloatArray,
+        _FloatArray,
+        _FloatArray,
+        _FloatArray,
+        _FloatArray,
+        _FloatArray,
+    ]:
+        """(t, q, qd, accelerations, M, C, K, A, eigenvalues re, eigenvalues im)."""
+    def modes(self, t: float, q: Sequence[float]) -> Tuple[Any, ...]:
+        """(problem, frequencies, ω², damping ratios, shapes re, shapes im, eigenvalues re,
+        eigenvalues im, stability, reason, linearization tuple)."""
 
 # The scene registry (src/python/scenes.rs).
 def scene_catalog() -> List[Dict[str, Any]]: ...

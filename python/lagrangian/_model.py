@@ -12,7 +12,8 @@ import numpy.typing as npt
 
 from . import _lagrangian
 from ._expr import Coordinate, Expr, ExprLike, Node, deserialize, serialize
-from ._solution import Equilibrium, Solution
+from ._linear import Equilibrium, Linearization, Modes
+from ._solution import Solution
 from ._validate import (
     check_coordinates,
     check_parameters,
@@ -694,12 +695,30 @@ class Model:
         q_guess: ArrayLike,
         loads: Optional[Sequence[ExprLike]] = None,
         *,
-        t: float = 0.0,
+        t: Optional[float] = None,
         max_iterations: int = 100,
         max_step: float = math.inf,
     ) -> Equilibrium:
-        """A static equilibrium near ``q_guess`` by the principle of virtual work (seed §3):
-        the configuration where ∂U/∂q = Q, all forces frozen at time ``t`` and q̇ = 0.
+        """An equilibrium near ``q_guess``: where the system at rest (q̇ = 0) stays at rest,
+        q̈ = 0, that is ∂L/∂q + Q − ∂Φ/∂q̇ = 0 at q̇ = 0.
+
+        When the kinetic energy is a quadratic form in q̇ this is the principle of virtual work
+        (seed §3), ∂U/∂q = Q. When it has a part T₀ that does not vanish at rest (a bead on a
+        spinning hoop, coordinates in a rotating frame) its centrifugal force −∂T₀/∂q counts
+        too: the relative equilibria of U − T₀. Stability is decided from the eigenvalues of
+        the equations of motion linearized there (see :meth:`modes`), with the reason given.
+
+        >>> import lagrangian as lg
+        >>> th, = lg.coordinates("th")
+        >>> R, W, g = 0.5, 7.0, 9.81   # a hoop spinning at W about its vertical diameter
+        >>> bead = lg.Model(coordinates=[th],
+        ...                 kinetic=0.5 * R**2 * (th.d**2 + W**2 * lg.sin(th)**2),
+        ...                 potential=-g * R * lg.cos(th))
+        >>> eq = bead.equilibrium([1.0])
+        >>> round(float(eq.q[0]), 6), eq.stability   # cos θ* = g/(R W²)
+        (1.158834, 'stable')
+        >>> bead.equilibrium([0.0]).stability
+        'unstable'
 
         Parameters
         ----------
@@ -709,8 +728,11 @@ class Model:
             Extra generalized loads, one per coordinate, added to the model's forces — the
             virtual work of the applied loads per unit δqᵢ (expressions in the coordinates,
             time and the model's parameters, or numbers).
-        t : float
-            Time at which the loads are frozen.
+        t : float, optional
+            The time to solve at, for forces that change with time: the balance of the forces
+            frozen at that instant. Without it the model must not depend on time (a steady
+            rotation written with time in it is fine); otherwise a ``ValueError`` says that no
+            static equilibrium exists in general.
         max_iterations : int
             Newton iteration budget.
         max_step : float
@@ -720,6 +742,8 @@ class Model:
         ------
         ConvergenceError
             When no equilibrium is found from this guess.
+        ValueError
+            For bad input, and when the forces change with time and ``t`` is not given.
         """
         n = self.dof
         guess = vector("q_guess", q_guess, n).tolist()
@@ -747,7 +771,7 @@ class Model:
         step = float(max_step)
         if not step > 0:
             raise ValueError(f"max_step = {max_step} must be > 0")
-        at = real("t", t)
+        at = 0.0 if t is None else real("t", t)
         try:
             found = self._native.equilibrium(
                 guess,
@@ -756,10 +780,12 @@ class Model:
                 params=params,
                 max_iterations=int(max_iterations),
                 max_step=step,
+                frozen=t is not None,
             )
         except _lagrangian.ConvergenceError as e:
-            raise _lagrangian.ConvergenceError(f"{e} (loads frozen at t = {at})") from None
-        q, residual, iterations, stability, eigenvalues, stiffness = found
+            raise _lagrangian.ConvergenceError(f"{e} (forces at t = {at})") from None
+        q, residual, iterations, stability, eigenvalues, stiffness, reason, re, im = found
+        spectrum = None if re is None else np.asarray(re) + 1j * np.asarray(im)
         return Equilibrium(
             q=np.asarray(q),
             stable=stability == "stable",
@@ -768,7 +794,91 @@ class Model:
             stiffness=np.asarray(stiffness),
             residual=float(residual),
             iterations=int(iterations),
+            reason=str(reason),
+            spectrum=spectrum,
         )
+
+    def linearize(
+        self, q: ArrayLike, qd: Optional[ArrayLike] = None, t: float = 0.0
+    ) -> Linearization:
+        """The equations of motion linearized about the state (t, q, q̇)::
+
+            M (q̈ − a₀) + C δq̇ + K δq = 0,    δẋ = A δx,  x = (q, q̇)
+
+        M, C = −M ∂q̈/∂q̇ (damping, gyroscopic and Coriolis terms), K = −M ∂q̈/∂q (stiffness,
+        centrifugal part included) and the 2n × 2n state matrix A are exact — automatic
+        differentiation of the equations of motion — at any state, moving or at rest.
+
+        The seed's two masses on two springs (eq. 41–44): K is the spring matrix.
+
+        >>> import lagrangian as lg
+        >>> lin = lg.scenes.forced_two_mass(m1=1.0, m2=2.0, k1=30.0, k2=20.0).linearize([0.0, 0.0])
+        >>> lin.K.tolist()
+        [[50.0, -20.0], [-20.0, 20.0]]
+
+        Parameters
+        ----------
+        q : array_like, shape (dof,)
+            Coordinates of the operating point.
+        qd : array_like, shape (dof,), optional
+            Velocities (default zero).
+        t : float
+            Time.
+
+        Raises
+        ------
+        ValueError
+            For bad input.
+        SingularMassMatrixError
+            Where M cannot be inverted.
+        """
+        n = self.dof
+        qv = vector("q", q, n).tolist()
+        qdv = [0.0] * n if qd is None else vector("qd", qd, n).tolist()
+        return Linearization._from_native(self._native.linearize(real("t", t), qv, qdv))
+
+    def modes(self, q_eq: ArrayLike, t: float = 0.0) -> Modes:
+        """The modes of small oscillation about the equilibrium ``q_eq`` (at rest, time ``t``):
+        natural frequencies (rad/s, ascending), mass-normalized shapes, damping ratios, the
+        eigenvalues of the linearization and the stability they imply, with the reason.
+
+        Without damping or gyroscopic terms the modes solve K φ = ω² M φ; otherwise they come
+        from the eigenvalues of the state matrix A (whirl frequencies, damped modes).
+
+        The seed's two masses on two springs (eq. 41–44): the forced response resonates at
+        the natural frequencies, the roots of det(K − ω² M) = 2ω⁴ − 120ω² + 600 = 0.
+
+        >>> import lagrangian as lg
+        >>> two = lg.scenes.forced_two_mass(m1=1.0, m2=2.0, k1=30.0, k2=20.0)
+        >>> modes = two.modes([0.0, 0.0])
+        >>> [round(float(w), 6) for w in modes.frequencies]
+        [2.346295, 7.382066]
+
+        Forced by F cos Ωt with F = (1, 0), the amplitude (K − Ω² M)⁻¹ F near ω₁ dwarfs the
+        static deflection:
+
+        >>> import numpy as np
+        >>> lin = modes.linearization
+        >>> amplitude = lambda w: np.linalg.norm(np.linalg.solve(lin.K - w**2 * lin.M, [1.0, 0.0]))
+        >>> bool(amplitude(modes.frequencies[0] * (1 + 1e-6)) > 1e5 * amplitude(0.0))
+        True
+
+        Parameters
+        ----------
+        q_eq : array_like, shape (dof,)
+            An equilibrium (from :meth:`equilibrium`, say).
+        t : float
+            Time.
+
+        Raises
+        ------
+        ValueError
+            For bad input, and when ``q_eq`` is not an equilibrium.
+        SingularMassMatrixError
+            Where M cannot be inverted.
+        """
+        qv = vector("q_eq", q_eq, self.dof).tolist()
+        return Modes._from_native(self._native.modes(real("t", t), qv))
 
     # -- Python protocol ---------------------------------------------------------------
     def __repr__(self) -> str:

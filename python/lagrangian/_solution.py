@@ -1,10 +1,9 @@
-"""The results of a model: a trajectory (``Solution``, from ``Model.simulate``) and a static
-equilibrium (``Equilibrium``, from ``Model.equilibrium``)."""
+"""The trajectory of a model (``Solution``, from ``Model.simulate``); equilibria, linearizations
+and modes are in ``_linear``."""
 
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -13,7 +12,7 @@ import numpy.typing as npt
 if TYPE_CHECKING:
     from matplotlib.figure import Figure  # type: ignore[import-not-found, unused-ignore]
 
-__all__ = ["Solution", "Equilibrium"]
+__all__ = ["Solution"]
 
 FloatArray = npt.NDArray[np.float64]
 PathLike = Union[str, "os.PathLike[str]"]
@@ -104,34 +103,3 @@ class Solution:
 
         return plot_solution(self, path, title=title)
 
-
-@dataclass(frozen=True)
-class Equilibrium:
-    """A static equilibrium from :meth:`Model.equilibrium` (principle of virtual work).
-
-    Attributes
-    ----------
-    q : numpy.ndarray
-        The equilibrium configuration.
-    stable : bool
-        Whether it is a strict minimum of the total potential (all eigenvalues of the stiffness
-        positive).
-    stability : str
-        ``"stable"``, ``"unstable"`` or ``"neutral"`` (some eigenvalue zero to tolerance).
-    eigenvalues : numpy.ndarray
-        Eigenvalues of the symmetric part of the stiffness K = ∂(∂U/∂q − Q)/∂q, ascending.
-    stiffness : numpy.ndarray
-        K itself.
-    residual : float
-        |∂U/∂q − Q| at ``q``.
-    iterations : int
-        Newton iterations taken.
-    """
-
-    q: FloatArray
-    stable: bool
-    stability: str
-    eigenvalues: FloatArray
-    stiffness: FloatArray
-    residual: float
-    iterations: int

@@ -65,7 +65,6 @@ mod symplectic;
 mod tableau;
 mod variational;
 
-#[cfg(any(feature = "python", test))]
 pub(crate) use newton::acceleration_jacobian;
 #[cfg(test)]
 pub(crate) use newton::jacobian;

@@ -65,7 +65,8 @@ impl From<Error> for PyErr {
             Error::DimensionMismatch { .. }
             | Error::InvalidInput { .. }
             | Error::SceneArgument { .. }
-            | Error::UnsupportedMethod { .. } => PyValueError::new_err(msg),
+            | Error::UnsupportedMethod { .. }
+            | Error::NoStaticEquilibrium { .. } => PyValueError::new_err(msg),
             Error::SingularMassMatrix { .. } => SingularMassMatrixError::new_err(msg),
             Error::NonFinite { .. } => NonFiniteError::new_err(msg),
             Error::StepSizeTooSmall { .. } => StepSizeError::new_err(format!(

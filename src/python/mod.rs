@@ -15,12 +15,13 @@
 
 mod error;
 mod first_order;
+mod linear;
 mod model;
 mod scenes;
 mod states;
 
 use crate::integrators::{Method, Options, Output, solve_with_interrupt};
-use crate::{Dynamics, Error, Stability, StaticsOptions, equilibrium};
+use crate::{Dynamics, Error, StaticsOptions, equilibrium};
 use error::panic_error;
 use model::{AnyModel, Backend, Compiled, RawNode, Spec, WithLoads};
 use numpy::ndarray::{Array2, Array3};
@@ -490,10 +491,12 @@ impl PyModel {
             .map(Some)
     }
 
-    /// A static equilibrium near `q_guess` by virtual work (seed §3): ∂U/∂q = Q″ + loads.
-    /// Returns (q, residual, iterations, stability, eigenvalues, stiffness).
+    /// An equilibrium near `q_guess` (q̈ = 0 at q̇ = 0; virtual work, seed §3, when T is
+    /// quadratic in q̇), loads added; `frozen` solves at t even if the forces change with t.
+    /// Returns (q, residual, iterations, stability, eigenvalues, stiffness, reason,
+    /// spectrum re, spectrum im) — the spectrum `None` where M is singular.
     #[pyo3(signature = (q_guess, t=0.0, loads=None, params=Vec::new(), max_iterations=100,
-                        max_step=f64::INFINITY))]
+                        max_step=f64::INFINITY, frozen=false))]
     #[allow(clippy::too_many_arguments, clippy::type_complexity)]
     fn equilibrium<'py>(
         &self,
@@ -504,6 +507,7 @@ impl PyModel {
         params: Vec<f64>,
         max_iterations: usize,
         max_step: f64,
+        frozen: bool,
     ) -> PyResult<Bound<'py, PyTuple>> {
         let n = self.model.dof();
         check_vector("q_guess", &q_guess, n)?;
@@ -511,6 +515,7 @@ impl PyModel {
         let options = StaticsOptions {
             max_iterations,
             max_step,
+            frozen_time: frozen,
             ..StaticsOptions::default()
         };
         let loads = guard(|| {
@@ -533,22 +538,44 @@ impl PyModel {
                 }))
             })
             .map_err(panic_error)??;
-        let stability = match found.stability {
-            Stability::Stable => "stable",
-            Stability::Unstable => "unstable",
-            Stability::Neutral => "neutral",
-        };
         let k = &found.stiffness;
         let stiffness = Array2::from_shape_fn((n, n), |(i, j)| k[(i, j)]);
+        let (re, im) = match &found.spectrum {
+            Some(s) => {
+                let (re, im) = linear::complex_vector(py, s);
+                (Some(re), Some(im))
+            }
+            None => (None, None),
+        };
         (
             PyArray1::from_slice(py, found.q.as_slice()),
             found.residual,
             found.iterations,
-            stability,
+            linear::stability_name(found.stability),
             PyArray1::from_slice(py, found.eigenvalues.as_slice()),
             stiffness.into_pyarray(py),
+            found.reason.clone(),
+            re,
+            im,
         )
             .into_pyobject(py)
+    }
+
+    /// The linearization at (t, q, q̇) (`crate::linearize`): (t, q, qd, accelerations, M, C, K,
+    /// A, eigenvalues re, eigenvalues im).
+    fn linearize<'py>(
+        &self,
+        py: Python<'py>,
+        t: f64,
+        q: Vec<f64>,
+        qd: Vec<f64>,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        guard(|| linear::linearize_py(py, &*self.model, t, &q, &qd))
+    }
+
+    /// The modes about the equilibrium q at t (`crate::modes`), as a tuple (see `linear.rs`).
+    fn modes<'py>(&self, py: Python<'py>, t: f64, q: Vec<f64>) -> PyResult<Bound<'py, PyTuple>> {
+        guard(|| linear::modes_py(py, &*self.model, t, &q))
     }
 }
 

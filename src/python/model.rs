@@ -168,8 +168,21 @@ impl Dynamics for WithLoads<'_> {
     fn mass_matrix_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
         self.model.mass_matrix_into(t, q, qd, out)
     }
+    /// The model's q̈ plus M⁻¹ times the loads, so that an equilibrium's linearization (its
+    /// stability) sees the loads too.
     fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
-        self.model.accelerations_into(t, q, qd, out)
+        self.model.accelerations_into(t, q, qd, out)?;
+        let n = self.dof();
+        let mut loads = vec![D::zero(); n];
+        crate::GeneralizedForces::forces(self.loads, t, q, qd, &mut loads);
+        let mut m = vec![D::zero(); n * n];
+        self.model.mass_matrix_into(t, q, qd, &mut m);
+        crate::eom::factor(&mut m, n, t, q)?;
+        crate::eom::solve(&m, n, t, &mut loads)?;
+        for (a, l) in out.iter_mut().zip(&loads) {
+            *a += *l;
+        }
+        Ok(())
     }
 }
 
