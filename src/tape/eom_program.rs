@@ -319,14 +319,16 @@ impl Factors {
 /// [`ldlt_in_place`] node by node, then the two triangular solves, so that the accelerations are
 /// one call of machine code. Outputs q̈, the pivots d_j and M's diagonal; the caller checks the
 /// pivots as the factorization does ([`pivots_hold`](crate::linalg::pivots_hold)) and takes the
-/// general path, with its typed errors, when a check fails. A constant M folds to constants.
+/// general path, with its typed errors, when a check fails. A constant M folds to constants,
+/// and its pivots are checked once, when the program is bound, so then only q̈ is output.
 #[cfg(feature = "jit")]
 fn solved_graph(graph: &mut Graph, eom: &EomGraph) -> Result<Vec<usize>> {
     let factors = Factors::of(graph, eom)?;
     let accelerations = factors.solve(graph, eom.force.clone())?;
+    let checks = (!eom.constant_mass).then(|| factors.checks(eom));
     Ok(accelerations
         .into_iter()
-        .chain(factors.checks(eom))
+        .chain(checks.into_iter().flatten())
         .collect())
 }
 
@@ -618,9 +620,13 @@ impl EomProgram {
             ldlt_in_place(&mut m, n).map(|()| m.into())
         });
         // A constant singular M folds a pivot's reciprocal to a non-finite constant, which
-        // does not bind: then the general path reports it, at the first evaluation.
+        // does not bind (and the unrolled solve of a constant M, which checks no pivots, is
+        // bound only where M factors): then the general path reports it, at the first
+        // evaluation.
         #[cfg(feature = "jit")]
         let unrolled = |part: &Option<Part>| part.as_ref().and_then(|p| p.bind(params).ok());
+        #[cfg(feature = "jit")]
+        let factored = !matches!(mass_factor, Some(Err(_)));
         Ok(EomFunction {
             program: self.clone(),
             function,
@@ -630,7 +636,7 @@ impl EomProgram {
             #[cfg(feature = "jit")]
             qp_jacobian: unrolled(&self.qp_jacobian),
             #[cfg(feature = "jit")]
-            solved: unrolled(&self.solved),
+            solved: unrolled(&self.solved).filter(|_| factored),
             #[cfg(feature = "jit")]
             jacobian: unrolled(&self.jacobian),
         })
@@ -886,7 +892,15 @@ impl EomFunction {
         let n = self.program.dof;
         check_lengths(n, q, qd, out)?;
         #[cfg(feature = "jit")]
-        if let Some(solved) = &self.solved {
+        if let Some(solved) = &self.solved
+            && self.program.constant_mass
+        {
+            // Only q̈: M's pivots were checked when the program was bound.
+            solved.eval(t, q, qd, out);
+            if out.iter().all(|x| x.is_finite()) {
+                return Ok(());
+            }
+        } else if let Some(solved) = &self.solved {
             let done = with_buf::<f64, { 3 * SOLVED_MAX }, _>(3 * n, 0.0, |v| {
                 solved.eval(t, q, qd, v);
                 let (a, rest) = v.split_at(n);
