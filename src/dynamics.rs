@@ -131,11 +131,22 @@ pub trait Dynamics {
     /// The energy function (Jacobi integral) h = q̇·p − L: T + U for natural systems, conserved
     /// whenever L has no explicit t, also for velocity-dependent L.
     fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
-        let p = self.momenta(t, q, qd)?;
-        let l = self.lagrangian_at(t, q, qd)?;
-        let h = p.iter().zip(qd).map(|(p, v)| p * v).sum::<f64>() - l;
-        finite(&[h], "energy", t).map(|()| h)
+        energy_from_parts(self, t, q, qd)
     }
+}
+
+/// h = q̇·p − L from the momenta and the Lagrangian: [`Dynamics::energy`] of a system with no
+/// faster way.
+pub(crate) fn energy_from_parts<S: Dynamics + ?Sized>(
+    system: &S,
+    t: f64,
+    q: &[f64],
+    qd: &[f64],
+) -> Result<f64> {
+    let p = system.momenta(t, q, qd)?;
+    let l = system.lagrangian_at(t, q, qd)?;
+    let h = p.iter().zip(qd).map(|(p, v)| p * v).sum::<f64>() - l;
+    finite(&[h], "energy", t).map(|()| h)
 }
 
 /// Check lengths and finiteness of a state.

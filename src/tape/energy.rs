@@ -290,6 +290,14 @@ impl Dynamics for EnergyModel {
     fn derived_program(&self) -> Option<&EomFunction> {
         self.program.as_ref()
     }
+    fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
+        let Some(program) = &self.program else {
+            return crate::dynamics::energy_from_parts(self, t, q, qd);
+        };
+        crate::dynamics::check_state(self.dof(), t, q, Some(qd))?;
+        let h = program.energy(t, q, qd);
+        crate::dynamics::finite(&[h], "energy", t).map(|()| h)
+    }
 }
 
 #[cfg(test)]
@@ -744,8 +752,8 @@ mod tests {
         }
     }
 
-    /// The momenta from the derived program's own tape (machine code with `jit`), and the
-    /// energy function h = q̇·p − L built on them, are those of the energy route.
+    /// The momenta and the energy function h = q̇·p − L from the derived program's own tapes
+    /// (machine code with `jit`) are those of the energy route.
     #[test]
     fn momenta_and_energy_derived_program_every_term() {
         let (_, derived, particles) = every_term();

@@ -482,6 +482,8 @@ pub struct EomProgram {
     /// The momenta p = ∂L/∂q̇ (the energy h = q̇·p − L that `simulate` reports at every output
     /// step reads them).
     momenta: Part,
+    /// The energy function h = q̇·p − L.
+    energy: Part,
     /// p, then G: the (q, p) form of the implicit symplectic methods.
     qp_form: Part,
     /// ∂(p, G)/∂(q, q̇), column by column (up to [`SOLVED_MAX`] coordinates).
@@ -534,6 +536,7 @@ impl EomProgram {
         let outputs: Vec<usize> = eom.mass.iter().chain(&eom.force).copied().collect();
         let main = Part::new(graph, &outputs, eom.dof, params, "equations of motion")?;
         let momenta = Part::new(graph, &eom.momenta, eom.dof, params, "momenta")?;
+        let energy = Part::new(graph, &[eom.energy], eom.dof, params, "energy")?;
         let qp: Vec<usize> = eom.momenta.iter().chain(&eom.qp_force).copied().collect();
         let qp_form = Part::new(graph, &qp, eom.dof, params, "the (q, p) form")?;
         Ok(Self {
@@ -543,6 +546,7 @@ impl EomProgram {
             dof: eom.dof,
             constant_mass: eom.constant_mass,
             momenta,
+            energy,
             qp_form,
             #[cfg(feature = "jit")]
             qp_jacobian: None,
@@ -561,6 +565,7 @@ impl EomProgram {
     pub fn interpreted(self) -> Self {
         Self {
             momenta: self.momenta.interpreted(),
+            energy: self.energy.interpreted(),
             qp_form: self.qp_form.interpreted(),
             #[cfg(feature = "jit")]
             native: None,
@@ -631,6 +636,7 @@ impl EomProgram {
             program: self.clone(),
             function,
             momenta: self.momenta.bind(params)?,
+            energy: self.energy.bind(params)?,
             qp_form: self.qp_form.bind(params)?,
             mass_factor,
             #[cfg(feature = "jit")]
@@ -649,6 +655,7 @@ pub struct EomFunction {
     program: EomProgram,
     function: Function,
     momenta: BoundPart,
+    energy: BoundPart,
     qp_form: BoundPart,
     /// The LDLᵀ factor of a constant M (or why it has none).
     mass_factor: Option<std::result::Result<Arc<[f64]>, FactorFailure>>,
@@ -691,6 +698,19 @@ impl EomFunction {
             "wrong lengths"
         );
         self.momenta.eval(t, q, qd, out)
+    }
+
+    /// The energy function h = q̇·p − L at (t, q, q̇) (T + U for a natural system), one run of
+    /// its own tape.
+    ///
+    /// # Panics
+    /// If a slice has the wrong length.
+    pub fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> f64 {
+        let n = self.program.dof;
+        assert!(q.len() == n && qd.len() == n, "wrong state lengths");
+        let mut h = [0.0];
+        self.energy.eval(t, q, qd, &mut h);
+        h[0]
     }
 
     /// The (q, p) form of the implicit symplectic methods at (t, q, q̇): p = ∂L/∂q̇ into `p` and
