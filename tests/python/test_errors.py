@@ -200,7 +200,10 @@ def test_non_finite_error():
 
 def test_keyboard_interrupt_stops_simulate():
     # A helper thread sends SIGINT while simulate runs: it can only do so because simulate
-    # released the GIL, and the run must end with KeyboardInterrupt instead of finishing.
+    # released the GIL, and the run must end with KeyboardInterrupt instead of finishing. The
+    # test installs Python's SIGINT handler itself (a parent that ignores SIGINT — nohup, a
+    # background job — leaves it ignored), and the run is bounded (4e7 steps, seconds): a signal
+    # that never arrives fails the test instead of hanging it.
     model = lg.scenes.double_pendulum(1.0, 1.0, 1.0, 1.0, 9.81)
     sent = threading.Event()
 
@@ -209,11 +212,15 @@ def test_keyboard_interrupt_stops_simulate():
         sent.set()
         os.kill(os.getpid(), signal.SIGINT)
 
-    threading.Thread(target=interrupt).start()
-    with pytest.raises(KeyboardInterrupt):
-        model.simulate([1.0, 0.5], [0.0, 0.0], 1e9, method="rk4", dt=1e-3, t_eval=[1e9],
-                       max_steps=10**13)
-    assert sent.is_set()
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        threading.Thread(target=interrupt, daemon=True).start()
+        with pytest.raises(KeyboardInterrupt):
+            model.simulate([1.0, 0.5], [0.0, 0.0], 4e4, method="rk4", dt=1e-3, t_eval=[4e4],
+                           max_steps=10**8)
+        assert sent.is_set()
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def test_errors_leave_the_model_usable(osc):
