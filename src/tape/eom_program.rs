@@ -236,8 +236,8 @@ const SOLVED_MAX: usize = 16;
 /// instructions: Cranelift's time grows faster than the tapes (measured on the pendulum chain,
 /// both Jacobians: n = 2 1.0 ms, n = 4 11 ms, n = 8 80 ms, n = 16 270 ms), while a Jacobian
 /// from dual numbers over the derived program saves little more than that over a run of a
-/// thousand Jacobians (double pendulum: 672 ns on dual numbers, 146 ns compiled; n = 16: 249
-/// and 16 µs). Larger systems take their Jacobians from dual numbers.
+/// thousand Jacobians (double pendulum: 680 ns on dual numbers, 93–146 ns compiled; n = 16:
+/// 245 and 16 µs). Larger systems take their Jacobians from dual numbers.
 #[cfg(feature = "jit")]
 const JACOBIAN_DOF_MAX: usize = 8;
 
@@ -356,7 +356,7 @@ fn jacobian_graph(graph: &mut Graph, eom: &EomGraph) -> Result<Vec<usize>> {
     let accelerations = factors.solve(graph, eom.force.clone())?;
     let roots: Vec<usize> = eom.mass.iter().chain(&eom.force).copied().collect();
     let zero = graph.constant(0.0);
-    let mut outputs = Vec::with_capacity(2 * n * n + 2 * n);
+    let mut outputs = Vec::with_capacity(2 * n * n + 3 * n);
     for j in 0..2 * n {
         let seeds = state_seed(graph, n, j);
         let d = tangents(graph, &roots, &seeds)?;
@@ -479,20 +479,20 @@ pub struct EomProgram {
     /// then the interpreter runs it (same results, bit for bit).
     #[cfg(feature = "jit")]
     native: Option<Arc<super::NativeTape>>,
-    /// The momenta p = ∂L/∂q̇ (the energy h = q̇·p − L that `simulate` reports at every output
-    /// step reads them).
+    /// The momenta p = ∂L/∂q̇.
     momenta: Part,
-    /// The energy function h = q̇·p − L.
+    /// The energy function h = q̇·p − L, which `simulate` reports at every output step.
     energy: Part,
     /// p, then G: the (q, p) form of the implicit symplectic methods.
     qp_form: Part,
-    /// ∂(p, G)/∂(q, q̇), column by column (up to [`SOLVED_MAX`] coordinates).
+    /// ∂(p, G)/∂(q, q̇), column by column (small systems, see [`JACOBIAN_DOF_MAX`]).
     #[cfg(feature = "jit")]
     qp_jacobian: Option<Part>,
     /// q̈ with the solve unrolled, as machine code (up to [`SOLVED_MAX`] coordinates).
     #[cfg(feature = "jit")]
     solved: Option<Part>,
-    /// ∂q̈/∂(q, q̇) with the solves unrolled, as machine code ([`jacobian_graph`]).
+    /// ∂q̈/∂(q, q̇) with the solves unrolled, as machine code ([`jacobian_graph`]; small
+    /// systems, see [`JACOBIAN_DOF_MAX`]).
     #[cfg(feature = "jit")]
     jacobian: Option<Part>,
 }
