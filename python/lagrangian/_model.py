@@ -11,7 +11,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _lagrangian
-from ._expr import Coordinate, Expr, ExprLike, Node, deserialize, serialize
+from ._expr import Coordinate, Expr, ExprLike, Node, Parameter, deserialize, serialize
 from ._linear import Equilibrium, Linearization, Modes
 from ._solution import Solution
 from ._validate import (
@@ -885,7 +885,7 @@ class Model:
                 f"inputs must be a sequence of parameter names, such as inputs=['F'], "
                 f"got {inputs!r}"
             )
-        names = tuple(k.name if isinstance(k, Expr) and k.op == "param" else k for k in inputs)
+        names = tuple(k.name if isinstance(k, Parameter) else k for k in inputs)
         if self._kinetic is None and self._positions is None:
             raise ValueError(
                 "inputs= needs a model stated by its expressions: a ready-made scene is written "
