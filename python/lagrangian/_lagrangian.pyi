@@ -142,20 +142,30 @@ class NativeModel:
         """(q, residual, iterations, stability, eigenvalues of K's symmetric part, K, reason,
         spectrum re, spectrum im); the spectrum is None where M is singular."""
     def linearize(
-        self, t: float, q: Sequence[float], qd: Sequence[float]
+        self,
+        t: float,
+        q: Sequence[float],
+        qd: Sequence[float],
+        inputs: Optional[Sequence[int]] = None,
+        params: Sequence[float] = ...,
     ) -> Tuple[
-        float,
-        _FloatArray,
-        _FloatArray,
-        _FloatArray,
-        _FloatArray,
-        _FloatArray,
-        _FloatArray,
-        _FloatArray,
-        _FloatArray,
-        _FloatArray,
+        Tuple[
+            float,
+            _FloatArray,
+            _FloatArray,
+            _FloatArray,
+            _FloatArray,
+            _FloatArray,
+            _FloatArray,
+            _FloatArray,
+            _FloatArray,
+            _FloatArray,
+        ],
+        Optional[_FloatArray],
     ]:
-        """(t, q, qd, accelerations, M, C, K, A, eigenvalues re, eigenvalues im)."""
+        """((t, q, qd, accelerations, M, C, K, A, eigenvalues re, eigenvalues im), B): B =
+        ∂ẋ/∂u (2 dof × len(inputs)) for the parameters of indices ``inputs`` at the values
+        ``params``, None without ``inputs``; ValueError for a scene written in Rust."""
     def modes(self, t: float, q: Sequence[float]) -> Tuple[Any, ...]:
         """(problem, frequencies, ω², damping ratios, shapes re, shapes im, eigenvalues re,
         eigenvalues im, stability, reason, linearization tuple)."""

@@ -5,7 +5,7 @@ about a state (``Linearization``, from ``Model.linearize``) and the modes of an 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Optional, Sequence
+from typing import Any, Optional, Sequence, Tuple
 
 import numpy as np
 import numpy.typing as npt
@@ -89,6 +89,13 @@ class Linearization:
         State matrix [[0, I], [∂q̈/∂q, ∂q̈/∂q̇]].
     eigenvalues : numpy.ndarray, complex
         Eigenvalues of ``A``, by magnitude, then imaginary part.
+    B : numpy.ndarray, shape (2 dof, len(inputs)), or None
+        Input matrix ∂ẋ/∂u for the parameters named in ``inputs`` (``linearize(...,
+        inputs=[...])``), so that δẋ = A δx + B δu: zero rows for q, ∂q̈/∂uⱼ in the rows of q̇,
+        exact (differentiated on the expression graph, M⁻¹ (∂f/∂u − (∂M/∂u) q̈)); ``None`` when
+        no inputs were asked for.
+    inputs : tuple of str
+        The parameter names of the columns of ``B`` (empty without ``B``).
     """
 
     t: float
@@ -100,9 +107,13 @@ class Linearization:
     K: FloatArray
     A: FloatArray
     eigenvalues: ComplexArray
+    B: Optional[FloatArray] = None
+    inputs: Tuple[str, ...] = ()
 
     @classmethod
-    def _from_native(cls, raw: Sequence[Any]) -> "Linearization":
+    def _from_native(
+        cls, raw: Sequence[Any], b: Any = None, inputs: Sequence[str] = ()
+    ) -> "Linearization":
         t, q, qd, acc, m, c, k, a, re, im = raw
         return cls(
             t=float(t),
@@ -114,6 +125,8 @@ class Linearization:
             K=np.asarray(k),
             A=np.asarray(a),
             eigenvalues=_complex(re, im),
+            B=None if b is None else np.asarray(b),
+            inputs=tuple(inputs),
         )
 
 

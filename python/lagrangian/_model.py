@@ -11,7 +11,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _lagrangian
-from ._expr import Coordinate, Expr, ExprLike, Node, deserialize, serialize
+from ._expr import Coordinate, Expr, ExprLike, Node, Parameter, deserialize, serialize
 from ._linear import Equilibrium, Linearization, Modes
 from ._solution import Solution
 from ._validate import (
@@ -799,11 +799,15 @@ class Model:
         )
 
     def linearize(
-        self, q: ArrayLike, qd: Optional[ArrayLike] = None, t: float = 0.0
+        self,
+        q: ArrayLike,
+        qd: Optional[ArrayLike] = None,
+        t: float = 0.0,
+        inputs: Optional[Sequence[str]] = None,
     ) -> Linearization:
         """The equations of motion linearized about the state (t, q, q̇)::
 
-            M (q̈ − a₀) + C δq̇ + K δq = 0,    δẋ = A δx,  x = (q, q̇)
+            M (q̈ − a₀) + C δq̇ + K δq = 0,    δẋ = A δx (+ B δu),  x = (q, q̇)
 
         M, C = −M ∂q̈/∂q̇ (damping, gyroscopic and Coriolis terms), K = −M ∂q̈/∂q (stiffness,
         centrifugal part included) and the 2n × 2n state matrix A are exact — automatic
@@ -816,6 +820,24 @@ class Model:
         >>> lin.K.tolist()
         [[50.0, -20.0], [-20.0, 20.0]]
 
+        With ``inputs``, parameters of the model (by name) are inputs u and the linearization
+        has the input matrix ``B`` = ∂ẋ/∂u too (2n × len(inputs): zero rows for q, ∂q̈/∂uⱼ in
+        the rows of q̇), exact — differentiated on the expression graph, whether a parameter
+        enters a generalized force, the potential or M itself. A pendulum driven by a torque τ:
+
+        >>> th, = lg.coordinates("theta")
+        >>> m, l, g, tau = lg.parameters("m l g tau")
+        >>> model = lg.Model(
+        ...     [th],
+        ...     kinetic=m * l**2 * th.d**2 / 2,
+        ...     potential=-m * g * l * lg.cos(th),
+        ...     forces=[tau],
+        ...     parameters={m: 2.0, l: 0.5, g: 9.81, tau: 0.0},
+        ... )
+        >>> lin = model.linearize([0.0], inputs=["tau"])
+        >>> lin.B.tolist()  # ∂θ̈/∂τ = 1/(m l²)
+        [[0.0], [2.0]]
+
         Parameters
         ----------
         q : array_like, shape (dof,)
@@ -824,18 +846,64 @@ class Model:
             Velocities (default zero).
         t : float
             Time.
+        inputs : sequence of str, optional
+            Names of parameters (``parameters={...}`` of the model; a ``Parameter`` stands for
+            its name) to take as inputs; the columns of ``B``, in this order. Without it ``B``
+            is ``None``.
 
         Raises
         ------
         ValueError
-            For bad input.
+            For bad input: an input that is not a parameter of the model, inputs for a model
+            without parameters, or for a ready-made scene of :mod:`lagrangian.scenes` (written in
+            Rust: state it as a ``Model`` with ``parameters=`` to differentiate by them).
         SingularMassMatrixError
             Where M cannot be inverted.
         """
         n = self.dof
         qv = vector("q", q, n).tolist()
         qdv = [0.0] * n if qd is None else vector("qd", qd, n).tolist()
-        return Linearization._from_native(self._native.linearize(real("t", t), qv, qdv))
+        at = real("t", t)
+        if inputs is None:
+            raw, _ = self._native.linearize(at, qv, qdv)
+            return Linearization._from_native(raw)
+        names = self._input_names(inputs)
+        order = list(self._parameters)
+        raw, b = self._native.linearize(
+            at,
+            qv,
+            qdv,
+            inputs=[order.index(k) for k in names],
+            params=[float(v) for v in self._parameters.values()],
+        )
+        return Linearization._from_native(raw, b, names)
+
+    def _input_names(self, inputs: object) -> Tuple[str, ...]:
+        """The parameter names ``inputs`` of :meth:`linearize`, checked."""
+        if isinstance(inputs, str) or not isinstance(inputs, (Sequence, np.ndarray)):
+            raise TypeError(
+                f"inputs must be a sequence of parameter names, such as inputs=['F'], "
+                f"got {inputs!r}"
+            )
+        names = tuple(k.name if isinstance(k, Parameter) else k for k in inputs)
+        if self._kinetic is None and self._positions is None:
+            raise ValueError(
+                "inputs= needs a model stated by its expressions: a ready-made scene is written "
+                "in Rust and has none to differentiate; state it as lg.Model(..., "
+                "parameters={...}) and name those parameters as inputs"
+            )
+        if not self._parameters:
+            raise ValueError(
+                "the model has no parameters to take as inputs: give it parameters={name: "
+                "value} (lg.parameters) where the inputs enter, and name them in inputs="
+            )
+        for k in names:
+            if not isinstance(k, str) or k not in self._parameters:
+                raise ValueError(
+                    f"unknown input {k!r}: inputs are parameter names; the model's parameters "
+                    f"are {', '.join(self._parameters)}"
+                )
+        return names
 
     def modes(self, q_eq: ArrayLike, t: float = 0.0) -> Modes:
         """The modes of small oscillation about the equilibrium ``q_eq`` (at rest, time ``t``):

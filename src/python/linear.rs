@@ -2,10 +2,12 @@
 //! NumPy arrays, complex values as separate real and imaginary arrays (assembled in
 //! `python/lagrangian/_linear.py`).
 
+use super::model::Compiled;
 use crate::{Dynamics, Linearization, ModeProblem, Modes, Stability, linearize, modes};
 use nalgebra::{Complex, DMatrix, DVector};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 
@@ -54,16 +56,30 @@ fn linearization_tuple<'py>(py: Python<'py>, lin: &Linearization) -> PyResult<Bo
         .into_pyobject(py)
 }
 
-/// [`linearize`] as a tuple (see `linearization_tuple`).
+/// [`linearize`] as a pair: the tuple of `linearization_tuple`, and B = ∂ẋ/∂u for the
+/// parameters `inputs` (indices; `None` for no B), which only a model with an expression graph
+/// (`compiled`) can give.
 pub(super) fn linearize_py<'py, S: Dynamics + ?Sized>(
     py: Python<'py>,
     system: &S,
-    t: f64,
-    q: &[f64],
-    qd: &[f64],
+    compiled: Option<&Compiled>,
+    (t, q, qd): (f64, &[f64], &[f64]),
+    inputs: Option<(&[usize], &[f64])>,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let lin = linearize(system, t, q, qd)?;
-    linearization_tuple(py, &lin)
+    let b = match inputs {
+        None => None,
+        Some((inputs, params)) => {
+            let compiled = compiled.ok_or_else(|| {
+                PyValueError::new_err(
+                    "inputs= needs a model stated in Python (lg.Model with parameters=...): a \
+                     ready-made scene is written in Rust and has no expressions to differentiate",
+                )
+            })?;
+            Some(matrix(py, &compiled.input_matrix(params, inputs, &lin)?))
+        }
+    };
+    (linearization_tuple(py, &lin)?, b).into_pyobject(py)
 }
 
 /// [`modes`] as a tuple: (problem, frequencies, ω², damping ratios, shapes re, shapes im,

@@ -561,16 +561,24 @@ impl PyModel {
             .into_pyobject(py)
     }
 
-    /// The linearization at (t, q, q̇) (`crate::linearize`): (t, q, qd, accelerations, M, C, K,
-    /// A, eigenvalues re, eigenvalues im).
+    /// The linearization at (t, q, q̇) (`crate::linearize`) as a pair: (t, q, qd,
+    /// accelerations, M, C, K, A, eigenvalues re, eigenvalues im), and B = ∂ẋ/∂u for the
+    /// parameters of indices `inputs` at the values `params` (`None` without `inputs`).
+    #[pyo3(signature = (t, q, qd, inputs=None, params=Vec::new()))]
     fn linearize<'py>(
         &self,
         py: Python<'py>,
         t: f64,
         q: Vec<f64>,
         qd: Vec<f64>,
+        inputs: Option<Vec<usize>>,
+        params: Vec<f64>,
     ) -> PyResult<Bound<'py, PyTuple>> {
-        guard(|| linear::linearize_py(py, &*self.model, t, &q, &qd))
+        guard(|| {
+            let inputs = inputs.as_deref().map(|i| (i, params.as_slice()));
+            let compiled = self.compiled.as_deref();
+            linear::linearize_py(py, &*self.model, compiled, (t, &q, &qd), inputs)
+        })
     }
 
     /// The modes about the equilibrium q at t (`crate::modes`), as a tuple (see `linear.rs`).

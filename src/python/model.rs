@@ -210,6 +210,9 @@ pub(crate) struct Compiled {
     /// Eq. 55 derived on the expression graph (M and the force vector as one tape), for a model
     /// stated by its kinetic energy: the accelerations at `f64` states with no dual numbers.
     pub(crate) eom: Option<EomProgram>,
+    /// The expression graph and the energies' nodes in it, kept for what is derived on request:
+    /// the input matrix B of a linearization ([`crate::tape::input_matrix`]).
+    pub(crate) energies: Option<(Arc<Graph>, Energies)>,
 }
 
 /// What runs a model's derived eq. 55 program at `f64` states, as Python names it
@@ -400,6 +403,7 @@ impl Compiled {
             }
             _ => (None, None),
         };
+        let mut energies = None;
         let eom = match kinetic_node {
             Some(k) => {
                 let parts = Energies {
@@ -416,6 +420,7 @@ impl Compiled {
                         .transpose()?,
                 };
                 let program = EomProgram::new(&mut g, dof, params, &parts)?;
+                energies = Some(parts);
                 Some(match spec.backend {
                     Backend::Native => program,
                     Backend::Interpreter => program.interpreted(),
@@ -432,7 +437,24 @@ impl Compiled {
             forces,
             particles,
             eom,
+            energies: energies.map(|parts| (Arc::new(g), parts)),
         })
+    }
+
+    /// B = ∂ẋ/∂u at the operating point of `lin`, for the parameters `inputs` (indices) at the
+    /// values `params` ([`crate::tape::input_matrix`]).
+    pub(crate) fn input_matrix(
+        &self,
+        params: &[f64],
+        inputs: &[usize],
+        lin: &crate::Linearization,
+    ) -> Result<nalgebra::DMatrix<f64>> {
+        let Some((graph, parts)) = &self.energies else {
+            return Err(bad(
+                "the model has no equations of motion to differentiate".into()
+            ));
+        };
+        crate::tape::input_matrix(graph, parts, params, inputs, lin)
     }
 
     /// The system at these parameter values.

@@ -4,7 +4,7 @@
 //! built, and compiled once into a tape instead of re-derived by dual numbers at every call.
 //!
 //! A sweep is seeded by the tangents of the inputs ([`Seeds`]: q̇ⱼ ↦ 1 for ∂/∂q̇ⱼ, or qⱼ ↦ q̇ⱼ and
-//! t ↦ 1 for the derivative along the motion). A node none of whose operands has a tangent has
+//! t ↦ 1 for the derivative along the motion, or a parameter ↦ 1 for ∂/∂pᵢ). A node none of whose operands has a tangent has
 //! none either (`None`, an exact zero), so a subgraph that does not read a seeded input costs
 //! nothing. Construction simplifies 0·x, 1·x, x ± 0, −(−x) and operations on numbers; parameters
 //! stay symbolic (they are bound later, by [`Function::new`](super::Function::new)).
@@ -41,6 +41,13 @@ impl Seeds {
     /// q̇ᵢ ↦ `tangent` (a node).
     pub fn velocity(mut self, i: usize, tangent: usize) -> Self {
         self.seeds.push((Node::Velocity(i), tangent));
+        self
+    }
+
+    /// Parameter i ↦ `tangent` (a node): derivatives with respect to a parameter, such as the
+    /// input matrix B of a linearization ([`input_matrix`](super::input_matrix)).
+    pub fn param(mut self, i: usize, tangent: usize) -> Self {
+        self.seeds.push((Node::Param(i), tangent));
         self
     }
 
@@ -104,8 +111,8 @@ pub fn tangents(graph: &mut Graph, roots: &[usize], seeds: &Seeds) -> Result<Vec
     for i in (0..=top).filter(|&i| live[i]) {
         let node = s.0.nodes()[i];
         d[i] = match node {
-            Node::Const(_) | Node::Param(_) => None,
-            Node::Time | Node::Coord(_) | Node::Velocity(_) => seeds.of(node),
+            Node::Const(_) => None,
+            Node::Param(_) | Node::Time | Node::Coord(_) | Node::Velocity(_) => seeds.of(node),
             Node::Unary(f, a) => match d[a] {
                 None => None,
                 Some(da) => s.unary_tangent(f, a, i, da)?,
@@ -615,5 +622,22 @@ mod tests {
         assert!(d[1].is_some());
         let seeds = Seeds::new().velocity(0, one);
         assert_eq!(tangents(&mut g, &[sq], &seeds).unwrap(), vec![None]);
+    }
+
+    #[test]
+    fn parameter_seeds_differentiate_by_a_parameter() {
+        // d/dp of p · sin q is sin q; of q alone, an exact zero; of another parameter, zero.
+        let mut g = Graph::new();
+        let q = g.coord(0);
+        let p = g.param(0);
+        let other = g.param(1);
+        let s = g.unary(Unary::Sin, q).unwrap();
+        let ps = g.binary(Binary::Mul, p, s).unwrap();
+        let one = g.constant(1.0);
+        let seeds = Seeds::new().param(0, one);
+        assert_eq!(
+            tangents(&mut g, &[ps, q, other], &seeds).unwrap(),
+            vec![Some(s), None, None]
+        );
     }
 }

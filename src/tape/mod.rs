@@ -84,6 +84,7 @@ pub mod models;
 #[cfg(feature = "jit")]
 mod native;
 mod particles;
+mod sensitivity;
 
 use compile::Input;
 pub use compile::{Inputs, Tape};
@@ -95,3 +96,4 @@ pub use graph::{Binary, Graph, Node, Unary};
 #[cfg(feature = "jit")]
 pub use native::{NativeFunction, NativeTape};
 pub use particles::TapeParticles;
+pub use sensitivity::input_matrix;

@@ -211,3 +211,142 @@ def test_gyroscopic_stabilization(eb, verdict, word):
         disc = math.sqrt(b * b - 4 * k * k)
         assert_allclose(modes.frequencies, np.sqrt([(b - disc) / 2, (b + disc) / 2]), rtol=1e-12)
         assert modes.problem == "state_space" and np.iscomplexobj(modes.shapes)
+
+
+# -- the input matrix B = ∂ẋ/∂u for parameters named as inputs -------------------------------
+
+
+def forced_two_mass_dsl(m1=1.0, m2=2.0, k1=30.0, k2=20.0, f1=3.0, f2=-1.5, om=2.0):
+    """The seed's two masses (eq. 41–44) forced by F cos Ωt, with F1, F2 and Ω as parameters."""
+    x1, x2 = lg.coordinates("x1 x2")
+    F1, F2, Om = lg.parameters("F1 F2 Om")
+    drive = lg.cos(Om * lg.t)
+    return lg.Model(
+        coordinates=[x1, x2],
+        kinetic=0.5 * m1 * x1.d**2 + 0.5 * m2 * x2.d**2,
+        potential=0.5 * k1 * x1**2 + 0.5 * k2 * (x2 - x1) ** 2,
+        forces=[F1 * drive, F2 * drive],
+        parameters={F1: f1, F2: f2, Om: om},
+    )
+
+
+def test_forced_two_mass_input_matrix_is_m_inverse_dq_du():
+    m1, m2, f1, f2, om, t = 1.0, 2.0, 3.0, -1.5, 2.0, 0.7
+    model = forced_two_mass_dsl(m1=m1, m2=m2, f1=f1, f2=f2, om=om)
+    lin = model.linearize([0.1, -0.2], [0.4, 0.3], t=t, inputs=["F2", "F1", "Om"])
+    assert lin.inputs == ("F2", "F1", "Om")
+    assert lin.B is not None and lin.B.shape == (4, 3)
+    assert np.all(lin.B[:2] == 0.0)
+    c, s = math.cos(om * t), math.sin(om * t)
+    # ∂q̈/∂F = M⁻¹ ∂Q/∂F, M = diag(m1, m2); ∂Q/∂Ω = −F t sin Ωt.
+    expected = [[0.0, c / m1, -f1 * t * s / m1], [c / m2, 0.0, -f2 * t * s / m2]]
+    assert_allclose(lin.B[2:], expected, rtol=1e-14, atol=1e-15)
+    # The rest of the linearization is the one without inputs.
+    plain = model.linearize([0.1, -0.2], [0.4, 0.3], t=t)
+    assert plain.B is None and plain.inputs == ()
+    assert_allclose(lin.A, plain.A, rtol=0, atol=0)
+
+
+def pendulum_with_torque(m=1.4, l=0.6, g=9.81, tau=0.8, c=0.3):
+    """A damped pendulum driven by a torque τ: q̈ = (τ − c θ̇)/(m l²) − (g/l) sin θ; the mass m
+    enters M, the input τ the force."""
+    th, = lg.coordinates("th")
+    pm, pl, pg, ptau, pc = lg.parameters("m l g tau c")
+    return lg.Model(
+        coordinates=[th],
+        kinetic=0.5 * pm * pl**2 * th.d**2,
+        potential=-pm * pg * pl * lg.cos(th),
+        dissipation=0.5 * pc * th.d**2,
+        forces=[ptau],
+        parameters={pm: m, pl: l, pg: g, ptau: tau, pc: c},
+    )
+
+
+@pytest.mark.parametrize("theta, omega", [(0.0, 0.0), (0.4, 0.0), (2.5, -1.7)])
+def test_pendulum_input_matrix_closed_forms(theta, omega):
+    m, l, g, tau, c = 1.4, 0.6, 9.81, 0.8, 0.3
+    lin = pendulum_with_torque(m, l, g, tau, c).linearize([theta], [omega], inputs=["g", "tau", "m"])
+    assert lin.B is not None
+    assert_allclose(lin.B[0], [0.0, 0.0, 0.0], atol=0)
+    dg = -math.sin(theta) / l
+    dtau = 1.0 / (m * l**2)
+    # m is inside M: M⁻¹ (∂f/∂m − (∂M/∂m) q̈) = −(τ − c θ̇)/(m² l²).
+    dm = -(tau - c * omega) / (m**2 * l**2)
+    assert_allclose(lin.B[1], [dg, dtau, dm], rtol=1e-14, atol=1e-15)
+
+
+def central_differences(model, names, t, q, qd, h=1e-5):
+    """∂q̈/∂u by central differences of the accelerations of the rebound model."""
+    columns = []
+    for k in names:
+        u = model.parameters[k]
+        up = model.with_parameters(**{k: u + h}).accelerations(t, q, qd)
+        down = model.with_parameters(**{k: u - h}).accelerations(t, q, qd)
+        columns.append((up - down) / (2 * h))
+    return np.array(columns).T
+
+
+@pytest.mark.parametrize("backend", ["native", "interpreter"])
+def test_double_pendulum_input_matrix_against_finite_differences(backend):
+    from conftest import double_pendulum_dsl
+
+    model = double_pendulum_dsl()
+    if backend == "interpreter":
+        model = lg.Model(
+            coordinates=list(model.coordinates),
+            kinetic=model.kinetic,
+            potential=model.potential,
+            parameters=model.parameters,
+            backend="interpreter",
+        )
+    names = ["m1", "m2", "l1", "l2", "g"]
+    q, qd = [0.7, -1.1], [1.3, -0.4]
+    lin = model.linearize(q, qd, inputs=names)
+    assert lin.B is not None and lin.B.shape == (4, 5)
+    assert np.all(lin.B[:2] == 0.0)
+    fd = central_differences(model, names, 0.0, q, qd)
+    assert_allclose(lin.B[2:], fd, rtol=1e-7, atol=1e-7)
+    assert np.abs(lin.B[2:, :4]).min() > 1e-3  # every parameter moves the accelerations
+
+
+def test_particle_route_masses_as_inputs_against_finite_differences():
+    # Two masses on a rotating rod (the particle route, T derived from positions): the masses
+    # enter M through the derived T, the drive amplitude a force.
+    r, th = lg.coordinates("r th")
+    m1, m2, k, a = lg.parameters("m1 m2 k a")
+    p1 = (r * lg.cos(th), r * lg.sin(th))
+    p2 = (2 * r * lg.cos(th), 2 * r * lg.sin(th))
+    model = lg.Model(
+        coordinates=[r, th],
+        positions=[p1, p2],
+        masses=[m1, m2],
+        potential=0.5 * k * (r - 1.0) ** 2,
+        forces=[0.0, a * lg.sin(3.0 * lg.t)],
+        parameters={m1: 0.8, m2: 1.3, k: 12.0, a: 0.9},
+    )
+    names = ["m1", "m2", "k", "a"]
+    t, q, qd = 0.4, [1.2, 0.3], [0.5, -0.9]
+    lin = model.linearize(q, qd, t=t, inputs=names)
+    fd = central_differences(model, names, t, q, qd)
+    assert_allclose(lin.B[2:], fd, rtol=1e-7, atol=1e-7)
+    # ∂θ̈/∂a = sin 3t / (m1 r² + 4 m2 r²), exactly.
+    assert_allclose(lin.B[3, 3], math.sin(3.0 * t) / ((0.8 + 4 * 1.3) * 1.2**2), rtol=1e-14)
+
+
+def test_bad_inputs():
+    model = pendulum_with_torque()
+    with pytest.raises(ValueError, match="unknown input 'F'.*m, l, g, tau, c"):
+        model.linearize([0.1], inputs=["F"])
+    with pytest.raises(TypeError, match="sequence of parameter names"):
+        model.linearize([0.1], inputs="tau")
+    th, = lg.coordinates("th")
+    bare = lg.Model(coordinates=[th], kinetic=0.5 * th.d**2, potential=0.5 * th**2)
+    with pytest.raises(ValueError, match="no parameters"):
+        bare.linearize([0.1], inputs=["k"])
+    with pytest.raises(ValueError, match="ready-made scene"):
+        lg.scenes.simple_pendulum().linearize([0.1], inputs=["g"])
+    # A Parameter stands for its name; no inputs at all give an empty B.
+    tau, = lg.parameters("tau")
+    assert model.linearize([0.1], inputs=[tau]).inputs == ("tau",)
+    empty = model.linearize([0.1], inputs=[])
+    assert empty.B is not None and empty.B.shape == (2, 0)
