@@ -422,6 +422,9 @@ pub fn solve<S: Dynamics + ?Sized>(
 ///
 /// # Errors
 /// Those of [`solve`], as [`Failed`].
+// `Failed` is a few hundred bytes (the error, the partial solution's vectors and the last
+// state), returned once per run: nothing beside the integration.
+#[allow(clippy::result_large_err)]
 pub fn solve_partial<S: Dynamics + ?Sized>(
     system: &S,
     q0: &[f64],
@@ -459,7 +462,7 @@ pub fn solve_with_interrupt<S: Dynamics + ?Sized>(
     .map_err(|f| f.error)
 }
 
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments, clippy::result_large_err)]
 fn solve_inner<S: Dynamics + ?Sized>(
     system: &S,
     q0: &[f64],

@@ -419,69 +419,69 @@ impl PyModel {
         let model = self.model.clone();
         let pending: Mutex<Option<PyErr>> = Mutex::new(None);
         let outcome = py.detach(|| {
-            catch_unwind(AssertUnwindSafe(|| -> Result<_, (Failed, Vec<f64>)> {
-                let calls = Cell::new(0u32);
-                let last = Cell::new(Instant::now());
-                let stopped = Cell::new(false);
-                // Poll Python's signal handlers (Ctrl-C) every 20 ms, looking at the clock only
-                // every 16 evaluations.
-                let interrupt = |_t: f64| -> bool {
-                    if stopped.get() {
-                        return true;
+            catch_unwind(AssertUnwindSafe(
+                || -> Result<_, Box<(Failed, Vec<f64>)>> {
+                    let calls = Cell::new(0u32);
+                    let last = Cell::new(Instant::now());
+                    let stopped = Cell::new(false);
+                    // Poll Python's signal handlers (Ctrl-C) every 20 ms, looking at the clock only
+                    // every 16 evaluations.
+                    let interrupt = |_t: f64| -> bool {
+                        if stopped.get() {
+                            return true;
+                        }
+                        let k = calls.get().wrapping_add(1);
+                        calls.set(k);
+                        if !k.is_multiple_of(16) || last.get().elapsed() < Duration::from_millis(20)
+                        {
+                            return false;
+                        }
+                        last.set(Instant::now());
+                        if let Err(e) = Python::attach(|py| py.check_signals()) {
+                            *pending.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
+                            stopped.set(true);
+                        }
+                        stopped.get()
+                    };
+                    let energy = |sol: &Solution| {
+                        (0..sol.len())
+                            .map(|i| model.energy(sol.t[i], sol.q_at(i), sol.qd_at(i)))
+                            .collect::<Result<Vec<f64>, Error>>()
+                    };
+                    match solve_partial(
+                        &*model,
+                        &q0,
+                        &qd0,
+                        (t0, t_end),
+                        method,
+                        &options,
+                        Some(&interrupt),
+                    ) {
+                        Ok(sol) => match energy(&sol) {
+                            Ok(h) => Ok((sol, h)),
+                            Err(e) => Err(Box::new((e.into(), Vec::new()))),
+                        },
+                        Err(failed) => {
+                            // The partial trajectory's energy, NaN where it cannot be evaluated.
+                            let h = failed.partial.as_ref().map_or_else(Vec::new, |sol| {
+                                energy(sol).unwrap_or_else(|_| vec![f64::NAN; sol.len()])
+                            });
+                            Err(Box::new((failed, h)))
+                        }
                     }
-                    let k = calls.get().wrapping_add(1);
-                    calls.set(k);
-                    if !k.is_multiple_of(16) || last.get().elapsed() < Duration::from_millis(20) {
-                        return false;
-                    }
-                    last.set(Instant::now());
-                    if let Err(e) = Python::attach(|py| py.check_signals()) {
-                        *pending.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
-                        stopped.set(true);
-                    }
-                    stopped.get()
-                };
-                let energy = |sol: &Solution| {
-                    (0..sol.len())
-                        .map(|i| model.energy(sol.t[i], sol.q_at(i), sol.qd_at(i)))
-                        .collect::<Result<Vec<f64>, Error>>()
-                };
-                match solve_partial(
-                    &*model,
-                    &q0,
-                    &qd0,
-                    (t0, t_end),
-                    method,
-                    &options,
-                    Some(&interrupt),
-                ) {
-                    Ok(sol) => match energy(&sol) {
-                        Ok(h) => Ok((sol, h)),
-                        Err(e) => Err((e.into(), Vec::new())),
-                    },
-                    Err(failed) => {
-                        // The partial trajectory's energy, NaN where it cannot be evaluated.
-                        let h = failed.partial.as_ref().map_or_else(Vec::new, |sol| {
-                            energy(sol).unwrap_or_else(|_| vec![f64::NAN; sol.len()])
-                        });
-                        Err((failed, h))
-                    }
-                }
-            }))
+                },
+            ))
         });
         let (sol, energy) = match outcome {
             Err(panic) => return Err(panic_error(panic)),
-            Ok(Err((
-                Failed {
-                    error: Error::Interrupted { t },
-                    ..
-                },
-                _,
-            ))) => {
-                let e = pending.lock().unwrap_or_else(|p| p.into_inner()).take();
-                return Err(e.unwrap_or_else(|| Error::Interrupted { t }.into()));
+            Ok(Err(failed)) => {
+                let (failed, energy) = *failed;
+                if let Error::Interrupted { t } = failed.error {
+                    let e = pending.lock().unwrap_or_else(|p| p.into_inner()).take();
+                    return Err(e.unwrap_or_else(|| Error::Interrupted { t }.into()));
+                }
+                return Err(error::with_partial(py, failed, energy, n));
             }
-            Ok(Err((failed, energy))) => return Err(error::with_partial(py, failed, energy, n)),
             Ok(Ok(done)) => done,
         };
         solution_tuple(py, sol, energy, n).map(Some)
