@@ -33,7 +33,8 @@
 //! [`Error::UnstableStep`] before a fixed-step explicit run whose `dt` lies outside the method's
 //! stability region for a mode of the system linearised at the start (a stiff spring under RK4
 //! or Störmer–Verlet: refused with the largest stable `dt`, never a silently exploding answer),
-//! and [`Error::NewtonFailure`] when an implicit step cannot be solved.
+//! and [`Error::NewtonFailure`] when an implicit step cannot be solved. [`solve_partial`] keeps
+//! what a failed run computed: [`Failed`] carries the trajectory up to the last accepted step.
 //!
 //! A new method is one file implementing the crate's internal `Integrator` trait and one line in
 //! its registry (`src/integrators/mod.rs`).
