@@ -7,6 +7,8 @@ import numpy as np
 import numpy.typing as npt
 from typing import final
 
+from ._solution import Solution
+
 __all__ = [
     "ConvergenceError",
     "LagrangianError",
@@ -33,7 +35,17 @@ _FloatArray = npt.NDArray[np.float64]
 _RawNode = Tuple[str, float, int, int]
 
 class LagrangianError(RuntimeError):
-    """Base class of the failures of the mathematics."""
+    """Base class of the failures of the mathematics. A failure of ``simulate`` during the run
+    carries the partial solution (``solution``) and the last accepted state (``t``, ``q``,
+    ``qd``); all are ``None`` otherwise."""
+
+    solution: Optional[Solution]
+    t: Optional[float]
+    q: Optional[_FloatArray]
+    qd: Optional[_FloatArray]
+    _partial: Optional[
+        Tuple[_FloatArray, _FloatArray, _FloatArray, _FloatArray, Dict[str, Any]]
+    ]
 
 class SingularMassMatrixError(LagrangianError):
     """The mass matrix is singular, indefinite or not finite at some state."""

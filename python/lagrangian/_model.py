@@ -656,7 +656,16 @@ class Model:
             without ``dt``, tolerances ≤ 0, a ``dt`` pointing away from ``t_end``, a method that
             cannot integrate this system.
         LagrangianError
-            When the mathematics fails (subclasses say how).
+            When the mathematics fails (subclasses say how). A failure during the run keeps
+            what was computed: ``err.solution`` is the :class:`Solution` up to the last
+            accepted step, with the ``stats`` of the work done (without ``t_eval`` its last
+            point is the last accepted state), and ``err.t``, ``err.q``, ``err.qd`` are that
+            last accepted state, from which the failing step started. A failure before the
+            first step (a fixed ``dt`` beyond the stability limit) has all four ``None``; a
+            fixed-step run refused because ``max_steps`` is below its number of steps carries
+            the initial state only. ``ValueError`` has none of these attributes.
+        KeyboardInterrupt
+            On Ctrl-C; it carries nothing.
         """
         # The options are validated in Rust (one message each); here only their types. The
         # initial state goes to Rust as it is when it has the form Rust reads (float64 arrays,
@@ -681,14 +690,24 @@ class Model:
         if output_every is not None:
             kwargs["every"] = integer("output_every", output_every)
         t_end = real("t_end", t_end)
-        out = self._native.simulate(q0, qd0, t_end, **kwargs)
-        if out is None:
-            n = self.dof
-            out = self._native.simulate(vector("q0", q0, n), vector("qd0", qd0, n), t_end, **kwargs)
+        names = [c.name for c in self._coordinates]
+        try:
+            out = self._native.simulate(q0, qd0, t_end, **kwargs)
+            if out is None:
+                n = self.dof
+                out = self._native.simulate(
+                    vector("q0", q0, n), vector("qd0", qd0, n), t_end, **kwargs
+                )
+        except _lagrangian.LagrangianError as err:
+            # A failure during the run carries what was computed (see `Raises`).
+            partial = err._partial
+            if partial is not None:
+                pt, pq, pqd, penergy, pstats = partial
+                err.solution = Solution(pt, pq, pqd, penergy, dict(pstats), names=names)
+                err._partial = None
+            raise
         t, q, qd, energy, stats = out
-        return Solution(
-            t, q, qd, energy, dict(stats), names=[c.name for c in self._coordinates]
-        )
+        return Solution(t, q, qd, energy, dict(stats), names=names)
 
     def equilibrium(
         self,

@@ -36,9 +36,12 @@ class Solution:
         failures.
     names : tuple of str, optional
         The coordinate names (from the model), used to label plots.
+    y : numpy.ndarray, shape (2 dof, n)
+        The states in SciPy's ``solve_ivp`` layout: rows q then q̇, one column per time
+        (see :attr:`y`).
     """
 
-    __slots__ = ("t", "q", "qd", "energy", "stats", "names")
+    __slots__ = ("t", "q", "qd", "energy", "stats", "names", "_y")
 
     t: FloatArray
     q: FloatArray
@@ -58,6 +61,20 @@ class Solution:
     ) -> None:
         self.t, self.q, self.qd, self.energy, self.stats = t, q, qd, energy, stats
         self.names = None if names is None else tuple(str(n) for n in names)
+        self._y: Optional[FloatArray] = None
+
+    @property
+    def y(self) -> FloatArray:
+        """The states in SciPy's ``solve_ivp`` layout, shape (2 dof, n): rows q₁ … q_dof then
+        q̇₁ … q̇_dof, column k at ``t[k]`` — ``np.vstack([q.T, qd.T])``. Built once on first
+        access (one copy of q and q̇) and read-only: it does not follow later changes to
+        ``q`` or ``qd``.
+        """
+        if self._y is None:
+            y = np.vstack([self.q.T, self.qd.T])
+            y.flags.writeable = False
+            self._y = y
+        return self._y
 
     def __len__(self) -> int:
         return int(self.t.shape[0])

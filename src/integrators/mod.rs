@@ -33,7 +33,8 @@
 //! [`Error::UnstableStep`] before a fixed-step explicit run whose `dt` lies outside the method's
 //! stability region for a mode of the system linearised at the start (a stiff spring under RK4
 //! or Störmer–Verlet: refused with the largest stable `dt`, never a silently exploding answer),
-//! and [`Error::NewtonFailure`] when an implicit step cannot be solved.
+//! and [`Error::NewtonFailure`] when an implicit step cannot be solved. [`solve_partial`] keeps
+//! what a failed run computed: [`Failed`] carries the trajectory up to the last accepted step.
 //!
 //! A new method is one file implementing the crate's internal `Integrator` trait and one line in
 //! its registry (`src/integrators/mod.rs`).
@@ -69,7 +70,7 @@ pub(crate) use newton::acceleration_jacobian;
 #[cfg(test)]
 pub(crate) use newton::jacobian;
 pub use options::{Options, Output};
-pub use solution::{Solution, Statistics};
+pub use solution::{Failed, Solution, Statistics};
 pub use symplectic::SymplecticTableau;
 pub use tableau::{Controller, DenseOutput, ErrorEstimate, StiffnessTest, Tableau};
 
@@ -398,7 +399,43 @@ pub fn solve<S: Dynamics + ?Sized>(
     method: Method,
     options: &Options,
 ) -> Result<Solution> {
-    solve_inner(system, q0, qd0, span, method, options, None, true)
+    solve_inner(system, q0, qd0, span, method, options, None, true).map_err(|f| f.error)
+}
+
+/// [`solve`] that keeps what was computed when the run fails: the [`Failed`] error carries
+/// the trajectory up to the last accepted step (kept as `options.output` asks, with the
+/// statistics) and that last state. Failures before the first step (bad input, an unsupported
+/// method, an unstable fixed `dt`) carry nothing. `interrupt` is as in [`solve_with_interrupt`].
+///
+/// ```
+/// use lagrangian::integrators::{Method, Options, solve_partial};
+/// use lagrangian::scenes::SimplePendulum;
+/// let pendulum = SimplePendulum::new(1.0, 1.0, 9.81).system();
+/// let options = Options { max_steps: 10, ..Options::adaptive(1e-10, 1e-12) };
+/// let failed = solve_partial(&pendulum, &[0.1], &[0.0], (0.0, 100.0), Method::Dop853,
+///                            &options, None).unwrap_err();
+/// let partial = failed.partial.unwrap();
+/// let s = &partial.stats;
+/// assert_eq!(s.accepted_steps + s.rejected_steps, 10);
+/// assert_eq!(partial.len(), 1 + s.accepted_steps); // the initial state and every step
+/// assert_eq!(failed.last.unwrap().0, *partial.t.last().unwrap());
+/// ```
+///
+/// # Errors
+/// Those of [`solve`], as [`Failed`].
+// `Failed` is a few hundred bytes (the error, the partial solution's vectors and the last
+// state), returned once per run: nothing beside the integration.
+#[allow(clippy::result_large_err)]
+pub fn solve_partial<S: Dynamics + ?Sized>(
+    system: &S,
+    q0: &[f64],
+    qd0: &[f64],
+    span: (f64, f64),
+    method: Method,
+    options: &Options,
+    interrupt: Option<&dyn Fn(f64) -> bool>,
+) -> std::result::Result<Solution, Failed> {
+    solve_inner(system, q0, qd0, span, method, options, interrupt, true)
 }
 
 /// [`solve`] with an interrupt check: `interrupt(t)` is called at every evaluation of the
@@ -423,9 +460,10 @@ pub fn solve_with_interrupt<S: Dynamics + ?Sized>(
         Some(interrupt),
         true,
     )
+    .map_err(|f| f.error)
 }
 
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments, clippy::result_large_err)]
 fn solve_inner<S: Dynamics + ?Sized>(
     system: &S,
     q0: &[f64],
@@ -435,21 +473,21 @@ fn solve_inner<S: Dynamics + ?Sized>(
     options: &Options,
     interrupt: Option<&dyn Fn(f64) -> bool>,
     check_stability: bool,
-) -> Result<Solution> {
+) -> std::result::Result<Solution, Failed> {
     let (t0, t_end) = span;
     let n = system.dof();
     check_state(n, t0, q0, Some(qd0))?;
     if !t_end.is_finite() {
-        return Err(Error::NonFinite {
+        return Err(Failed::from(Error::NonFinite {
             what: "end time",
             t: t_end,
-        });
+        }));
     }
     if t_end == t0 {
-        return Err(Error::InvalidInput {
+        return Err(Failed::from(Error::InvalidInput {
             what: "span",
             why: format!("t_end = t0 = {t0}: the span is empty"),
-        });
+        }));
     }
     options.validate(t0, t_end)?;
     let (method, choice) = match method {
@@ -465,14 +503,14 @@ fn solve_inner<S: Dynamics + ?Sized>(
         q0,
         qd0,
     }) {
-        return Err(Error::UnsupportedMethod {
+        return Err(Failed::from(Error::UnsupportedMethod {
             method: method.name(),
             why,
             fits: Method::fitting(system, t0, q0, qd0)
                 .iter()
                 .map(|m| m.name())
                 .collect(),
-        });
+        }));
     }
     options.check_method(method)?;
     if let (Some(dt), Some(true), true) = (options.dt, method.is_explicit(), check_stability) {
@@ -493,9 +531,12 @@ fn solve_inner<S: Dynamics + ?Sized>(
         interrupt,
     };
     run.out.start(t0, &run.y0);
-    method
+    let outcome = method
         .visit(Integrate(&mut run))
-        .expect("Auto was resolved above")?;
+        .expect("Auto was resolved above");
     let Run { out, stats, .. } = run;
-    Ok(out.finish(stats))
+    match outcome {
+        Ok(()) => Ok(out.finish(stats)),
+        Err(error) => Err(out.fail(error, stats)),
+    }
 }

@@ -1,8 +1,10 @@
-//! What [`solve`](super::solve) returns: the trajectory and the work it took, and the recorder
-//! that fills the trajectory according to [`Output`].
+//! What [`solve`](super::solve) returns: the trajectory and the work it took; what
+//! [`solve_partial`](super::solve_partial) returns when a run fails ([`Failed`]); and the
+//! recorder that fills the trajectory according to [`Output`].
 
 use super::Method;
 use super::options::Output;
+use crate::error::Error;
 
 /// The work a run took. Counters that a method family does not use stay 0 (the Jacobian,
 /// factorization and Newton counters are for implicit methods; a splitting method factors its
@@ -87,6 +89,46 @@ impl Solution {
     }
 }
 
+/// A run that failed, with what it had computed: returned by
+/// [`solve_partial`](super::solve_partial).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Failed {
+    /// Why it failed; [`solve`](super::solve) returns only this.
+    pub error: Error,
+    /// The trajectory up to the last accepted step, kept as [`Output`] asks, and the statistics
+    /// of the work done. With [`Output::Steps`] or [`Output::Every`] its last row is the last
+    /// accepted state; with [`Output::Times`] it holds the requested times reached. `None` when
+    /// the failure came before the first step (bad input, an unsupported method, a fixed `dt`
+    /// beyond the stability limit).
+    pub partial: Option<Solution>,
+    /// The last accepted state (t, q, q̇), from which the failing step started; `None` with
+    /// `partial`.
+    pub last: Option<(f64, Vec<f64>, Vec<f64>)>,
+}
+
+impl std::fmt::Display for Failed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.error.fmt(f)
+    }
+}
+
+impl std::error::Error for Failed {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        Some(&self.error)
+    }
+}
+
+impl From<Error> for Failed {
+    /// A failure before the first step: nothing computed.
+    fn from(error: Error) -> Self {
+        Self {
+            error,
+            partial: None,
+            last: None,
+        }
+    }
+}
+
 /// Fills a [`Solution`] as the steps come, following [`Output`].
 pub(crate) struct Recorder {
     n: usize,
@@ -99,6 +141,9 @@ pub(crate) struct Recorder {
     pub(crate) t: Vec<f64>,
     pub(crate) q: Vec<f64>,
     pub(crate) qd: Vec<f64>,
+    /// The last accepted time and state y = (q, q̇), kept for a failure.
+    last_t: f64,
+    last_y: Vec<f64>,
 }
 
 impl Recorder {
@@ -112,6 +157,8 @@ impl Recorder {
             t: Vec::new(),
             q: Vec::new(),
             qd: Vec::new(),
+            last_t: f64::NAN,
+            last_y: Vec::new(),
         }
     }
 
@@ -123,6 +170,8 @@ impl Recorder {
 
     /// The initial state.
     pub(crate) fn start(&mut self, t0: f64, y: &[f64]) {
+        self.last_t = t0;
+        self.last_y = y.to_vec();
         let (q, qd) = y.split_at(self.n);
         if let Output::Times(times) = &self.output {
             let at_start = times
@@ -188,6 +237,8 @@ impl Recorder {
     /// A step has ended at (t, y); `last` marks the end of the span.
     pub(crate) fn step(&mut self, t: f64, y: &[f64], last: bool) {
         self.steps += 1;
+        self.last_t = t;
+        self.last_y.copy_from_slice(y);
         let keep = match self.output {
             Output::Steps => true,
             Output::Every(k) => last || self.steps.is_multiple_of(k),
@@ -196,6 +247,23 @@ impl Recorder {
         if keep {
             let (q, qd) = y.split_at(self.n);
             self.push(t, q, qd);
+        }
+    }
+
+    /// What a run that failed with `error` had computed: with [`Output::Steps`] or
+    /// [`Output::Every`] the last accepted state ends the trajectory (as it ends a finished
+    /// one).
+    pub(crate) fn fail(mut self, error: Error, stats: Statistics) -> Failed {
+        let (t, y) = (self.last_t, std::mem::take(&mut self.last_y));
+        let (q, qd) = y.split_at(self.n);
+        if !matches!(self.output, Output::Times(_)) && self.t.last() != Some(&t) {
+            self.push(t, q, qd);
+        }
+        let last = Some((t, q.to_vec(), qd.to_vec()));
+        Failed {
+            error,
+            partial: Some(self.finish(stats)),
+            last,
         }
     }
 

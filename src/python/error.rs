@@ -3,11 +3,14 @@
 //! Bad input (wrong lengths, unknown names, invalid options, a method that cannot serve the
 //! system) is a `ValueError`; failures of the mathematics are subclasses of `LagrangianError`,
 //! each message saying where (t) and what to try; [`Error::Interrupted`] is `KeyboardInterrupt`.
+//! A failure of `simulate` during the run carries what was computed (see [`with_partial`]).
 
 use crate::Error;
-use pyo3::PyErr;
+use crate::integrators::Failed;
+use numpy::PyArray1;
 use pyo3::create_exception;
 use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
 
 create_exception!(
     lagrangian,
@@ -81,6 +84,38 @@ impl From<Error> for PyErr {
             Error::Interrupted { .. } => PyKeyboardInterrupt::new_err(msg),
         }
     }
+}
+
+/// Attributes of every `LagrangianError` that a failed run fills: the partial solution's
+/// (t, q, qd, energy, stats) as `_partial` (the package wraps it as `solution`) and the last
+/// accepted state `t`, `q`, `qd`. They are `None` on the class, so on any failure that came
+/// before the first step (or outside `simulate`).
+pub(crate) const PARTIAL_ATTRIBUTES: [&str; 5] = ["_partial", "solution", "t", "q", "qd"];
+
+/// The Python exception of a failed run, carrying the partial solution and the last accepted
+/// state when the run had started. `n` is the number of coordinates; `energy` is the partial
+/// trajectory's energy.
+pub(crate) fn with_partial(py: Python<'_>, failed: Failed, energy: Vec<f64>, n: usize) -> PyErr {
+    let Failed {
+        error,
+        partial,
+        last,
+    } = failed;
+    let err = PyErr::from(error);
+    if let (Some(sol), Some((t, q, qd))) = (partial, last) {
+        let value = err.value(py);
+        let attach = || -> PyResult<()> {
+            value.setattr("_partial", super::solution_tuple(py, sol, energy, n)?)?;
+            value.setattr("t", t)?;
+            value.setattr("q", PyArray1::from_vec(py, q))?;
+            value.setattr("qd", PyArray1::from_vec(py, qd))?;
+            Ok(())
+        };
+        if let Err(e) = attach() {
+            return e;
+        }
+    }
+    err
 }
 
 /// A panic caught at the boundary: a bug, reported as `LagrangianError` rather than

@@ -20,7 +20,7 @@ mod model;
 mod scenes;
 mod states;
 
-use crate::integrators::{Method, Options, Output, solve_with_interrupt};
+use crate::integrators::{Failed, Method, Options, Output, Solution, solve_partial};
 use crate::{Dynamics, Error, StaticsOptions, equilibrium};
 use error::panic_error;
 use model::{AnyModel, Backend, Compiled, RawNode, Spec, WithLoads};
@@ -419,76 +419,72 @@ impl PyModel {
         let model = self.model.clone();
         let pending: Mutex<Option<PyErr>> = Mutex::new(None);
         let outcome = py.detach(|| {
-            catch_unwind(AssertUnwindSafe(|| -> Result<_, Error> {
-                let calls = Cell::new(0u32);
-                let last = Cell::new(Instant::now());
-                let stopped = Cell::new(false);
-                // Poll Python's signal handlers (Ctrl-C) every 20 ms, looking at the clock only
-                // every 16 evaluations.
-                let interrupt = |_t: f64| -> bool {
-                    if stopped.get() {
-                        return true;
+            catch_unwind(AssertUnwindSafe(
+                || -> Result<_, Box<(Failed, Vec<f64>)>> {
+                    let calls = Cell::new(0u32);
+                    let last = Cell::new(Instant::now());
+                    let stopped = Cell::new(false);
+                    // Poll Python's signal handlers (Ctrl-C) every 20 ms, looking at the clock only
+                    // every 16 evaluations.
+                    let interrupt = |_t: f64| -> bool {
+                        if stopped.get() {
+                            return true;
+                        }
+                        let k = calls.get().wrapping_add(1);
+                        calls.set(k);
+                        if !k.is_multiple_of(16) || last.get().elapsed() < Duration::from_millis(20)
+                        {
+                            return false;
+                        }
+                        last.set(Instant::now());
+                        if let Err(e) = Python::attach(|py| py.check_signals()) {
+                            *pending.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
+                            stopped.set(true);
+                        }
+                        stopped.get()
+                    };
+                    let energy = |sol: &Solution| {
+                        (0..sol.len())
+                            .map(|i| model.energy(sol.t[i], sol.q_at(i), sol.qd_at(i)))
+                            .collect::<Result<Vec<f64>, Error>>()
+                    };
+                    match solve_partial(
+                        &*model,
+                        &q0,
+                        &qd0,
+                        (t0, t_end),
+                        method,
+                        &options,
+                        Some(&interrupt),
+                    ) {
+                        Ok(sol) => match energy(&sol) {
+                            Ok(h) => Ok((sol, h)),
+                            Err(e) => Err(Box::new((e.into(), Vec::new()))),
+                        },
+                        Err(failed) => {
+                            // The partial trajectory's energy, NaN where it cannot be evaluated.
+                            let h = failed.partial.as_ref().map_or_else(Vec::new, |sol| {
+                                energy(sol).unwrap_or_else(|_| vec![f64::NAN; sol.len()])
+                            });
+                            Err(Box::new((failed, h)))
+                        }
                     }
-                    let k = calls.get().wrapping_add(1);
-                    calls.set(k);
-                    if !k.is_multiple_of(16) || last.get().elapsed() < Duration::from_millis(20) {
-                        return false;
-                    }
-                    last.set(Instant::now());
-                    if let Err(e) = Python::attach(|py| py.check_signals()) {
-                        *pending.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
-                        stopped.set(true);
-                    }
-                    stopped.get()
-                };
-                let sol = solve_with_interrupt(
-                    &*model,
-                    &q0,
-                    &qd0,
-                    (t0, t_end),
-                    method,
-                    &options,
-                    &interrupt,
-                )?;
-                let energy = (0..sol.len())
-                    .map(|i| model.energy(sol.t[i], sol.q_at(i), sol.qd_at(i)))
-                    .collect::<Result<Vec<f64>, Error>>()?;
-                Ok((sol, energy))
-            }))
+                },
+            ))
         });
         let (sol, energy) = match outcome {
             Err(panic) => return Err(panic_error(panic)),
-            Ok(Err(Error::Interrupted { t })) => {
-                let e = pending.lock().unwrap_or_else(|p| p.into_inner()).take();
-                return Err(e.unwrap_or_else(|| Error::Interrupted { t }.into()));
+            Ok(Err(failed)) => {
+                let (failed, energy) = *failed;
+                if let Error::Interrupted { t } = failed.error {
+                    let e = pending.lock().unwrap_or_else(|p| p.into_inner()).take();
+                    return Err(e.unwrap_or_else(|| Error::Interrupted { t }.into()));
+                }
+                return Err(error::with_partial(py, failed, energy, n));
             }
-            Ok(Err(e)) => return Err(e.into()),
             Ok(Ok(done)) => done,
         };
-        let rows = sol.len();
-        let q = Array2::from_shape_vec((rows, n), sol.q)
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
-        let qd = Array2::from_shape_vec((rows, n), sol.qd)
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
-        let s = &sol.stats;
-        let stats = PyDict::new(py);
-        stats.set_item("method", s.method.name())?;
-        stats.set_item("choice", s.choice.clone())?;
-        stats.set_item("accepted_steps", s.accepted_steps)?;
-        stats.set_item("rejected_steps", s.rejected_steps)?;
-        stats.set_item("rhs_evaluations", s.rhs_evaluations)?;
-        stats.set_item("jacobian_evaluations", s.jacobian_evaluations)?;
-        stats.set_item("factorizations", s.factorizations)?;
-        stats.set_item("newton_failures", s.newton_failures)?;
-        (
-            PyArray1::from_vec(py, sol.t),
-            q.into_pyarray(py),
-            qd.into_pyarray(py),
-            PyArray1::from_vec(py, energy),
-            stats,
-        )
-            .into_pyobject(py)
-            .map(Some)
+        solution_tuple(py, sol, energy, n).map(Some)
     }
 
     /// An equilibrium near `q_guess` (q̈ = 0 at q̇ = 0; virtual work, seed §3, when T is
@@ -625,6 +621,38 @@ fn check_options(
     .map(|_| ())
 }
 
+/// (t, q, qd, energy, stats) of a solution, as `simulate` returns it and a failure carries it.
+pub(crate) fn solution_tuple<'py>(
+    py: Python<'py>,
+    sol: Solution,
+    energy: Vec<f64>,
+    n: usize,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let rows = sol.len();
+    let q = Array2::from_shape_vec((rows, n), sol.q)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let qd = Array2::from_shape_vec((rows, n), sol.qd)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let s = &sol.stats;
+    let stats = PyDict::new(py);
+    stats.set_item("method", s.method.name())?;
+    stats.set_item("choice", s.choice.clone())?;
+    stats.set_item("accepted_steps", s.accepted_steps)?;
+    stats.set_item("rejected_steps", s.rejected_steps)?;
+    stats.set_item("rhs_evaluations", s.rhs_evaluations)?;
+    stats.set_item("jacobian_evaluations", s.jacobian_evaluations)?;
+    stats.set_item("factorizations", s.factorizations)?;
+    stats.set_item("newton_failures", s.newton_failures)?;
+    (
+        PyArray1::from_vec(py, sol.t),
+        q.into_pyarray(py),
+        qd.into_pyarray(py),
+        PyArray1::from_vec(py, energy),
+        stats,
+    )
+        .into_pyobject(py)
+}
+
 /// The compiled core of the `lagrangian` package.
 #[pymodule(name = "_lagrangian")]
 mod lagrangian_module {
@@ -641,6 +669,10 @@ mod lagrangian_module {
 
     #[pymodule_init]
     fn init(m: &Bound<'_, PyModule>) -> PyResult<()> {
+        let base = m.py().get_type::<super::error::LagrangianError>();
+        for name in super::error::PARTIAL_ATTRIBUTES {
+            base.setattr(name, m.py().None())?;
+        }
         m.add("__version__", env!("CARGO_PKG_VERSION"))
     }
 }
