@@ -87,36 +87,27 @@ fn scenes(t_scale: f64) -> Vec<Scene> {
     // Radial damping ratio 10: relaxation modes at −2e4 and −50 per second next to a swing of
     // about 3 rad/s — stiff (`Method::Auto` picks radau5).
     let (spring, c) = (ElasticPendulum::new(1.0, 1e6, 1.0, 9.81), 2e4);
+    let double_pendulum = Scene {
+        name: "double_pendulum".into(),
+        kind: Kind::Double(dp),
+        params: vec![
+            ("m1", 1.0),
+            ("m2", 1.0),
+            ("l1", 1.0),
+            ("l2", 1.0),
+            ("g", 9.81),
+        ],
+        q0: vec![1.0, 0.5],
+        qd0: vec![0.0, 0.0],
+        t_end: 10.0,
+        method: Method::Dop853,
+    };
     let mut all = vec![
-        Scene {
-            name: "double_pendulum".into(),
-            kind: Kind::Double(dp),
-            params: vec![
-                ("m1", 1.0),
-                ("m2", 1.0),
-                ("l1", 1.0),
-                ("l2", 1.0),
-                ("g", 9.81),
-            ],
-            q0: vec![1.0, 0.5],
-            qd0: vec![0.0, 0.0],
-            t_end: 10.0,
-            method: Method::Dop853,
-        },
+        double_pendulum.clone(),
         Scene {
             name: "double_pendulum_gauss4".into(),
-            kind: Kind::Double(dp),
-            params: vec![
-                ("m1", 1.0),
-                ("m2", 1.0),
-                ("l1", 1.0),
-                ("l2", 1.0),
-                ("g", 9.81),
-            ],
-            q0: vec![1.0, 0.5],
-            qd0: vec![0.0, 0.0],
-            t_end: 10.0,
             method: Method::Gauss4,
+            ..double_pendulum
         },
         Scene {
             name: "forced_two_mass".into(),

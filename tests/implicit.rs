@@ -4,13 +4,16 @@
 //! decay of a damped oscillator, stiff problems, the seed's scenes against their closed forms,
 //! the method choice, and the typed Newton failure.
 
+mod common;
+
 use approx::assert_relative_eq;
+use common::UnitMass;
 use lagrangian::integrators::{Method, Options, Output, Solution, solve};
 use lagrangian::scenes::{
     BallInSphere, ChargedParticle, DampedOscillator, DoublePendulum, DrivenPendulum,
     ElasticPendulum, ForcedTwoMass, Kepler, RollingCylinder, SimplePendulum,
 };
-use lagrangian::{Dynamics, Error, GeneralizedForces, KineticEnergy, Scalar, System};
+use lagrangian::{Dynamics, Error, GeneralizedForces, Scalar, System};
 use std::f64::consts::PI;
 
 // ---------------------------------------------------------------------------------------------
@@ -719,24 +722,6 @@ fn period_ball_in_sphere_gauss6() {
 
 // ---------------------------------------------------------------------------------------------
 // Typed failure of the Newton iteration
-
-/// T = ½ q̇².
-#[derive(Debug, Clone, Copy)]
-struct UnitMass;
-impl KineticEnergy for UnitMass {
-    fn kinetic<D: Scalar>(&self, _t: D, _q: &[D], qd: &[D]) -> D {
-        qd[0] * qd[0] * 0.5
-    }
-    fn depends_on_time(&self) -> bool {
-        false
-    }
-    fn depends_on_position(&self) -> bool {
-        false
-    }
-    fn constant_mass_matrix(&self) -> bool {
-        true
-    }
-}
 
 /// A force that feeds the motion, Q″ = c q̇²: q̇ = q̇₀/(1 − c q̇₀ t) blows up at t* = 1/(c q̇₀).
 #[derive(Debug, Clone, Copy)]

@@ -2,14 +2,17 @@
 //! energy behaviour of the symplectic methods, time reversibility, tolerance proportionality,
 //! dense output, backward integration, method choice and every typed failure.
 
+mod common;
+
 use approx::assert_relative_eq;
+use common::UnitMass;
 use lagrangian::integrators::{
     Method, Options, Output, Solution, SymplecticTableau, Tableau, solve,
 };
 use lagrangian::scenes::{
     DampedOscillator, DoublePendulum, ForcedTwoMass, Kepler, NPendulum, SimplePendulum,
 };
-use lagrangian::{Dynamics, Error, GeneralizedForces, KineticEnergy, Potential, Scalar, System};
+use lagrangian::{Dynamics, Error, GeneralizedForces, Potential, Scalar, System};
 use std::f64::consts::PI;
 
 // ---------------------------------------------------------------------------------------------
@@ -31,24 +34,6 @@ fn kepler(e: f64) -> (System<Kepler, Kepler>, [f64; 2], [f64; 2]) {
 fn kepler_exact(e: f64, t: f64) -> [f64; 4] {
     let (q, qd) = Kepler::new(1.0, 1.0).exact_state(1.0, e, t).unwrap();
     [q[0], q[1], qd[0], qd[1]]
-}
-
-/// T = ½ q̇² per coordinate: constant unit mass matrix.
-#[derive(Debug, Clone, Copy)]
-struct UnitMass;
-impl KineticEnergy for UnitMass {
-    fn kinetic<D: Scalar>(&self, _t: D, _q: &[D], qd: &[D]) -> D {
-        qd.iter().fold(D::zero(), |s, &v| s + v * v) * 0.5
-    }
-    fn depends_on_time(&self) -> bool {
-        false
-    }
-    fn depends_on_position(&self) -> bool {
-        false
-    }
-    fn constant_mass_matrix(&self) -> bool {
-        true
-    }
 }
 
 /// U = −q⁴/2: q̈ = 2q³, and from (1, 1) the exact q = 1/(1 − t) blows up at t = 1.

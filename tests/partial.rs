@@ -1,26 +1,11 @@
 //! Failures keep what was computed: [`solve_partial`] on a run that blows up (ẍ = x²) returns
 //! the trajectory up to the last accepted step, and it agrees with the closed form there.
 
-use lagrangian::integrators::{Method, Options, Output, solve, solve_partial};
-use lagrangian::{Error, KineticEnergy, Potential, Scalar, System};
+mod common;
 
-/// T = ½ ẋ².
-#[derive(Debug, Clone, Copy)]
-struct UnitMass;
-impl KineticEnergy for UnitMass {
-    fn kinetic<D: Scalar>(&self, _t: D, _q: &[D], qd: &[D]) -> D {
-        qd[0] * qd[0] * 0.5
-    }
-    fn depends_on_time(&self) -> bool {
-        false
-    }
-    fn depends_on_position(&self) -> bool {
-        false
-    }
-    fn constant_mass_matrix(&self) -> bool {
-        true
-    }
-}
+use common::UnitMass;
+use lagrangian::integrators::{Failed, Method, Options, Output, solve, solve_partial};
+use lagrangian::{Error, Potential, Scalar, System};
 
 /// U = −x³/3: ẍ = x².
 #[derive(Debug, Clone, Copy)]
@@ -52,21 +37,19 @@ fn blow_up_time() -> f64 {
     (6.0 / X0).sqrt()
 }
 
+/// The failure of a run of ẍ = x² from [`start`] over (0, `t_end`).
+fn blow_up(method: Method, options: &Options, t_end: f64) -> Failed {
+    let system = System::new(1, UnitMass).with_potential(Cubic);
+    let (q0, qd0) = start();
+    solve_partial(&system, &q0, &qd0, (0.0, t_end), method, options, None).unwrap_err()
+}
+
 #[test]
 fn adaptive_run_that_blows_up_keeps_its_trajectory() {
     let system = System::new(1, UnitMass).with_potential(Cubic);
     let (q0, qd0) = start();
     let options = Options::adaptive(1e-12, 1e-12);
-    let failed = solve_partial(
-        &system,
-        &q0,
-        &qd0,
-        (0.0, 5.0),
-        Method::Dop853,
-        &options,
-        None,
-    )
-    .unwrap_err();
+    let failed = blow_up(Method::Dop853, &options, 5.0);
     // The error is the one `solve` returns.
     let plain = solve(&system, &q0, &qd0, (0.0, 5.0), Method::Dop853, &options).unwrap_err();
     assert_eq!(failed.error, plain);
@@ -107,19 +90,8 @@ fn adaptive_run_that_blows_up_keeps_its_trajectory() {
 
 #[test]
 fn fixed_step_run_that_blows_up_keeps_its_trajectory() {
-    let system = System::new(1, UnitMass).with_potential(Cubic);
-    let (q0, qd0) = start();
     let dt = 1e-3;
-    let failed = solve_partial(
-        &system,
-        &q0,
-        &qd0,
-        (0.0, 5.0),
-        Method::Rk4,
-        &Options::fixed(dt),
-        None,
-    )
-    .unwrap_err();
+    let failed = blow_up(Method::Rk4, &Options::fixed(dt), 5.0);
     let sol = failed.partial.as_ref().unwrap();
     assert_eq!(sol.len(), 1 + sol.stats.accepted_steps);
     let t_last = *sol.t.last().unwrap();
@@ -142,22 +114,11 @@ fn fixed_step_run_that_blows_up_keeps_its_trajectory() {
 
 #[test]
 fn too_many_steps_carries_every_step_taken() {
-    let system = System::new(1, UnitMass).with_potential(Cubic);
-    let (q0, qd0) = start();
     let options = Options {
         max_steps: 40,
         ..Options::adaptive(1e-12, 1e-12)
     };
-    let failed = solve_partial(
-        &system,
-        &q0,
-        &qd0,
-        (0.0, 2.0),
-        Method::Dop853,
-        &options,
-        None,
-    )
-    .unwrap_err();
+    let failed = blow_up(Method::Dop853, &options, 2.0);
     assert!(matches!(
         failed.error,
         Error::TooManySteps { steps: 40, .. }
@@ -170,20 +131,9 @@ fn too_many_steps_carries_every_step_taken() {
 
 #[test]
 fn requested_times_keep_only_those_reached_and_every_keeps_the_last_state() {
-    let system = System::new(1, UnitMass).with_potential(Cubic);
-    let (q0, qd0) = start();
     let times: Vec<f64> = (0..=40).map(|k| 0.1 * k as f64).collect();
     let options = Options::adaptive(1e-12, 1e-12).with_output(Output::Times(times.clone()));
-    let failed = solve_partial(
-        &system,
-        &q0,
-        &qd0,
-        (0.0, 5.0),
-        Method::Dop853,
-        &options,
-        None,
-    )
-    .unwrap_err();
+    let failed = blow_up(Method::Dop853, &options, 5.0);
     let sol = failed.partial.unwrap();
     let (t_last, _, _) = failed.last.unwrap();
     // Every requested time before the last accepted step, and no other.
@@ -192,16 +142,7 @@ fn requested_times_keep_only_those_reached_and_every_keeps_the_last_state() {
     assert!(t_last > 0.97 * blow_up_time());
 
     let options = Options::adaptive(1e-12, 1e-12).with_output(Output::Every(1000));
-    let failed = solve_partial(
-        &system,
-        &q0,
-        &qd0,
-        (0.0, 5.0),
-        Method::Dop853,
-        &options,
-        None,
-    )
-    .unwrap_err();
+    let failed = blow_up(Method::Dop853, &options, 5.0);
     let sol = failed.partial.unwrap();
     let (t_last, q_last, _) = failed.last.unwrap();
     assert_eq!(sol.len(), 2);

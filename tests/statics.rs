@@ -2,13 +2,16 @@
 //! the stability of their equilibria (by K where M is singular, by the linearization where it is
 //! not), and the solver's failures as typed errors.
 
+mod common;
+
 use approx::assert_relative_eq;
+use common::UnitMass;
 use lagrangian::scenes::{
     DifferentialPulley, Lever, RhombusLink, SimplePendulum, SpringRhombus, TwoSprings,
 };
 use lagrangian::{
-    Dynamics, Error, KineticEnergy, Potential, Scalar, Stability, StaticsOptions, System,
-    equilibrium, static_stiffness,
+    Dynamics, Error, Potential, Scalar, Stability, StaticsOptions, System, equilibrium,
+    static_stiffness,
 };
 use std::f64::consts::PI;
 
@@ -333,23 +336,6 @@ fn max_step_limits_each_iteration() {
     assert!(eq.iterations >= 12, "{} iterations", eq.iterations);
 }
 
-/// T = ½ q̇², enough to make a `System` around a test potential.
-struct Unit;
-impl KineticEnergy for Unit {
-    fn kinetic<D: Scalar>(&self, _t: D, _q: &[D], qd: &[D]) -> D {
-        qd[0] * qd[0] * 0.5
-    }
-    fn depends_on_time(&self) -> bool {
-        false
-    }
-    fn depends_on_position(&self) -> bool {
-        false
-    }
-    fn constant_mass_matrix(&self) -> bool {
-        true
-    }
-}
-
 /// U = q³/3 + q: ∂U/∂q = q² + 1 never vanishes.
 struct NoStationaryPoint;
 impl Potential for NoStationaryPoint {
@@ -374,7 +360,7 @@ impl Potential for RootPotential {
 
 #[test]
 fn no_stationary_point_no_convergence() {
-    let system = System::new(1, Unit).with_potential(NoStationaryPoint);
+    let system = System::new(1, UnitMass).with_potential(NoStationaryPoint);
     for guess in [-3.0, 0.0, 0.5, 4.0] {
         match equilibrium(&system, 0.0, &[guess], &opts()).unwrap_err() {
             Error::NoConvergence {
@@ -459,7 +445,7 @@ fn bad_options_invalid_input() {
 
 #[test]
 fn non_finite_model_typed_error() {
-    let system = System::new(1, Unit).with_potential(RootPotential);
+    let system = System::new(1, UnitMass).with_potential(RootPotential);
     let e = equilibrium(&system, 0.0, &[-1.0], &opts()).unwrap_err();
     assert!(matches!(e, Error::NonFinite { .. }), "{e:?}");
 }

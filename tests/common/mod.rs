@@ -1,7 +1,27 @@
 //! Helpers shared by the integration tests (`mod common;` in each test file; each uses some).
 #![allow(dead_code)]
 
+use lagrangian::{KineticEnergy, Scalar};
 use std::time::Instant;
+
+/// T = ½ q̇² per coordinate: a constant unit mass matrix, to make a `System` around a test
+/// potential or force.
+#[derive(Debug, Clone, Copy)]
+pub struct UnitMass;
+impl KineticEnergy for UnitMass {
+    fn kinetic<D: Scalar>(&self, _t: D, _q: &[D], qd: &[D]) -> D {
+        qd.iter().fold(D::zero(), |s, &v| s + v * v) * 0.5
+    }
+    fn depends_on_time(&self) -> bool {
+        false
+    }
+    fn depends_on_position(&self) -> bool {
+        false
+    }
+    fn constant_mass_matrix(&self) -> bool {
+        true
+    }
+}
 
 /// Nanoseconds per call of `f`: the best of `calls / 200` rounds of 200 calls (short rounds, so
 /// that on a busy machine some run undisturbed).
