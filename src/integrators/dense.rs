@@ -4,16 +4,197 @@
 //! others use the quintic Hermite interpolant in q through (q, q̇, q̈) at both ends of the step,
 //! whose error is O(h⁶) in q and O(h⁵) in q̇ — enough for the order-4 methods, and below the
 //! global error of the higher-order splittings for the step sizes they are run at.
+//!
+//! Each accepted step hands its [`Interpolant`] to the run, which finds requested output times
+//! and events on it; with [`Options::dense`](super::Options::dense) the run keeps every step's
+//! interpolant as a [`Dense`] solution, callable anywhere in the span.
+
+use crate::error::{Error, Result};
 
 /// y(θ) = y₀ + θ(F₀ + (1−θ)(F₁ + θ(F₂ + (1−θ)(F₃ + …)))), the form of Hairer's `CONTD5`/`CONTD8`.
 pub(crate) fn polynomial(theta: f64, y0: &[f64], f: &[Vec<f64>], out: &mut [f64]) {
+    horner(theta, y0, f.len(), |r, i| f[r][i], out);
+}
+
+/// [`polynomial`] with row r, component i read by `f(r, i)`.
+fn horner(theta: f64, y0: &[f64], rows: usize, f: impl Fn(usize, usize) -> f64, out: &mut [f64]) {
     let one_minus = 1.0 - theta;
     for (i, o) in out.iter_mut().enumerate() {
         let mut acc = 0.0;
-        for (r, row) in f.iter().enumerate().rev() {
-            acc = (acc + row[i]) * if r % 2 == 0 { theta } else { one_minus };
+        for r in (0..rows).rev() {
+            acc = (acc + f(r, i)) * if r % 2 == 0 { theta } else { one_minus };
         }
         *o = y0[i] + acc;
+    }
+}
+
+/// The state inside one accepted step, as the method interpolates it.
+pub(crate) enum Interpolant<'a> {
+    /// Hairer's continuous extension of order `order`: y(t + θh) = [`polynomial`](θ, y0, f).
+    Polynomial {
+        t: f64,
+        h: f64,
+        y0: &'a [f64],
+        f: &'a [Vec<f64>],
+        order: usize,
+    },
+    /// The quintic Hermite interpolant through the step's ends.
+    Hermite { t: f64, h: f64, ends: Ends<'a> },
+}
+
+impl Interpolant<'_> {
+    /// y = (q, q̇) at `time`, inside the step.
+    pub(crate) fn eval(&self, time: f64, out: &mut [f64]) {
+        match self {
+            Self::Polynomial { t, h, y0, f, .. } => polynomial((time - t) / h, y0, f, out),
+            Self::Hermite { t, h, ends } => hermite5((time - t) / h, *h, ends, out),
+        }
+    }
+}
+
+/// The continuous solution of a run ([`Options::dense`](super::Options::dense)): every
+/// accepted step's own interpolant, callable anywhere in the span.
+///
+/// The explicit Runge–Kutta methods with a continuous extension keep Hairer's polynomial
+/// (DOPRI5: order 4, DOP853: order 7); every other method the quintic Hermite interpolant in q
+/// through (q, q̇, q̈) at both ends of each step (error O(h⁶) in q, O(h⁵) in q̇: order 5). Across
+/// a reset of an event the solution jumps; at the event's time it gives the state after the
+/// reset.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dense {
+    /// Components of y = (q, q̇).
+    dim: usize,
+    /// Rows F of the continuous extension; 0 for Hermite pieces.
+    rows: usize,
+    order: usize,
+    /// +1 forward in time, −1 backward.
+    dir: f64,
+    /// Each piece: the step's start t and size h, and where the piece ends (t + h, or an
+    /// event that stopped the step early).
+    start: Vec<f64>,
+    step: Vec<f64>,
+    end: Vec<f64>,
+    /// Per piece: y₀ and the rows F (continuous extension), or q₀, q̇₀, q̈₀, q₁, q̇₁, q̈₁.
+    data: Vec<f64>,
+}
+
+impl Dense {
+    pub(crate) fn new(dim: usize, dir: f64) -> Self {
+        Self {
+            dim,
+            rows: 0,
+            order: 0,
+            dir,
+            start: Vec::new(),
+            step: Vec::new(),
+            end: Vec::new(),
+            data: Vec::new(),
+        }
+    }
+
+    /// Keep `step`'s interpolant, valid up to `end`.
+    pub(crate) fn push(&mut self, step: &Interpolant<'_>, end: f64) {
+        let (t, h) = match step {
+            Interpolant::Polynomial {
+                t, h, y0, f, order, ..
+            } => {
+                self.rows = f.len();
+                self.order = *order;
+                self.data.extend_from_slice(y0);
+                for row in f.iter() {
+                    self.data.extend_from_slice(row);
+                }
+                (*t, *h)
+            }
+            Interpolant::Hermite { t, h, ends } => {
+                self.order = 5;
+                for part in [ends.q0, ends.v0, ends.a0, ends.q1, ends.v1, ends.a1] {
+                    self.data.extend_from_slice(part);
+                }
+                (*t, *h)
+            }
+        };
+        // A piece that starts where the previous one ended after a reset replaces nothing: the
+        // lookup takes the later piece at a shared time.
+        self.start.push(t);
+        self.step.push(h);
+        self.end.push(end);
+    }
+
+    /// Order of the interpolant (in q for the Hermite pieces).
+    pub fn order(&self) -> usize {
+        self.order
+    }
+
+    /// What interpolates between the steps.
+    pub fn interpolant(&self) -> &'static str {
+        if self.rows > 0 {
+            "continuous extension of the Runge–Kutta method (Hairer)"
+        } else {
+            "quintic Hermite interpolation through q, q̇, q̈ at the ends of each step"
+        }
+    }
+
+    /// Number of steps kept.
+    pub fn steps(&self) -> usize {
+        self.start.len()
+    }
+
+    /// The span covered, (first time, last time), in the direction of integration; `None`
+    /// before the first step.
+    pub fn span(&self) -> Option<(f64, f64)> {
+        Some((*self.start.first()?, *self.end.last()?))
+    }
+
+    /// y = (q, q̇) at `t`, written to `out` (length 2 · dof).
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] when `t` lies outside the span or is not finite,
+    /// [`Error::DimensionMismatch`] for a wrong `out`.
+    pub fn eval(&self, t: f64, out: &mut [f64]) -> Result<()> {
+        if out.len() != self.dim {
+            return Err(Error::DimensionMismatch {
+                what: "dense output buffer",
+                expected: self.dim,
+                got: out.len(),
+            });
+        }
+        let outside = || Error::InvalidInput {
+            what: "time",
+            why: match self.span() {
+                Some((a, b)) => format!("t = {t} lies outside the solution's span {a} → {b}"),
+                None => "the solution has no steps".into(),
+            },
+        };
+        let (first, last) = self.span().ok_or_else(outside)?;
+        let dir = self.dir;
+        if !t.is_finite() || (t - first) * dir < 0.0 || (t - last) * dir > 0.0 {
+            return Err(outside());
+        }
+        // The last piece that starts at or before t (the piece after a reset wins at its time).
+        let k = self.start.partition_point(|&s| (s - t) * dir <= 0.0).max(1) - 1;
+        let (t0, h) = (self.start[k], self.step[k]);
+        if self.rows > 0 {
+            let width = (1 + self.rows) * self.dim;
+            let piece = &self.data[k * width..(k + 1) * width];
+            let (y0, f) = piece.split_at(self.dim);
+            let dim = self.dim;
+            horner((t - t0) / h, y0, self.rows, |r, i| f[r * dim + i], out);
+        } else {
+            let n = self.dim / 2;
+            let piece = &self.data[k * 6 * n..(k + 1) * 6 * n];
+            let part = |i: usize| &piece[i * n..(i + 1) * n];
+            let ends = Ends {
+                q0: part(0),
+                v0: part(1),
+                a0: part(2),
+                q1: part(3),
+                v1: part(4),
+                a1: part(5),
+            };
+            hermite5((t - t0) / h, h, &ends, out);
+        }
+        Ok(())
     }
 }
 

@@ -54,6 +54,7 @@
 
 mod auto;
 mod dense;
+mod events;
 mod gauss;
 mod newton;
 mod options;
@@ -66,6 +67,8 @@ mod symplectic;
 mod tableau;
 mod variational;
 
+pub use dense::Dense;
+pub use events::{Condition, Direction, Event, Occurrences, Reset, Status};
 pub(crate) use newton::acceleration_jacobian;
 #[cfg(test)]
 pub(crate) use newton::jacobian;
@@ -76,6 +79,8 @@ pub use tableau::{Controller, DenseOutput, ErrorEstimate, StiffnessTest, Tableau
 
 use crate::dynamics::{Dynamics, check_state};
 use crate::error::{Error, Result};
+use dense::Interpolant;
+use events::{Stop, Tracker};
 use gauss::{Gauss, GaussTableau};
 use radau::Radau;
 use runge_kutta::ExplicitRk;
@@ -324,6 +329,24 @@ pub(crate) struct Run<'a, S: ?Sized> {
     pub(crate) stats: Statistics,
     /// The caller's interrupt check (see [`solve_with_interrupt`]), polled at every evaluation.
     pub(crate) interrupt: Option<&'a dyn Fn(f64) -> bool>,
+    /// The events' search state and occurrences.
+    events: Tracker,
+    /// The continuous solution, when [`Options::dense`] asks for it.
+    dense: Option<Dense>,
+    /// Where an event stopped the current segment.
+    stop: Option<Stop>,
+    /// A state buffer for the recorder's dense output.
+    buf: Vec<f64>,
+}
+
+/// What an integrator does after an accepted step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[must_use]
+pub(crate) enum Flow {
+    /// Take the next step.
+    Continue,
+    /// An event stopped the run inside the step (terminal, or a reset to apply): return.
+    Stop,
 }
 
 impl<S: Dynamics + ?Sized> Run<'_, S> {
@@ -337,7 +360,9 @@ impl<S: Dynamics + ?Sized> Run<'_, S> {
         let span = (self.t_end - self.t0).abs();
         // A span that is a whole number of steps up to round-off takes that many.
         let steps = (span / dt * (1.0 - 4.0 * f64::EPSILON)).ceil().max(1.0);
-        if steps > self.options.max_steps as f64 {
+        // Steps of earlier segments (before an event's reset) count against the budget too.
+        let taken = self.stats.accepted_steps + self.stats.rejected_steps;
+        if steps + taken as f64 > self.options.max_steps as f64 {
             return Err(Error::TooManySteps {
                 t: self.t0,
                 steps: self.options.max_steps,
@@ -352,6 +377,50 @@ impl<S: Dynamics + ?Sized> Run<'_, S> {
             self.t_end
         } else {
             self.t0 + (self.t_end - self.t0) * (i as f64 / steps as f64)
+        }
+    }
+
+    /// Whether the step ending at `t_new` needs its interpolant: a requested output time lies
+    /// in it, events are searched, or the continuous solution is kept.
+    pub(crate) fn needs_interpolant(&self, t_new: f64) -> bool {
+        self.events.active() || self.dense.is_some() || self.out.wants_dense(t_new)
+    }
+
+    /// A step from t to `t_new` was accepted, ending at `y_new`; `step` is its interpolant when
+    /// [`Run::needs_interpolant`] said so. Searches the events, emits the requested output times
+    /// and the step, keeps the interpolant for the continuous solution.
+    pub(crate) fn accept(
+        &mut self,
+        t: f64,
+        t_new: f64,
+        y_new: &[f64],
+        last: bool,
+        step: Option<&Interpolant<'_>>,
+    ) -> Result<Flow> {
+        let Some(step) = step else {
+            self.out.step(t_new, y_new, last);
+            return Ok(Flow::Continue);
+        };
+        let stop = if self.events.active() {
+            self.events.scan(t, t_new, y_new, step)?
+        } else {
+            None
+        };
+        let (t_end, y_end) = stop.as_ref().map_or((t_new, y_new), |s| (s.t, &s.y[..]));
+        self.out
+            .dense(t_end, y_end, &mut self.buf, |ti, out| step.eval(ti, out));
+        if let Some(dense) = &mut self.dense {
+            dense.push(step, t_end);
+        }
+        match stop {
+            None => {
+                self.out.step(t_new, y_new, last);
+                Ok(Flow::Continue)
+            }
+            Some(stop) => {
+                self.stop = Some(stop);
+                Ok(Flow::Stop)
+            }
         }
     }
 
@@ -529,14 +598,83 @@ fn solve_inner<S: Dynamics + ?Sized>(
         options,
         stats: Statistics::new(method, choice),
         interrupt,
+        events: Tracker::new(&options.events, n),
+        dense: options.dense.then(|| Dense::new(2 * n, dir)),
+        stop: None,
+        buf: vec![0.0; 2 * n],
     };
     run.out.start(t0, &run.y0);
-    let outcome = method
-        .visit(Integrate(&mut run))
-        .expect("Auto was resolved above");
-    let Run { out, stats, .. } = run;
+    let outcome = run
+        .events
+        .start(t0, &run.y0)
+        .and_then(|()| segments(&mut run, method));
+    let Run {
+        out,
+        stats,
+        events,
+        dense,
+        ..
+    } = run;
+    let attach = |mut sol: Solution| {
+        sol.events = events.found;
+        sol.dense = dense;
+        sol
+    };
     match outcome {
-        Ok(()) => Ok(out.finish(stats)),
-        Err(error) => Err(out.fail(error, stats)),
+        Ok(status) => Ok(Solution {
+            status,
+            ..attach(out.finish(stats))
+        }),
+        Err(error) => {
+            let mut failed = out.fail(error, stats);
+            failed.partial = failed.partial.map(attach);
+            Err(failed)
+        }
+    }
+}
+
+/// Integrate segment after segment: a reset of an event ends one and starts the next from the
+/// new state, with the same method; a terminal event ends the run.
+fn segments<S: Dynamics + ?Sized>(run: &mut Run<'_, S>, method: Method) -> Result<Status> {
+    loop {
+        method
+            .visit(Integrate(&mut *run))
+            .expect("Auto was resolved above")?;
+        let Some(Stop {
+            t,
+            y,
+            event,
+            terminal,
+            h,
+        }) = run.stop.take()
+        else {
+            return Ok(Status::Finished);
+        };
+        if terminal {
+            run.out.step(t, &y, true);
+            return Ok(Status::Terminated {
+                event,
+                name: run.events.name(event).to_owned(),
+                t,
+            });
+        }
+        let mut after = y.clone();
+        run.events.reset(event, t, &mut after)?;
+        run.out.jump(t, &y, &after);
+        if (run.t_end - t) * run.dir() <= 0.0 {
+            return Ok(Status::Finished);
+        }
+        let attempts = run.stats.accepted_steps + run.stats.rejected_steps;
+        if attempts >= run.options.max_steps {
+            return Err(Error::TooManySteps { t, steps: attempts });
+        }
+        // Where the new motion goes: a thousandth of a step along ẏ.
+        let mut dy = vec![0.0; 2 * run.n];
+        run.rhs(t, &after, &mut dy)?;
+        let dt = 1e-3 * h * run.dir();
+        let probe: Vec<f64> = after.iter().zip(&dy).map(|(y, d)| y + dt * d).collect();
+        run.events.restart(t, &after, event, (t + dt, &probe))?;
+        run.t0 = t;
+        run.y0 = after;
     }
 }

@@ -6,8 +6,8 @@
 //!
 //! Every buffer is allocated once per run, so the step loops do not touch the allocator.
 
-use super::dense::{self, Ends};
-use super::{Run, Statistics};
+use super::dense::{Ends, Interpolant};
+use super::{Flow, Run, Statistics};
 use crate::dynamics::Dynamics;
 use crate::eom;
 use crate::error::{Error, Result};
@@ -354,33 +354,45 @@ pub(crate) fn fixed_steps<S: Dynamics + ?Sized, M: ImplicitStep<S>>(
     let mut y_old = vec![0.0; 2 * n];
     let mut f_old = vec![0.0; 2 * n];
     let mut f_new = vec![0.0; 2 * n];
-    let mut y_dense = vec![0.0; 2 * n];
+    // Whether f_old is ẏ at the current state (the previous step's end).
+    let mut have_f_old = false;
     for i in 0..steps {
         let t = run.grid_time(i, steps);
         let t_new = run.grid_time(i + 1, steps);
-        let dense = run.out.wants_dense(t_new);
+        let dense = run.needs_interpolant(t_new);
         if dense {
             y_old.copy_from_slice(method.state());
-            run.rhs(t, &y_old, &mut f_old)?;
+            if !have_f_old {
+                run.rhs(t, &y_old, &mut f_old)?;
+            }
         }
         advance(run, method, t, t_new, 0)?;
         let y = method.state();
-        if dense {
+        let flow = if dense {
             run.rhs(t_new, y, &mut f_new)?;
-            let ends = Ends {
-                q0: &y_old[..n],
-                v0: &y_old[n..],
-                a0: &f_old[n..],
-                q1: &y[..n],
-                v1: &y[n..],
-                a1: &f_new[n..],
+            let step = Interpolant::Hermite {
+                t,
+                h: t_new - t,
+                ends: Ends {
+                    q0: &y_old[..n],
+                    v0: &y_old[n..],
+                    a0: &f_old[n..],
+                    q1: &y[..n],
+                    v1: &y[n..],
+                    a1: &f_new[n..],
+                },
             };
-            let h = t_new - t;
-            run.out.dense(t_new, y, &mut y_dense, |ti, out| {
-                dense::hermite5((ti - t) / h, h, &ends, out)
-            });
+            let flow = run.accept(t, t_new, y, i + 1 == steps, Some(&step))?;
+            std::mem::swap(&mut f_old, &mut f_new);
+            have_f_old = true;
+            flow
+        } else {
+            have_f_old = false;
+            run.accept(t, t_new, y, i + 1 == steps, None)?
+        };
+        if flow == Flow::Stop {
+            break;
         }
-        run.out.step(t_new, y, i + 1 == steps);
     }
     Ok(())
 }

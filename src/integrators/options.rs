@@ -2,7 +2,7 @@
 //! validation: every option is checked here (the Python binding only converts types), so each
 //! invalid value has one message wherever it comes from.
 
-use super::Method;
+use super::{Event, Method};
 use crate::error::{Error, Result};
 
 /// Which states the [`Solution`](super::Solution) keeps.
@@ -54,6 +54,12 @@ pub struct Options {
     /// Test for stiffness (explicit adaptive methods) every this many accepted steps, and at
     /// every step once a test was positive (Hairer's `NSTIFF`); `None` switches it off.
     pub stiffness_check: Option<usize>,
+    /// Conditions whose sign changes are located along the run ([`Event`]); found on every
+    /// step's interpolant, so they cost dense output on every step.
+    pub events: Vec<Event>,
+    /// Keep every step's interpolant: [`Solution::dense`](super::Solution::dense) gives the
+    /// state anywhere in the span. Off by default: nothing extra is stored.
+    pub dense: bool,
 }
 
 impl Default for Options {
@@ -69,6 +75,8 @@ impl Default for Options {
             max_steps: 1_000_000,
             output: Output::Steps,
             stiffness_check: Some(1000),
+            events: Vec::new(),
+            dense: false,
         }
     }
 }
@@ -155,6 +163,18 @@ impl Options {
         self
     }
 
+    /// Add an event.
+    pub fn with_event(mut self, event: Event) -> Self {
+        self.events.push(event);
+        self
+    }
+
+    /// Keep the continuous solution ([`Options::dense`]).
+    pub fn with_dense(mut self, dense: bool) -> Self {
+        self.dense = dense;
+        self
+    }
+
     /// Check every option against the span `t0 → t_end`.
     pub(crate) fn validate(&self, t0: f64, t_end: f64) -> Result<()> {
         if let Some(dt) = self.dt
@@ -203,6 +223,26 @@ impl Options {
                 "stiffness_check",
                 "stiffness_check = 0: give an interval ≥ 1, or none to switch the test off".into(),
             );
+        }
+        for event in &self.events {
+            if event.terminal == Some(0) {
+                return bad(
+                    "event",
+                    format!(
+                        "event {:?} is terminal after 0 occurrences: give a count ≥ 1",
+                        event.name
+                    ),
+                );
+            }
+            if event.samples > 1000 {
+                return bad(
+                    "event",
+                    format!(
+                        "event {:?} samples each step at {} points: at most 1000",
+                        event.name, event.samples
+                    ),
+                );
+            }
         }
         match &self.output {
             Output::Steps => {}

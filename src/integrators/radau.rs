@@ -21,9 +21,9 @@
 //! With a fixed `dt` the steps are equal (halved on Newton failure like the other implicit
 //! methods) and `rtol`/`atol` still set the Newton tolerance.
 
-use super::dense::{self, Ends};
+use super::dense::{Ends, Interpolant};
 use super::newton::{self, Convergence, ImplicitStep, Lu};
-use super::{Integrator, Run};
+use super::{Flow, Integrator, Run};
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
 use nalgebra::{Complex, DMatrix};
@@ -553,7 +553,6 @@ impl Stepper {
         let mut err_old: Option<f64> = None;
         let mut t = run.t0;
         let n = self.n;
-        let mut y_dense = vec![0.0; 2 * n];
         self.jacobian(run, t)?;
         loop {
             let floor = opts.min_step.max(10.0 * f64::EPSILON * t.abs());
@@ -638,24 +637,23 @@ impl Stepper {
             }
             run.stats.accepted_steps += 1;
             let last = t_new == run.t_end;
-            if run.out.wants_dense(t_new) {
-                let ends = Ends {
+            let step = run.needs_interpolant(t_new).then(|| Interpolant::Hermite {
+                t,
+                h,
+                ends: Ends {
                     q0: &self.y[..n],
                     v0: &self.y[n..],
                     a0: &self.f[n..],
                     q1: &self.y_new[..n],
                     v1: &self.y_new[n..],
                     a1: &self.f_new[n..],
-                };
-                run.out.dense(t_new, &self.y_new, &mut y_dense, |ti, out| {
-                    dense::hermite5((ti - t) / h, h, &ends, out)
-                });
-            }
-            run.out.step(t_new, &self.y_new, last);
+                },
+            });
+            let flow = run.accept(t, t_new, &self.y_new, last, step.as_ref())?;
             self.accept(h);
             std::mem::swap(&mut self.f, &mut self.f_new);
             t = t_new;
-            if last {
+            if last || flow == Flow::Stop {
                 return Ok(());
             }
             if recompute_jac {

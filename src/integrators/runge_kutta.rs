@@ -3,9 +3,9 @@
 //! Wanner, *Solving ODEs I*, 2nd ed., §II.4, §II.6, §II.10, §IV.2; codes `dopri5.f`,
 //! `dop853.f`).
 
-use super::dense::{self, Ends};
+use super::dense::{Ends, Interpolant};
 use super::tableau::{ErrorEstimate, Tableau};
-use super::{Integrator, Run};
+use super::{Flow, Integrator, Run};
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
 
@@ -34,8 +34,6 @@ struct Cache {
     err3: Vec<f64>,
     /// Dense-output coefficients F₀, F₁, ….
     f: Vec<Vec<f64>>,
-    /// Dense-output result.
-    out: Vec<f64>,
 }
 
 impl Cache {
@@ -52,7 +50,6 @@ impl Cache {
             err: vec![0.0; m],
             err3: vec![0.0; m],
             f: vec![vec![0.0; m]; rows],
-            out: vec![0.0; m],
         }
     }
 }
@@ -168,64 +165,9 @@ impl ExplicitRk {
         }
     }
 
-    /// Emit the requested output times inside the step (t, t + h): Hairer's continuous
-    /// extension when the tableau has one (its extra stages are evaluated here, only for
-    /// steps that contain a requested time), quintic Hermite in q otherwise.
-    fn dense_output<S: Dynamics + ?Sized>(
-        &self,
-        run: &mut Run<'_, S>,
-        c: &mut Cache,
-        t: f64,
-        h: f64,
-    ) -> Result<()> {
-        let t_new = t + h;
-        if !run.out.wants_dense(t_new) {
-            return Ok(());
-        }
-        let s = self.tableau.stages();
-        let n = run.n;
-        match &self.tableau.dense {
-            Some(d) => {
-                for (i, (ci, row)) in d.c.iter().zip(&d.a).enumerate() {
-                    combine(&c.y, h, row, &c.k[..s + 1 + i], &mut c.stage);
-                    run.rhs(t + ci * h, &c.stage, &mut c.k[s + 1 + i])?;
-                }
-                let (f0, rest) = c.f.split_at_mut(1);
-                let (f1, rest) = rest.split_at_mut(1);
-                let (f2, fd) = rest.split_at_mut(1);
-                for i in 0..c.y.len() {
-                    let dy = c.y_new[i] - c.y[i];
-                    f0[0][i] = dy;
-                    f1[0][i] = h * c.k[0][i] - dy;
-                    f2[0][i] = 2.0 * dy - h * (c.k[0][i] + c.k[s][i]);
-                }
-                for (row, fr) in d.d.iter().zip(fd.iter_mut()) {
-                    fr.fill(0.0);
-                    accumulate(h, row, &c.k, fr);
-                }
-                let (y, f) = (&c.y, &c.f);
-                run.out.dense(t_new, &c.y_new, &mut c.out, |ti, out| {
-                    dense::polynomial((ti - t) / h, y, f, out)
-                });
-            }
-            None => {
-                let ends = Ends {
-                    q0: &c.y[..n],
-                    v0: &c.y[n..],
-                    a0: &c.k[0][n..],
-                    q1: &c.y_new[..n],
-                    v1: &c.y_new[n..],
-                    a1: &c.k[s][n..],
-                };
-                run.out.dense(t_new, &c.y_new, &mut c.out, |ti, out| {
-                    dense::hermite5((ti - t) / h, h, &ends, out)
-                });
-            }
-        }
-        Ok(())
-    }
-
-    /// Accept the step: dense output, record, and y₁ becomes y.
+    /// Accept the step (t, t + h): build its interpolant when the run needs it — Hairer's
+    /// continuous extension when the tableau has one (its extra stages are evaluated here, only
+    /// then), quintic Hermite in q otherwise — hand it to the run, and make y₁ the new y.
     fn advance<S: Dynamics + ?Sized>(
         &self,
         run: &mut Run<'_, S>,
@@ -233,13 +175,57 @@ impl ExplicitRk {
         t: f64,
         t_new: f64,
         last: bool,
-    ) -> Result<()> {
+    ) -> Result<Flow> {
         run.stats.accepted_steps += 1;
-        self.dense_output(run, c, t, t_new - t)?;
-        run.out.step(t_new, &c.y_new, last);
+        let h = t_new - t;
+        let s = self.tableau.stages();
+        let n = run.n;
+        let flow = if !run.needs_interpolant(t_new) {
+            run.accept(t, t_new, &c.y_new, last, None)?
+        } else if let Some(d) = &self.tableau.dense {
+            for (i, (ci, row)) in d.c.iter().zip(&d.a).enumerate() {
+                combine(&c.y, h, row, &c.k[..s + 1 + i], &mut c.stage);
+                run.rhs(t + ci * h, &c.stage, &mut c.k[s + 1 + i])?;
+            }
+            let (f0, rest) = c.f.split_at_mut(1);
+            let (f1, rest) = rest.split_at_mut(1);
+            let (f2, fd) = rest.split_at_mut(1);
+            for i in 0..c.y.len() {
+                let dy = c.y_new[i] - c.y[i];
+                f0[0][i] = dy;
+                f1[0][i] = h * c.k[0][i] - dy;
+                f2[0][i] = 2.0 * dy - h * (c.k[0][i] + c.k[s][i]);
+            }
+            for (row, fr) in d.d.iter().zip(fd.iter_mut()) {
+                fr.fill(0.0);
+                accumulate(h, row, &c.k, fr);
+            }
+            let step = Interpolant::Polynomial {
+                t,
+                h,
+                y0: &c.y,
+                f: &c.f,
+                order: d.order,
+            };
+            run.accept(t, t_new, &c.y_new, last, Some(&step))?
+        } else {
+            let step = Interpolant::Hermite {
+                t,
+                h,
+                ends: Ends {
+                    q0: &c.y[..n],
+                    v0: &c.y[n..],
+                    a0: &c.k[0][n..],
+                    q1: &c.y_new[..n],
+                    v1: &c.y_new[n..],
+                    a1: &c.k[s][n..],
+                },
+            };
+            run.accept(t, t_new, &c.y_new, last, Some(&step))?
+        };
         std::mem::swap(&mut c.y, &mut c.y_new);
-        c.k.swap(0, self.tableau.stages());
-        Ok(())
+        c.k.swap(0, s);
+        Ok(flow)
     }
 
     fn fixed<S: Dynamics + ?Sized>(
@@ -260,7 +246,9 @@ impl ExplicitRk {
                 });
             }
             self.f_new(run, c, t_new)?;
-            self.advance(run, c, t, t_new, i + 1 == steps)?;
+            if self.advance(run, c, t, t_new, i + 1 == steps)? == Flow::Stop {
+                break;
+            }
         }
         Ok(())
     }
@@ -428,9 +416,9 @@ impl ExplicitRk {
                         }
                     }
                 }
-                self.advance(run, c, t, t_new, last)?;
+                let flow = self.advance(run, c, t, t_new, last)?;
                 t = t_new;
-                if last {
+                if last || flow == Flow::Stop {
                     return Ok(());
                 }
                 if h_new.abs() > h_max {

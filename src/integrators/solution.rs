@@ -3,6 +3,8 @@
 //! recorder that fills the trajectory according to [`Output`].
 
 use super::Method;
+use super::dense::Dense;
+use super::events::{Occurrences, Status};
 use super::options::Output;
 use crate::error::Error;
 
@@ -59,6 +61,12 @@ pub struct Solution {
     pub qd: Vec<f64>,
     /// The work it took.
     pub stats: Statistics,
+    /// The occurrences of each event of [`Options::events`](super::Options::events), in order.
+    pub events: Vec<Occurrences>,
+    /// Why the run ended.
+    pub status: Status,
+    /// The continuous solution, with [`Options::dense`](super::Options::dense).
+    pub dense: Option<Dense>,
 }
 
 impl Solution {
@@ -267,6 +275,19 @@ impl Recorder {
         }
     }
 
+    /// A reset at t took the state from `before` to `after`: with [`Output::Steps`] or
+    /// [`Output::Every`] both are kept, so the jump shows in the trajectory.
+    pub(crate) fn jump(&mut self, t: f64, before: &[f64], after: &[f64]) {
+        if !matches!(self.output, Output::Times(_)) {
+            let (q, qd) = before.split_at(self.n);
+            self.push(t, q, qd);
+            let (q, qd) = after.split_at(self.n);
+            self.push(t, q, qd);
+        }
+        self.last_t = t;
+        self.last_y.copy_from_slice(after);
+    }
+
     pub(crate) fn finish(self, stats: Statistics) -> Solution {
         Solution {
             dof: self.n,
@@ -274,6 +295,9 @@ impl Recorder {
             q: self.q,
             qd: self.qd,
             stats,
+            events: Vec::new(),
+            status: Status::Finished,
+            dense: None,
         }
     }
 }

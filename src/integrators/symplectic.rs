@@ -7,8 +7,8 @@
 //! The last kick's force is the first kick's of the next step (FSAL): s force evaluations per
 //! step. M is factored once (LDLᵀ).
 
-use super::dense::{self, Ends};
-use super::{Integrator, Run};
+use super::dense::{Ends, Interpolant};
+use super::{Flow, Integrator, Run};
 use crate::dynamics::Dynamics;
 use crate::eom;
 use crate::error::{Error, Result};
@@ -298,14 +298,13 @@ impl Integrator for Splitting {
         // Previous end state for dense output, and the (q, q̇) record buffer.
         let (mut q_old, mut v_old, mut a_old) = (q.clone(), v.clone(), acc.clone());
         let mut y = vec![0.0; 2 * n];
-        let mut y_dense = vec![0.0; 2 * n];
         let (a, b) = (&self.tableau.a, &self.tableau.b);
         let last_drift = a.len() - 1;
         for i in 0..steps {
             let t = run.grid_time(i, steps);
             let t_new = run.grid_time(i + 1, steps);
             let h = t_new - t;
-            let dense = run.out.wants_dense(t_new);
+            let dense = run.needs_interpolant(t_new);
             if dense {
                 q_old.copy_from_slice(&q);
                 v_old.copy_from_slice(&v);
@@ -340,20 +339,21 @@ impl Integrator for Splitting {
             run.stats.accepted_steps += 1;
             y[..n].copy_from_slice(&q);
             y[n..].copy_from_slice(&v);
-            if dense {
-                let ends = Ends {
+            let step = dense.then(|| Interpolant::Hermite {
+                t,
+                h,
+                ends: Ends {
                     q0: &q_old,
                     v0: &v_old,
                     a0: &a_old,
                     q1: &q,
                     v1: &v,
                     a1: &acc,
-                };
-                run.out.dense(t_new, &y, &mut y_dense, |ti, out| {
-                    dense::hermite5((ti - t) / h, h, &ends, out)
-                });
+                },
+            });
+            if run.accept(t, t_new, &y, i + 1 == steps, step.as_ref())? == Flow::Stop {
+                break;
             }
-            run.out.step(t_new, &y, i + 1 == steps);
         }
         Ok(())
     }
