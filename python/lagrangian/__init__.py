@@ -24,6 +24,7 @@ Runge–Kutta, symplectic or implicit methods — no Python runs in the integrat
 from . import scenes
 # `abs` is exported but left out of __all__, so that `from lagrangian import *` does not shadow
 # the builtin (which works on expressions too).
+from ._events import Event
 from ._expr import (
     Coordinate,
     Expr,
@@ -63,6 +64,7 @@ __all__ = [
     "Coordinate",
     "ConvergenceError",
     "Equilibrium",
+    "Event",
     "Expr",
     "LagrangianError",
     "Linearization",

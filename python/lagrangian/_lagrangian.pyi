@@ -18,6 +18,7 @@ __all__ = [
     "StiffnessError",
     "TooManyStepsError",
     "NativeModel",
+    "DenseSolution",
     "check_options",
     "method_info",
     "methods",
@@ -33,6 +34,46 @@ __version__: str
 
 _FloatArray = npt.NDArray[np.float64]
 _RawNode = Tuple[str, float, int, int]
+# (nodes, condition output, reset targets (velocity?, coordinate), reset outputs, parameter
+# values, direction, terminal count (0: not terminal), name, interior samples per step)
+_EventSpec = Tuple[
+    Sequence[_RawNode],
+    int,
+    Sequence[Tuple[bool, int]],
+    Sequence[int],
+    Sequence[float],
+    int,
+    int,
+    str,
+    int,
+]
+# (t, q, qd, energy, stats, events, status, message, dense)
+_SolutionTuple = Tuple[
+    _FloatArray,
+    _FloatArray,
+    _FloatArray,
+    _FloatArray,
+    Dict[str, Any],
+    List[Tuple[_FloatArray, _FloatArray, _FloatArray]],
+    int,
+    str,
+    Optional["DenseSolution"],
+]
+
+@final
+class DenseSolution:
+    """The continuous solution of a run: every step's interpolant."""
+
+    def eval(self, t: _FloatArray) -> Tuple[_FloatArray, _FloatArray]:
+        """(q, qd) at the times t, each of shape (len(t), dof); ValueError outside the span."""
+    @property
+    def order(self) -> int: ...
+    @property
+    def interpolant(self) -> str: ...
+    @property
+    def span(self) -> Optional[Tuple[float, float]]: ...
+    @property
+    def steps(self) -> int: ...
 
 class LagrangianError(RuntimeError):
     """Base class of the failures of the mathematics. A failure of ``simulate`` during the run
@@ -43,9 +84,7 @@ class LagrangianError(RuntimeError):
     t: Optional[float]
     q: Optional[_FloatArray]
     qd: Optional[_FloatArray]
-    _partial: Optional[
-        Tuple[_FloatArray, _FloatArray, _FloatArray, _FloatArray, Dict[str, Any]]
-    ]
+    _partial: Optional[_SolutionTuple]
 
 class SingularMassMatrixError(LagrangianError):
     """The mass matrix is singular, indefinite or not finite at some state."""
@@ -130,7 +169,10 @@ class NativeModel:
         t_eval: Optional[_FloatArray] = None,
         max_steps: Optional[int] = None,
         every: Optional[int] = None,
-    ) -> Optional[Tuple[_FloatArray, _FloatArray, _FloatArray, _FloatArray, Dict[str, Any]]]: ...
+        events: Sequence[_EventSpec] = ...,
+        dense: bool = False,
+        backend: str = "native",
+    ) -> Optional[_SolutionTuple]: ...
     def equilibrium(
         self,
         q_guess: Sequence[float],

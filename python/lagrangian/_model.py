@@ -11,6 +11,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _lagrangian
+from ._events import Event, event_specs
 from ._expr import Coordinate, Expr, ExprLike, Node, Parameter, deserialize, serialize
 from ._linear import Equilibrium, Linearization, Modes
 from ._solution import Solution
@@ -614,6 +615,8 @@ class Model:
         t_eval: Optional[ArrayLike] = None,
         max_steps: Optional[int] = None,
         output_every: Optional[int] = None,
+        events: Optional[Sequence[Event]] = None,
+        dense: bool = False,
     ) -> Solution:
         """Integrate the equations of motion from (q0, qd0) at ``t0`` to ``t_end``.
 
@@ -644,6 +647,15 @@ class Model:
         output_every : int, optional
             Keep the initial state, every k-th step and the final state (for long runs whose
             every step would not fit in memory); not together with ``t_eval``.
+        events : sequence of Event, optional
+            Conditions whose sign changes are located along the run, with every method (see
+            :class:`Event`): recorded in ``t_events``, ``q_events``, ``qd_events``; a terminal
+            event ends the run there, a reset changes the state and the run goes on. Events
+            are searched on every step's interpolant, which costs dense output on every step.
+        dense : bool
+            Keep every step's interpolant, so that the solution is callable: ``sol(t)`` gives
+            (q, q̇) anywhere in the span (``sol.interpolant`` says which interpolant and its
+            order). Off by default: nothing extra is stored.
 
         Returns
         -------
@@ -689,6 +701,15 @@ class Model:
             kwargs["max_steps"] = integer("max_steps", max_steps)
         if output_every is not None:
             kwargs["every"] = integer("output_every", output_every)
+        event_names: List[str] = []
+        if events is not None:
+            kwargs["events"] = event_specs(events, self._coordinates, self._parameters)
+            kwargs["backend"] = self._backend
+            event_names = [e.name for e in events]
+        if not isinstance(dense, bool):
+            raise TypeError(f"dense must be True or False, got {dense!r}")
+        if dense:
+            kwargs["dense"] = True
         t_end = real("t_end", t_end)
         names = [c.name for c in self._coordinates]
         try:
@@ -702,12 +723,10 @@ class Model:
             # A failure during the run carries what was computed (see `Raises`).
             partial = err._partial
             if partial is not None:
-                pt, pq, pqd, penergy, pstats = partial
-                err.solution = Solution(pt, pq, pqd, penergy, dict(pstats), names=names)
+                err.solution = Solution._from_native(partial, names, event_names, str(err))
                 err._partial = None
             raise
-        t, q, qd, energy, stats = out
-        return Solution(t, q, qd, energy, dict(stats), names=names)
+        return Solution._from_native(out, names, event_names)
 
     def equilibrium(
         self,

@@ -41,6 +41,7 @@ class SceneModel(Model):
         self._kinetic = self._potential = self._dissipation = None
         self._forces = self._positions = self._masses = None
         self._parameters = dict(values)
+        self._backend = "native"  # of the conditions of events; the scene itself is Rust
         self._native = native
         self._scene = scene
         return self

@@ -4,7 +4,7 @@ and modes are in ``_linear``."""
 from __future__ import annotations
 
 import os
-from typing import TYPE_CHECKING, Any, Dict, Optional, Sequence, Tuple, Union
+from typing import TYPE_CHECKING, Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -39,9 +39,39 @@ class Solution:
     y : numpy.ndarray, shape (2 dof, n)
         The states in SciPy's ``solve_ivp`` layout: rows q then q̇, one column per time
         (see :attr:`y`).
+    t_events : list of numpy.ndarray
+        The times of each event's occurrences (``simulate(..., events=[...])``), one array per
+        event in the order given — SciPy's ``t_events``.
+    q_events, qd_events : list of numpy.ndarray, each of shape (k, dof)
+        The coordinates and velocities at those times (before any reset).
+    event_names : tuple of str
+        The events' names, in the same order.
+    status : int
+        0: the run reached ``t_end``; 1: a terminal event stopped it; −1: the run failed (a
+        partial solution carried by an exception).
+    message : str
+        ``"reached t_end"``, ``"terminal event <name> at t = …"``, or the failure.
+
+    With ``simulate(..., dense=True)`` the solution is callable: ``sol(t)`` gives (q, q̇)
+    anywhere in the span from the method's own interpolant (see :meth:`__call__`).
     """
 
-    __slots__ = ("t", "q", "qd", "energy", "stats", "names", "_y")
+    __slots__ = (
+        "t",
+        "q",
+        "qd",
+        "energy",
+        "stats",
+        "names",
+        "t_events",
+        "q_events",
+        "qd_events",
+        "event_names",
+        "status",
+        "message",
+        "_dense",
+        "_y",
+    )
 
     t: FloatArray
     q: FloatArray
@@ -49,6 +79,12 @@ class Solution:
     energy: FloatArray
     stats: Dict[str, Any]
     names: Optional[Tuple[str, ...]]
+    t_events: List[FloatArray]
+    q_events: List[FloatArray]
+    qd_events: List[FloatArray]
+    event_names: Tuple[str, ...]
+    status: int
+    message: str
 
     def __init__(
         self,
@@ -58,10 +94,82 @@ class Solution:
         energy: FloatArray,
         stats: Dict[str, Any],
         names: Optional[Sequence[str]] = None,
+        *,
+        events: Sequence[Tuple[FloatArray, FloatArray, FloatArray]] = (),
+        event_names: Sequence[str] = (),
+        status: int = 0,
+        message: str = "reached t_end",
+        dense: Any = None,
     ) -> None:
         self.t, self.q, self.qd, self.energy, self.stats = t, q, qd, energy, stats
         self.names = None if names is None else tuple(str(n) for n in names)
+        self.t_events = [np.asarray(e[0]) for e in events]
+        self.q_events = [np.asarray(e[1]) for e in events]
+        self.qd_events = [np.asarray(e[2]) for e in events]
+        self.event_names = tuple(str(n) for n in event_names)
+        self.status, self.message = status, message
+        self._dense = dense
         self._y: Optional[FloatArray] = None
+
+    @classmethod
+    def _from_native(
+        cls,
+        out: Tuple[Any, ...],
+        names: Sequence[str],
+        event_names: Sequence[str],
+        failure: Optional[str] = None,
+    ) -> "Solution":
+        """The solution from the native tuple (t, q, qd, energy, stats, events, status,
+        message, dense); ``failure`` marks the partial solution of a failed run."""
+        t, q, qd, energy, stats, events, status, message, dense = out
+        if failure is not None:
+            status, message = -1, failure
+        return cls(
+            t,
+            q,
+            qd,
+            energy,
+            dict(stats),
+            names=names,
+            events=events,
+            event_names=event_names,
+            status=int(status),
+            message=str(message),
+            dense=dense,
+        )
+
+    def __call__(self, t: Union[float, "npt.ArrayLike"]) -> Tuple[FloatArray, FloatArray]:
+        """(q, q̇) at time(s) ``t`` anywhere in the span, from the method's own interpolant
+        (needs ``simulate(..., dense=True)``): for a scalar t two arrays of shape (dof,), for
+        an array of times two of shape (len(t), dof). See :attr:`interpolant` for what
+        interpolates and its order.
+
+        Raises
+        ------
+        ValueError
+            Outside the span, for a non-finite time, or without ``dense=True``.
+        """
+        if self._dense is None:
+            raise ValueError(
+                "this solution keeps no interpolant: run simulate(..., dense=True) to call it"
+            )
+        times = np.asarray(t, dtype=np.float64)
+        if times.ndim > 1:
+            raise ValueError(f"t must be a number or a 1-D array, got shape {times.shape}")
+        q, qd = self._dense.eval(np.ascontiguousarray(times.reshape(-1)))
+        if times.ndim == 0:
+            return q[0], qd[0]
+        return q, qd
+
+    @property
+    def interpolant(self) -> Optional[Tuple[str, int]]:
+        """(what interpolates between the steps, its order) when the solution is callable
+        (``dense=True``): Hairer's continuous extension for DOPRI5 (order 4) and DOP853 (7),
+        the quintic Hermite polynomial through q, q̇, q̈ at the ends of each step for every other
+        method (order 5 in q, 4 in q̇); ``None`` otherwise."""
+        if self._dense is None:
+            return None
+        return str(self._dense.interpolant), int(self._dense.order)
 
     @property
     def y(self) -> FloatArray:

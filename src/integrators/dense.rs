@@ -135,6 +135,11 @@ impl Dense {
         }
     }
 
+    /// Components of y = (q, q̇): twice the number of coordinates.
+    pub fn dim(&self) -> usize {
+        self.dim
+    }
+
     /// Number of steps kept.
     pub fn steps(&self) -> usize {
         self.start.len()

@@ -14,13 +14,14 @@
 //! every 20 ms through [`crate::integrators::solve_with_interrupt`].
 
 mod error;
+mod events;
 mod first_order;
 mod linear;
 mod model;
 mod scenes;
 mod states;
 
-use crate::integrators::{Failed, Method, Options, Output, Solution, solve_partial};
+use crate::integrators::{Failed, Method, Options, Output, Solution, Status, solve_partial};
 use crate::{Dynamics, Error, StaticsOptions, equilibrium};
 use error::panic_error;
 use model::{AnyModel, Backend, Compiled, RawNode, Spec, WithLoads};
@@ -385,7 +386,8 @@ impl PyModel {
     /// when q0 or qd0 is not in the fast form of [`states::vector`] (the package converts and
     /// checks them and calls again).
     #[pyo3(signature = (q0, qd0, t_end, t0=0.0, method="auto", dt=None, rtol=1e-6, atol=1e-9,
-                        t_eval=None, max_steps=None, every=None))]
+                        t_eval=None, max_steps=None, every=None, events=Vec::new(),
+                        dense=false, backend="native"))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -401,6 +403,9 @@ impl PyModel {
         t_eval: Option<PyReadonlyArray1<'py, f64>>,
         max_steps: Option<i64>,
         every: Option<i64>,
+        events: Vec<events::EventSpec>,
+        dense: bool,
+        backend: &str,
     ) -> PyResult<Option<Bound<'py, PyTuple>>> {
         let n = self.model.dof();
         let (Some(q0), Some(qd0)) = (states::vector(q0, n), states::vector(qd0, n)) else {
@@ -409,13 +414,21 @@ impl PyModel {
         check_finite("t0", t0)?;
         check_finite("t_end", t_end)?;
         let times = t_eval.map(|t| t.as_array().iter().copied().collect());
-        let (method, options) = run_options(
+        let backend = Backend::named(backend)?;
+        let events = events
+            .into_iter()
+            .map(|spec| events::event(spec, n, backend))
+            .collect::<Result<Vec<_>, Error>>()?;
+        let (method, mut options) = run_options(
             (t0, t_end),
             method,
             Step { dt, rtol, atol },
             max_steps,
             (times, every),
         )?;
+        options.events = events;
+        options.dense = dense;
+        options.validate(t0, t_end)?;
         let model = self.model.clone();
         let pending: Mutex<Option<PyErr>> = Mutex::new(None);
         let outcome = py.detach(|| {
@@ -621,7 +634,10 @@ fn check_options(
     .map(|_| ())
 }
 
-/// (t, q, qd, energy, stats) of a solution, as `simulate` returns it and a failure carries it.
+/// (t, q, qd, energy, stats, events, status, message, dense) of a solution, as `simulate`
+/// returns it and a failure carries it: `events` one (t, q, qd) per event, `status` 0 when the
+/// run reached t_end and 1 when a terminal event stopped it, `dense` the continuous solution or
+/// `None`.
 pub(crate) fn solution_tuple<'py>(
     py: Python<'py>,
     sol: Solution,
@@ -643,12 +659,25 @@ pub(crate) fn solution_tuple<'py>(
     stats.set_item("jacobian_evaluations", s.jacobian_evaluations)?;
     stats.set_item("factorizations", s.factorizations)?;
     stats.set_item("newton_failures", s.newton_failures)?;
+    let status = match sol.status {
+        Status::Finished => 0,
+        Status::Terminated { .. } => 1,
+    };
+    let message = sol.status.to_string();
+    let dense = sol
+        .dense
+        .map(|d| Bound::new(py, events::PyDense::new(d)))
+        .transpose()?;
     (
         PyArray1::from_vec(py, sol.t),
         q.into_pyarray(py),
         qd.into_pyarray(py),
         PyArray1::from_vec(py, energy),
         stats,
+        events::occurrences(py, sol.events, n)?,
+        status,
+        message,
+        dense,
     )
         .into_pyobject(py)
 }
@@ -661,6 +690,8 @@ mod lagrangian_module {
         ConvergenceError, LagrangianError, NonFiniteError, SingularMassMatrixError, StepSizeError,
         StiffnessError, TooManyStepsError,
     };
+    #[pymodule_export]
+    use super::events::PyDense;
     #[pymodule_export]
     use super::scenes::{scene_catalog, scene_drawing, scene_exact, scene_model, scene_pivot};
     #[pymodule_export]

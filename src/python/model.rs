@@ -262,7 +262,7 @@ pub(crate) struct Spec<'a> {
 
 /// Graph node ids of the serialized outputs (serialized node k may have merged into an earlier
 /// equal node).
-fn node_ids(nodes: &[RawNode]) -> Result<(Graph, Vec<usize>)> {
+pub(crate) fn node_ids(nodes: &[RawNode]) -> Result<(Graph, Vec<usize>)> {
     let mut g = Graph::new();
     let mut ids: Vec<usize> = Vec::with_capacity(nodes.len());
     for (k, raw) in nodes.iter().enumerate() {

@@ -119,7 +119,7 @@ def test_stubs_match_the_extension_module(tmp_path):
 
 
 @pytest.mark.parametrize(
-    "module", ["lagrangian", "lagrangian._expr", "lagrangian._model", "lagrangian._sympy",
+    "module", ["lagrangian", "lagrangian._expr", "lagrangian._events", "lagrangian._model", "lagrangian._sympy",
                "lagrangian.scenes", "lagrangian._workprec", "lagrangian._scipy"]
 )
 def test_docstring_examples_run(module):
