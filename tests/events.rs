@@ -433,3 +433,51 @@ fn endless_resets_end_within_the_step_budget() {
         assert!(((t[2] - t[1]) - 2e-3 / 9.81).abs() < 1e-9, "{method}");
     }
 }
+
+/// The step-by-step solver is what `solve` runs: the same trajectory bit for bit, for every
+/// method; each step's state is the row recorded for it, and a reset says so.
+#[test]
+fn solver_steps_are_the_runs_steps() {
+    use lagrangian::integrators::{Solver, StepOutcome};
+    let (e, g) = (0.8, 9.81);
+    let system = System::new(1, UnitMass).with_potential(Gravity(g));
+    let bounce = Event::new("floor", |_t, q, _qd| q[0])
+        .falling()
+        .with_reset(move |_t, _q, qd| qd[0] = -e * qd[0]);
+    for &method in Method::ALL {
+        let options = match method.is_adaptive() {
+            Some(true) => Options::adaptive(1e-9, 1e-9),
+            _ => Options::fixed(1e-2),
+        }
+        .with_event(bounce.clone());
+        let whole = solve(&system, &[1.0], &[0.0], (0.0, 2.0), method, &options).unwrap();
+        let mut solver =
+            Solver::new(&system, &[1.0], &[0.0], (0.0, 2.0), method, &options).unwrap();
+        let (mut resets, mut row) = (0, 0);
+        loop {
+            let outcome = solver.step().unwrap();
+            row += if matches!(outcome, StepOutcome::Reset { .. }) {
+                2
+            } else {
+                1
+            };
+            let (q, qd) = solver.state();
+            assert_eq!(solver.t(), whole.t[row], "{method}");
+            assert_eq!((q, qd), (whole.q_at(row), whole.qd_at(row)), "{method}");
+            match outcome {
+                StepOutcome::Stepped => {}
+                StepOutcome::Reset { event: 0, t } => {
+                    resets += 1;
+                    assert_eq!(t, whole.events[0].t[resets - 1]);
+                }
+                StepOutcome::Finished => break,
+                other => panic!("{method}: {other:?}"),
+            }
+        }
+        // Once finished it stays finished.
+        assert_eq!(solver.step().unwrap(), StepOutcome::Finished);
+        assert_eq!(resets, whole.events[0].t.len(), "{method}");
+        assert!(resets >= 2, "{method}");
+        assert_eq!(solver.solution(), whole, "{method}");
+    }
+}

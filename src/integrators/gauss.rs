@@ -25,7 +25,7 @@
 //! come from the previous step's collocation polynomial.
 
 use super::newton::{self, Convergence, ImplicitStep, Legendre, Lu, Verdict};
-use super::{Integrator, Run};
+use super::{Integrator, Run, SegmentStepper};
 use crate::dynamics::Dynamics;
 use crate::eom::ForceParts;
 use crate::error::{Error, Result};
@@ -100,8 +100,8 @@ const SLOW: usize = 8;
 const MAX_EXTRAPOLATION: f64 = 4.0;
 
 /// The state and preallocated work space of a run.
-struct Stepper<'t> {
-    tab: &'t GaussTableau,
+struct Stepper {
+    tab: GaussTableau,
     parts: ForceParts,
     n: usize,
     /// y = (q, q̇) at the current node; p alongside.
@@ -141,8 +141,8 @@ struct Stepper<'t> {
     v_scale: f64,
 }
 
-impl<'t> Stepper<'t> {
-    fn new<S: Dynamics + ?Sized>(tab: &'t GaussTableau, run: &Run<'_, S>) -> Result<Self> {
+impl Stepper {
+    fn new<S: Dynamics + ?Sized>(tab: GaussTableau, run: &Run<'_, S>) -> Result<Self> {
         let n = run.n;
         let s = tab.stages();
         let y = run.y0.clone();
@@ -360,7 +360,7 @@ impl<'t> Stepper<'t> {
     }
 }
 
-impl<S: Dynamics + ?Sized> ImplicitStep<S> for Stepper<'_> {
+impl<S: Dynamics + ?Sized> ImplicitStep<S> for Stepper {
     fn attempt(&mut self, run: &mut Run<'_, S>, t: f64, h: f64) -> Result<Option<Convergence>> {
         run.poll(t)?;
         let (n, s) = (self.n, self.tab.stages());
@@ -461,13 +461,16 @@ impl Integrator for Gauss {
         false
     }
 
-    fn integrate<S: Dynamics + ?Sized>(&self, run: &mut Run<'_, S>) -> Result<()> {
+    fn start<S: Dynamics + ?Sized>(
+        self,
+        run: &mut Run<'_, S>,
+    ) -> Result<Box<dyn SegmentStepper<S>>> {
         let dt = run.options.dt.ok_or_else(|| Error::InvalidInput {
             what: "dt",
             why: format!("{} is a fixed-step method", self.tableau.name),
         })?;
-        let mut stepper = Stepper::new(&self.tableau, run)?;
-        newton::fixed_steps(run, &mut stepper, dt)
+        let stepper = Stepper::new(self.tableau, run)?;
+        Ok(Box::new(newton::FixedSteps::new(run, stepper, dt)?))
     }
 }
 

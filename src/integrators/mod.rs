@@ -113,8 +113,19 @@ pub(crate) trait Integrator {
         Ok(())
     }
 
-    /// Integrate over the run's span, recording into `run.out`.
-    fn integrate<S: Dynamics + ?Sized>(&self, run: &mut Run<'_, S>) -> Result<()>;
+    /// Set up the integration of the run's current segment (from `run.t0`, `run.y0` to
+    /// `run.t_end`), to be taken a step at a time.
+    fn start<S: Dynamics + ?Sized>(
+        self,
+        run: &mut Run<'_, S>,
+    ) -> Result<Box<dyn SegmentStepper<S>>>;
+}
+
+/// One method integrating one segment, a step at a time: what [`Solver::step`] drives.
+pub(crate) trait SegmentStepper<S: Dynamics + ?Sized> {
+    /// Take one accepted step (rejected attempts are retried inside) and hand it to
+    /// [`Run::accept`].
+    fn step(&mut self, run: &mut Run<'_, S>) -> Result<Flow>;
 }
 
 /// A generic operation on the integrator behind a [`Method`].
@@ -307,11 +318,11 @@ impl<S: Dynamics + ?Sized> Visit for Fits<'_, S> {
     }
 }
 
-struct Integrate<'r, 'a, S: ?Sized>(&'r mut Run<'a, S>);
-impl<S: Dynamics + ?Sized> Visit for Integrate<'_, '_, S> {
-    type Out = Result<()>;
-    fn visit<I: Integrator>(self, i: I) -> Result<()> {
-        i.integrate(self.0)
+struct Start<'r, 'a, S: ?Sized>(&'r mut Run<'a, S>);
+impl<S: Dynamics + ?Sized> Visit for Start<'_, '_, S> {
+    type Out = Result<Box<dyn SegmentStepper<S>>>;
+    fn visit<I: Integrator>(self, i: I) -> Self::Out {
+        i.start(self.0)
     }
 }
 
@@ -339,14 +350,16 @@ pub(crate) struct Run<'a, S: ?Sized> {
     buf: Vec<f64>,
 }
 
-/// What an integrator does after an accepted step.
+/// What follows an accepted step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[must_use]
 pub(crate) enum Flow {
     /// Take the next step.
     Continue,
-    /// An event stopped the run inside the step (terminal, or a reset to apply): return.
+    /// An event stopped the segment inside the step (terminal, or a reset to apply).
     Stop,
+    /// The step reached the end of the span.
+    End,
 }
 
 impl<S: Dynamics + ?Sized> Run<'_, S> {
@@ -397,9 +410,10 @@ impl<S: Dynamics + ?Sized> Run<'_, S> {
         last: bool,
         step: Option<&Interpolant<'_>>,
     ) -> Result<Flow> {
+        let done = if last { Flow::End } else { Flow::Continue };
         let Some(step) = step else {
             self.out.step(t_new, y_new, last);
-            return Ok(Flow::Continue);
+            return Ok(done);
         };
         let stop = if self.events.active() {
             self.events.scan(t, t_new, y_new, step)?
@@ -415,7 +429,7 @@ impl<S: Dynamics + ?Sized> Run<'_, S> {
         match stop {
             None => {
                 self.out.step(t_new, y_new, last);
-                Ok(Flow::Continue)
+                Ok(done)
             }
             Some(stop) => {
                 self.stop = Some(stop);
@@ -533,148 +547,326 @@ pub fn solve_with_interrupt<S: Dynamics + ?Sized>(
 }
 
 #[allow(clippy::too_many_arguments, clippy::result_large_err)]
-fn solve_inner<S: Dynamics + ?Sized>(
-    system: &S,
+fn solve_inner<'a, S: Dynamics + ?Sized>(
+    system: &'a S,
     q0: &[f64],
     qd0: &[f64],
     span: (f64, f64),
     method: Method,
-    options: &Options,
-    interrupt: Option<&dyn Fn(f64) -> bool>,
+    options: &'a Options,
+    interrupt: Option<&'a dyn Fn(f64) -> bool>,
     check_stability: bool,
 ) -> std::result::Result<Solution, Failed> {
-    let (t0, t_end) = span;
-    let n = system.dof();
-    check_state(n, t0, q0, Some(qd0))?;
-    if !t_end.is_finite() {
-        return Err(Failed::from(Error::NonFinite {
-            what: "end time",
-            t: t_end,
-        }));
-    }
-    if t_end == t0 {
-        return Err(Failed::from(Error::InvalidInput {
-            what: "span",
-            why: format!("t_end = t0 = {t0}: the span is empty"),
-        }));
-    }
-    options.validate(t0, t_end)?;
-    let (method, choice) = match method {
-        Method::Auto => {
-            let (m, why) = auto::choose(system, t0, q0, qd0, t_end, options);
-            (m, Some(why))
-        }
-        m => (m, None),
-    };
-    if let Some(Err(why)) = method.visit(Fits {
+    let mut solver = Solver::start(
         system,
-        t0,
         q0,
         qd0,
-    }) {
-        return Err(Failed::from(Error::UnsupportedMethod {
-            method: method.name(),
-            why,
-            fits: Method::fitting(system, t0, q0, qd0)
-                .iter()
-                .map(|m| m.name())
-                .collect(),
-        }));
-    }
-    options.check_method(method)?;
-    if let (Some(dt), Some(true), true) = (options.dt, method.is_explicit(), check_stability) {
-        stability::check(system, t0, q0, qd0, dt, method)?;
-    }
-    let mut y0 = q0.to_vec();
-    y0.extend_from_slice(qd0);
-    let dir = (t_end - t0).signum();
-    let mut run = Run {
-        system,
-        n,
-        t0,
-        t_end,
-        out: Recorder::new(n, options.output.clone(), dir),
-        y0,
+        span,
+        method,
         options,
-        stats: Statistics::new(method, choice),
         interrupt,
-        events: Tracker::new(&options.events, n),
-        dense: options.dense.then(|| Dense::new(2 * n, dir)),
-        stop: None,
-        buf: vec![0.0; 2 * n],
-    };
-    run.out.start(t0, &run.y0);
-    let outcome = run
-        .events
-        .start(t0, &run.y0)
-        .and_then(|()| segments(&mut run, method));
-    let Run {
-        out,
-        stats,
-        events,
-        dense,
-        ..
-    } = run;
-    let attach = |mut sol: Solution| {
-        sol.events = events.found;
-        sol.dense = dense;
-        sol
-    };
-    match outcome {
-        Ok(status) => Ok(Solution {
-            status,
-            ..attach(out.finish(stats))
-        }),
-        Err(error) => {
-            let mut failed = out.fail(error, stats);
-            failed.partial = failed.partial.map(attach);
-            Err(failed)
+        check_stability,
+    )?;
+    loop {
+        match solver.step() {
+            Ok(StepOutcome::Finished | StepOutcome::Terminated { .. }) => {
+                return Ok(solver.solution());
+            }
+            Ok(StepOutcome::Stepped | StepOutcome::Reset { .. }) => {}
+            Err(error) => return Err(solver.fail(error)),
         }
     }
 }
 
-/// Integrate segment after segment: a reset of an event ends one and starts the next from the
-/// new state, with the same method; a terminal event ends the run.
-fn segments<S: Dynamics + ?Sized>(run: &mut Run<'_, S>, method: Method) -> Result<Status> {
-    loop {
-        method
-            .visit(Integrate(&mut *run))
-            .expect("Auto was resolved above")?;
-        let Some(Stop {
-            t,
-            y,
-            event,
-            terminal,
-            h,
-        }) = run.stop.take()
-        else {
-            return Ok(Status::Finished);
-        };
-        if terminal {
-            run.out.step(t, &y, true);
-            return Ok(Status::Terminated {
-                event,
-                name: run.events.name(event).to_owned(),
-                t,
+/// Why [`Solver::step`] returned.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StepOutcome {
+    /// A step was taken; the run goes on.
+    Stepped,
+    /// A step was taken and an event's reset changed the state at `t`; the run goes on from
+    /// the new state.
+    Reset {
+        /// Index of the event in [`Options::events`].
+        event: usize,
+        /// When.
+        t: f64,
+    },
+    /// The run has reached the end of the span.
+    Finished,
+    /// A terminal event has stopped the run at `t`.
+    Terminated {
+        /// Index of the event in [`Options::events`].
+        event: usize,
+        /// When.
+        t: f64,
+    },
+}
+
+/// A run taken a step at a time, as diffsol's solvers are: [`solve`] is this in a loop.
+///
+/// [`Solver::step`] takes one accepted step of the method (rejected attempts are retried inside)
+/// and says why it returned; between steps the current state, the statistics and what was
+/// recorded so far can be read, and [`Solver::solution`] ends the run with what it has.
+///
+/// ```
+/// use lagrangian::integrators::{Event, Method, Options, Solver, StepOutcome};
+/// use lagrangian::scenes::SimplePendulum;
+/// let pendulum = SimplePendulum::new(1.0, 1.0, 9.81).system();
+/// let options = Options::adaptive(1e-10, 1e-12)
+///     .with_event(Event::new("theta = 0", |_t, q, _qd| q[0]).terminal(1));
+/// let mut solver = Solver::new(&pendulum, &[0.1], &[0.0], (0.0, 10.0), Method::Dop853, &options)
+///     .unwrap();
+/// let mut steps = 0;
+/// let t_stop = loop {
+///     match solver.step().unwrap() {
+///         StepOutcome::Stepped | StepOutcome::Reset { .. } => steps += 1,
+///         StepOutcome::Terminated { t, .. } => break t,
+///         StepOutcome::Finished => unreachable!("θ crosses zero first"),
+///     }
+///     assert!(solver.t() < 1.0); // the state after each step
+/// };
+/// assert_eq!(solver.t(), t_stop);
+/// let sol = solver.solution();
+/// assert_eq!(sol.stats.accepted_steps, steps + 1);
+/// ```
+pub struct Solver<'a, S: Dynamics + ?Sized> {
+    run: Run<'a, S>,
+    method: Method,
+    /// The current segment's stepper; `None` until the segment's first step.
+    stepper: Option<Box<dyn SegmentStepper<S>>>,
+    /// How the run ended, once it has.
+    end: Option<std::result::Result<Status, Error>>,
+}
+
+impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
+    /// Check the problem and the options as [`solve`] does, choose the method for
+    /// [`Method::Auto`], and stand at the initial state, ready for [`Solver::step`].
+    ///
+    /// # Errors
+    /// Those of [`solve`] that come before the first step.
+    pub fn new(
+        system: &'a S,
+        q0: &[f64],
+        qd0: &[f64],
+        span: (f64, f64),
+        method: Method,
+        options: &'a Options,
+    ) -> Result<Self> {
+        Self::start(system, q0, qd0, span, method, options, None, true)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn start(
+        system: &'a S,
+        q0: &[f64],
+        qd0: &[f64],
+        span: (f64, f64),
+        method: Method,
+        options: &'a Options,
+        interrupt: Option<&'a dyn Fn(f64) -> bool>,
+        check_stability: bool,
+    ) -> Result<Self> {
+        let (t0, t_end) = span;
+        let n = system.dof();
+        check_state(n, t0, q0, Some(qd0))?;
+        if !t_end.is_finite() {
+            return Err(Error::NonFinite {
+                what: "end time",
+                t: t_end,
             });
         }
-        let mut after = y.clone();
-        run.events.reset(event, t, &mut after)?;
-        run.out.jump(t, &y, &after);
-        if (run.t_end - t) * run.dir() <= 0.0 {
-            return Ok(Status::Finished);
+        if t_end == t0 {
+            return Err(Error::InvalidInput {
+                what: "span",
+                why: format!("t_end = t0 = {t0}: the span is empty"),
+            });
         }
-        let attempts = run.stats.accepted_steps + run.stats.rejected_steps;
-        if attempts >= run.options.max_steps {
-            return Err(Error::TooManySteps { t, steps: attempts });
+        options.validate(t0, t_end)?;
+        let (method, choice) = match method {
+            Method::Auto => {
+                let (m, why) = auto::choose(system, t0, q0, qd0, t_end, options);
+                (m, Some(why))
+            }
+            m => (m, None),
+        };
+        if let Some(Err(why)) = method.visit(Fits {
+            system,
+            t0,
+            q0,
+            qd0,
+        }) {
+            return Err(Error::UnsupportedMethod {
+                method: method.name(),
+                why,
+                fits: Method::fitting(system, t0, q0, qd0)
+                    .iter()
+                    .map(|m| m.name())
+                    .collect(),
+            });
         }
-        // Where the new motion goes: a thousandth of a step along ẏ.
-        let mut dy = vec![0.0; 2 * run.n];
-        run.rhs(t, &after, &mut dy)?;
-        let dt = 1e-3 * h * run.dir();
-        let probe: Vec<f64> = after.iter().zip(&dy).map(|(y, d)| y + dt * d).collect();
-        run.events.restart(t, &after, event, (t + dt, &probe))?;
-        run.t0 = t;
-        run.y0 = after;
+        options.check_method(method)?;
+        if let (Some(dt), Some(true), true) = (options.dt, method.is_explicit(), check_stability) {
+            stability::check(system, t0, q0, qd0, dt, method)?;
+        }
+        let mut y0 = q0.to_vec();
+        y0.extend_from_slice(qd0);
+        let dir = (t_end - t0).signum();
+        let mut run = Run {
+            system,
+            n,
+            t0,
+            t_end,
+            out: Recorder::new(n, options.output.clone(), dir),
+            y0,
+            options,
+            stats: Statistics::new(method, choice),
+            interrupt,
+            events: Tracker::new(&options.events, n),
+            dense: options.dense.then(|| Dense::new(2 * n, dir)),
+            stop: None,
+            buf: vec![0.0; 2 * n],
+        };
+        run.out.start(t0, &run.y0);
+        run.events.start(t0, &run.y0)?;
+        Ok(Self {
+            run,
+            method,
+            stepper: None,
+            end: None,
+        })
+    }
+
+    /// Take one step. After the run has ended (or failed) every call returns how it ended.
+    ///
+    /// # Errors
+    /// The failures of the run that [`solve`] reports; the solver keeps what was computed
+    /// before ([`Solver::solution`]).
+    pub fn step(&mut self) -> Result<StepOutcome> {
+        if let Some(end) = &self.end {
+            return end.clone().map(|status| match status {
+                Status::Finished => StepOutcome::Finished,
+                Status::Terminated { event, t, .. } => StepOutcome::Terminated { event, t },
+            });
+        }
+        let outcome = self.advance();
+        match &outcome {
+            Err(e) => self.end = Some(Err(e.clone())),
+            Ok(StepOutcome::Finished) => self.end = Some(Ok(Status::Finished)),
+            Ok(StepOutcome::Terminated { event, t }) => {
+                self.end = Some(Ok(Status::Terminated {
+                    event: *event,
+                    name: self.run.events.name(*event).to_owned(),
+                    t: *t,
+                }));
+            }
+            Ok(_) => {}
+        }
+        outcome
+    }
+
+    fn advance(&mut self) -> Result<StepOutcome> {
+        let run = &mut self.run;
+        let stepper = match &mut self.stepper {
+            Some(stepper) => stepper,
+            None => self.stepper.insert(
+                self.method
+                    .visit(Start(&mut *run))
+                    .expect("Auto was resolved in Solver::new")?,
+            ),
+        };
+        match stepper.step(run)? {
+            Flow::Continue => Ok(StepOutcome::Stepped),
+            Flow::End => Ok(StepOutcome::Finished),
+            Flow::Stop => {
+                let Stop {
+                    t,
+                    y,
+                    event,
+                    terminal,
+                    h,
+                } = run.stop.take().expect("a stopped step leaves its stop");
+                if terminal {
+                    run.out.step(t, &y, true);
+                    return Ok(StepOutcome::Terminated { event, t });
+                }
+                // A reset: the next segment starts from the new state, with a new stepper.
+                self.stepper = None;
+                let mut after = y.clone();
+                run.events.reset(event, t, &mut after)?;
+                run.out.jump(t, &y, &after);
+                if (run.t_end - t) * run.dir() <= 0.0 {
+                    return Ok(StepOutcome::Finished);
+                }
+                let attempts = run.stats.accepted_steps + run.stats.rejected_steps;
+                if attempts >= run.options.max_steps {
+                    return Err(Error::TooManySteps { t, steps: attempts });
+                }
+                // Where the new motion goes: a thousandth of a step along ẏ.
+                let mut dy = vec![0.0; 2 * run.n];
+                run.rhs(t, &after, &mut dy)?;
+                let dt = 1e-3 * h * run.dir();
+                let probe: Vec<f64> = after.iter().zip(&dy).map(|(y, d)| y + dt * d).collect();
+                run.events.restart(t, &after, event, (t + dt, &probe))?;
+                run.t0 = t;
+                run.y0 = after;
+                Ok(StepOutcome::Reset { event, t })
+            }
+        }
+    }
+
+    /// The time of the current state.
+    pub fn t(&self) -> f64 {
+        self.run.out.last().0
+    }
+
+    /// The current state (q, q̇): after a reset, the state after it.
+    pub fn state(&self) -> (&[f64], &[f64]) {
+        self.run.out.last().1.split_at(self.run.n)
+    }
+
+    /// The work so far.
+    pub fn stats(&self) -> &Statistics {
+        &self.run.stats
+    }
+
+    /// End the run here: the trajectory recorded so far (as [`Options::output`] asks), the
+    /// events found, the continuous solution, and the status (`Finished` unless a terminal
+    /// event stopped it).
+    pub fn solution(self) -> Solution {
+        let status = match self.end {
+            Some(Ok(status)) => status,
+            _ => Status::Finished,
+        };
+        let Run {
+            out,
+            stats,
+            events,
+            dense,
+            ..
+        } = self.run;
+        Solution {
+            status,
+            events: events.found,
+            dense,
+            ..out.finish(stats)
+        }
+    }
+
+    /// The run failed with `error`: what it had computed.
+    fn fail(self, error: Error) -> Failed {
+        let Run {
+            out,
+            stats,
+            events,
+            dense,
+            ..
+        } = self.run;
+        let mut failed = out.fail(error, stats);
+        failed.partial = failed.partial.map(|sol| Solution {
+            events: events.found,
+            dense,
+            ..sol
+        });
+        failed
     }
 }

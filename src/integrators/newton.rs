@@ -7,7 +7,7 @@
 //! Every buffer is allocated once per run, so the step loops do not touch the allocator.
 
 use super::dense::{Ends, Interpolant};
-use super::{Flow, Run, Statistics};
+use super::{Flow, Run, SegmentStepper, Statistics};
 use crate::dynamics::Dynamics;
 use crate::eom;
 use crate::error::{Error, Result};
@@ -340,61 +340,75 @@ pub(crate) trait ImplicitStep<S: Dynamics + ?Sized> {
 /// [`Error::NewtonFailure`]: down to dt / 2¹⁰.
 pub(crate) const MAX_HALVINGS: usize = 10;
 
-/// The fixed-step loop of an implicit method: equal steps of about `dt`; a step whose Newton
+/// The fixed steps of an implicit method: equal steps of about `dt`; a step whose Newton
 /// iteration fails is retried as two half steps, recursively up to [`MAX_HALVINGS`] times (each
 /// failure counts as a rejected step and a Newton failure, each step taken as an accepted one).
-/// Dense output by quintic Hermite interpolation through (q, q̇, q̈) at both ends of the step.
-pub(crate) fn fixed_steps<S: Dynamics + ?Sized, M: ImplicitStep<S>>(
-    run: &mut Run<'_, S>,
-    method: &mut M,
-    dt: f64,
-) -> Result<()> {
-    let steps = run.fixed_steps(dt)?;
-    let n = run.n;
-    let mut y_old = vec![0.0; 2 * n];
-    let mut f_old = vec![0.0; 2 * n];
-    let mut f_new = vec![0.0; 2 * n];
-    // Whether f_old is ẏ at the current state (the previous step's end).
-    let mut have_f_old = false;
-    for i in 0..steps {
+/// Interpolant: quintic Hermite through (q, q̇, q̈) at both ends of the step.
+pub(crate) struct FixedSteps<M> {
+    method: M,
+    /// Step `i` of `steps` is next.
+    i: usize,
+    steps: usize,
+    y_old: Vec<f64>,
+    f_old: Vec<f64>,
+    f_new: Vec<f64>,
+    /// Whether `f_old` is ẏ at the current state (the previous step's end).
+    have_f_old: bool,
+}
+
+impl<M> FixedSteps<M> {
+    pub(crate) fn new<S: Dynamics + ?Sized>(run: &Run<'_, S>, method: M, dt: f64) -> Result<Self> {
+        let n = run.n;
+        Ok(Self {
+            method,
+            i: 0,
+            steps: run.fixed_steps(dt)?,
+            y_old: vec![0.0; 2 * n],
+            f_old: vec![0.0; 2 * n],
+            f_new: vec![0.0; 2 * n],
+            have_f_old: false,
+        })
+    }
+}
+
+impl<S: Dynamics + ?Sized, M: ImplicitStep<S>> SegmentStepper<S> for FixedSteps<M> {
+    fn step(&mut self, run: &mut Run<'_, S>) -> Result<Flow> {
+        let n = run.n;
+        let (i, steps) = (self.i, self.steps);
+        self.i += 1;
         let t = run.grid_time(i, steps);
         let t_new = run.grid_time(i + 1, steps);
         let dense = run.needs_interpolant(t_new);
         if dense {
-            y_old.copy_from_slice(method.state());
-            if !have_f_old {
-                run.rhs(t, &y_old, &mut f_old)?;
+            self.y_old.copy_from_slice(self.method.state());
+            if !self.have_f_old {
+                run.rhs(t, &self.y_old, &mut self.f_old)?;
             }
         }
-        advance(run, method, t, t_new, 0)?;
-        let y = method.state();
-        let flow = if dense {
-            run.rhs(t_new, y, &mut f_new)?;
-            let step = Interpolant::Hermite {
-                t,
-                h: t_new - t,
-                ends: Ends {
-                    q0: &y_old[..n],
-                    v0: &y_old[n..],
-                    a0: &f_old[n..],
-                    q1: &y[..n],
-                    v1: &y[n..],
-                    a1: &f_new[n..],
-                },
-            };
-            let flow = run.accept(t, t_new, y, i + 1 == steps, Some(&step))?;
-            std::mem::swap(&mut f_old, &mut f_new);
-            have_f_old = true;
-            flow
-        } else {
-            have_f_old = false;
-            run.accept(t, t_new, y, i + 1 == steps, None)?
-        };
-        if flow == Flow::Stop {
-            break;
+        advance(run, &mut self.method, t, t_new, 0)?;
+        let y = self.method.state();
+        if !dense {
+            self.have_f_old = false;
+            return run.accept(t, t_new, y, i + 1 == steps, None);
         }
+        run.rhs(t_new, y, &mut self.f_new)?;
+        let step = Interpolant::Hermite {
+            t,
+            h: t_new - t,
+            ends: Ends {
+                q0: &self.y_old[..n],
+                v0: &self.y_old[n..],
+                a0: &self.f_old[n..],
+                q1: &y[..n],
+                v1: &y[n..],
+                a1: &self.f_new[n..],
+            },
+        };
+        let flow = run.accept(t, t_new, y, i + 1 == steps, Some(&step))?;
+        std::mem::swap(&mut self.f_old, &mut self.f_new);
+        self.have_f_old = true;
+        Ok(flow)
     }
-    Ok(())
 }
 
 /// One step from `t` to `t_end`, halved on Newton failure.

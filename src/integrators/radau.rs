@@ -23,7 +23,7 @@
 
 use super::dense::{Ends, Interpolant};
 use super::newton::{self, Convergence, ImplicitStep, Lu};
-use super::{Flow, Integrator, Run};
+use super::{Flow, Integrator, Run, SegmentStepper};
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
 use nalgebra::{Complex, DMatrix};
@@ -540,21 +540,43 @@ impl Stepper {
         multiplier.min(1.0) * err.powf(-0.25)
     }
 
-    fn adaptive<S: Dynamics + ?Sized>(&mut self, run: &mut Run<'_, S>) -> Result<()> {
+    /// The step-size control of a run starting at `run.t0` (f there already evaluated): the
+    /// largest and the first step, and the Jacobian at the start.
+    fn control<S: Dynamics + ?Sized>(&mut self, run: &mut Run<'_, S>) -> Result<Control> {
         let opts = run.options;
-        let dir = run.dir();
         let span = (run.t_end - run.t0).abs();
         let h_max = opts.max_step.unwrap_or(span).min(span);
-        let mut h_abs = match opts.initial_step {
+        let h_abs = match opts.initial_step {
             Some(h0) => h0.min(h_max),
             None => self.initial_step(run, span)?.min(h_max),
         };
-        let mut h_abs_old: Option<f64> = None;
-        let mut err_old: Option<f64> = None;
-        let mut t = run.t0;
+        self.jacobian(run, run.t0)?;
+        Ok(Control {
+            t: run.t0,
+            h_abs,
+            h_abs_old: None,
+            err_old: None,
+            h_max,
+        })
+    }
+
+    /// One accepted step of error-controlled size from `control.t`, rejected trials retried.
+    fn adaptive_step<S: Dynamics + ?Sized>(
+        &mut self,
+        run: &mut Run<'_, S>,
+        control: &mut Control,
+    ) -> Result<Flow> {
+        let opts = run.options;
+        let dir = run.dir();
+        let Control {
+            t,
+            mut h_abs,
+            mut h_abs_old,
+            mut err_old,
+            h_max,
+        } = *control;
         let n = self.n;
-        self.jacobian(run, t)?;
-        loop {
+        {
             let floor = opts.min_step.max(10.0 * f64::EPSILON * t.abs());
             if h_abs > h_max {
                 h_abs = h_max;
@@ -652,19 +674,48 @@ impl Stepper {
             let flow = run.accept(t, t_new, &self.y_new, last, step.as_ref())?;
             self.accept(h);
             std::mem::swap(&mut self.f, &mut self.f_new);
-            t = t_new;
-            if last || flow == Flow::Stop {
-                return Ok(());
+            if flow != Flow::Continue {
+                return Ok(flow);
             }
             if recompute_jac {
-                self.jacobian(run, t)?;
+                self.jacobian(run, t_new)?;
             } else {
                 self.current_jac = false;
             }
-            h_abs_old = Some(h_abs);
-            err_old = Some(err);
-            h_abs *= factor;
+            *control = Control {
+                t: t_new,
+                h_abs: h_abs * factor,
+                h_abs_old: Some(h_abs),
+                err_old: Some(err),
+                h_max,
+            };
+            Ok(Flow::Continue)
         }
+    }
+}
+
+/// The state of Radau's step-size control between accepted steps.
+#[derive(Debug, Clone, Copy)]
+struct Control {
+    /// Time of the current state.
+    t: f64,
+    /// Next trial step size, and the last accepted one.
+    h_abs: f64,
+    h_abs_old: Option<f64>,
+    /// The last accepted step's error norm.
+    err_old: Option<f64>,
+    h_max: f64,
+}
+
+/// Where an adaptive Radau run stands between steps.
+struct Adaptive {
+    stepper: Stepper,
+    control: Control,
+}
+
+impl<S: Dynamics + ?Sized> SegmentStepper<S> for Adaptive {
+    fn step(&mut self, run: &mut Run<'_, S>) -> Result<Flow> {
+        self.stepper.adaptive_step(run, &mut self.control)
     }
 }
 
@@ -713,17 +764,21 @@ impl Integrator for Radau {
         false
     }
 
-    fn integrate<S: Dynamics + ?Sized>(&self, run: &mut Run<'_, S>) -> Result<()> {
+    fn start<S: Dynamics + ?Sized>(
+        self,
+        run: &mut Run<'_, S>,
+    ) -> Result<Box<dyn SegmentStepper<S>>> {
         let mut stepper = Stepper::new(run);
         match run.options.dt {
             Some(dt) => {
                 stepper.jacobian(run, run.t0)?;
-                newton::fixed_steps(run, &mut stepper, dt)
+                Ok(Box::new(newton::FixedSteps::new(run, stepper, dt)?))
             }
             None => {
                 let (t0, y0) = (run.t0, run.y0.clone());
                 run.rhs(t0, &y0, &mut stepper.f)?;
-                stepper.adaptive(run)
+                let control = stepper.control(run)?;
+                Ok(Box::new(Adaptive { stepper, control }))
             }
         }
     }

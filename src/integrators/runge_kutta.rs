@@ -5,7 +5,7 @@
 
 use super::dense::{Ends, Interpolant};
 use super::tableau::{ErrorEstimate, Tableau};
-use super::{Flow, Integrator, Run};
+use super::{Flow, Integrator, Run, SegmentStepper};
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
 
@@ -73,7 +73,7 @@ fn accumulate(h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f64]) {
 }
 
 /// Hairer's stiffness bookkeeping (`IASTI`, `NONSTI`).
-#[derive(Default)]
+#[derive(Default, Clone, Copy)]
 struct StiffnessCounter {
     positive: usize,
     negative: usize,
@@ -228,29 +228,25 @@ impl ExplicitRk {
         Ok(flow)
     }
 
-    fn fixed<S: Dynamics + ?Sized>(
+    /// Step `i` of `steps` equal steps.
+    fn fixed_step<S: Dynamics + ?Sized>(
         &self,
         run: &mut Run<'_, S>,
         c: &mut Cache,
-        dt: f64,
-    ) -> Result<()> {
-        let steps = run.fixed_steps(dt)?;
-        for i in 0..steps {
-            let t = run.grid_time(i, steps);
-            let t_new = run.grid_time(i + 1, steps);
-            self.stages(run, c, t, t_new - t)?;
-            if !c.y_new.iter().all(|v| v.is_finite()) {
-                return Err(Error::NonFinite {
-                    what: "state",
-                    t: t_new,
-                });
-            }
-            self.f_new(run, c, t_new)?;
-            if self.advance(run, c, t, t_new, i + 1 == steps)? == Flow::Stop {
-                break;
-            }
+        i: usize,
+        steps: usize,
+    ) -> Result<Flow> {
+        let t = run.grid_time(i, steps);
+        let t_new = run.grid_time(i + 1, steps);
+        self.stages(run, c, t, t_new - t)?;
+        if !c.y_new.iter().all(|v| v.is_finite()) {
+            return Err(Error::NonFinite {
+                what: "state",
+                t: t_new,
+            });
         }
-        Ok(())
+        self.f_new(run, c, t_new)?;
+        self.advance(run, c, t, t_new, i + 1 == steps)
     }
 
     /// Hairer's initial step (`HINIT`): h such that h^order · max(‖f₀‖, ‖f′‖) = 0.01 in the
@@ -303,25 +299,49 @@ impl ExplicitRk {
         Ok((100.0 * h).min(h1).min(h_max))
     }
 
-    fn adaptive<S: Dynamics + ?Sized>(&self, run: &mut Run<'_, S>, c: &mut Cache) -> Result<()> {
+    /// The step-size control of a run starting at `run.t0`: the largest and the first step.
+    fn control<S: Dynamics + ?Sized>(
+        &self,
+        run: &mut Run<'_, S>,
+        c: &mut Cache,
+    ) -> Result<Control> {
+        let opts = run.options;
+        let span = (run.t_end - run.t0).abs();
+        let h_max = opts.max_step.unwrap_or(span).min(span);
+        let h = match opts.initial_step {
+            Some(h0) => h0.min(h_max),
+            None => self.initial_step(run, c, h_max)?,
+        } * run.dir();
+        Ok(Control {
+            t: run.t0,
+            h,
+            h_max,
+            err_old: 1e-4,
+            reject: false,
+            stiff: StiffnessCounter::default(),
+            non_finite: None,
+        })
+    }
+
+    /// One accepted step of error-controlled size from `state.t`, rejected trials retried.
+    fn adaptive_step<S: Dynamics + ?Sized>(
+        &self,
+        run: &mut Run<'_, S>,
+        c: &mut Cache,
+        state: &mut Control,
+    ) -> Result<Flow> {
         let tab = &self.tableau;
         let ctl = tab.control;
         let opts = run.options;
         let (rtol, atol) = (opts.rtol, opts.atol);
         let dir = run.dir();
-        let span = (run.t_end - run.t0).abs();
-        let h_max = opts.max_step.unwrap_or(span).min(span);
-        let mut h = match opts.initial_step {
-            Some(h0) => h0.min(h_max),
-            None => self.initial_step(run, c, h_max)?,
-        } * dir;
-        let mut t = run.t0;
-        let mut err_old: f64 = 1e-4;
-        let mut reject = false;
-        let mut stiff = StiffnessCounter::default();
-        // The last trial that produced a non-finite value, reported if the step cannot shrink
-        // past it.
-        let mut non_finite: Option<Error> = None;
+        let h_max = state.h_max;
+        let mut h = state.h;
+        let t = state.t;
+        let mut err_old = state.err_old;
+        let mut reject = state.reject;
+        let mut stiff = state.stiff;
+        let mut non_finite = state.non_finite.take();
         loop {
             let attempts = run.stats.accepted_steps + run.stats.rejected_steps;
             if attempts >= opts.max_steps {
@@ -381,7 +401,6 @@ impl ExplicitRk {
                     }
                     Err(e) => return Err(e),
                 }
-                non_finite = None;
                 err_old = err.max(1e-4);
                 if let (Some(test), Some(every)) = (tab.stiffness, opts.stiffness_check) {
                     let accepted = run.stats.accepted_steps + 1;
@@ -417,17 +436,22 @@ impl ExplicitRk {
                     }
                 }
                 let flow = self.advance(run, c, t, t_new, last)?;
-                t = t_new;
-                if last || flow == Flow::Stop {
-                    return Ok(());
-                }
                 if h_new.abs() > h_max {
                     h_new = dir * h_max;
                 }
                 if reject {
                     h_new = dir * h_new.abs().min(h.abs());
                 }
-                reject = false;
+                *state = Control {
+                    t: t_new,
+                    h: h_new,
+                    h_max,
+                    err_old,
+                    reject: false,
+                    stiff,
+                    non_finite: None,
+                };
+                return Ok(flow);
             } else {
                 h_new = h / (1.0 / ctl.shrink).min(fac11 / ctl.safety);
                 reject = true;
@@ -451,13 +475,65 @@ impl Integrator for ExplicitRk {
         true
     }
 
-    fn integrate<S: Dynamics + ?Sized>(&self, run: &mut Run<'_, S>) -> Result<()> {
+    fn start<S: Dynamics + ?Sized>(
+        self,
+        run: &mut Run<'_, S>,
+    ) -> Result<Box<dyn SegmentStepper<S>>> {
         let mut c = Cache::new(&self.tableau, &run.y0);
         let (t0, y0) = (run.t0, run.y0.clone());
         run.rhs(t0, &y0, &mut c.k[0])?;
-        match run.options.dt {
-            Some(dt) => self.fixed(run, &mut c, dt),
-            None => self.adaptive(run, &mut c),
+        let mode = match run.options.dt {
+            Some(dt) => Mode::Fixed {
+                i: 0,
+                steps: run.fixed_steps(dt)?,
+            },
+            None => Mode::Adaptive(self.control(run, &mut c)?),
+        };
+        Ok(Box::new(RkStepper { rk: self, c, mode }))
+    }
+}
+
+/// Where an explicit Runge–Kutta run stands between steps.
+struct RkStepper {
+    rk: ExplicitRk,
+    c: Cache,
+    mode: Mode,
+}
+
+enum Mode {
+    /// Step `i` of `steps` equal steps is next.
+    Fixed {
+        i: usize,
+        steps: usize,
+    },
+    Adaptive(Control),
+}
+
+/// The state of the step-size control between accepted steps (Hairer's `DOP853` loop).
+struct Control {
+    /// Time of the current state.
+    t: f64,
+    /// Next trial step, signed.
+    h: f64,
+    h_max: f64,
+    err_old: f64,
+    /// Whether the last trial was rejected.
+    reject: bool,
+    stiff: StiffnessCounter,
+    /// The last trial that produced a non-finite value, reported if the step cannot shrink past
+    /// it.
+    non_finite: Option<Error>,
+}
+
+impl<S: Dynamics + ?Sized> SegmentStepper<S> for RkStepper {
+    fn step(&mut self, run: &mut Run<'_, S>) -> Result<Flow> {
+        match &mut self.mode {
+            Mode::Fixed { i, steps } => {
+                let flow = self.rk.fixed_step(run, &mut self.c, *i, *steps)?;
+                *i += 1;
+                Ok(flow)
+            }
+            Mode::Adaptive(control) => self.rk.adaptive_step(run, &mut self.c, control),
         }
     }
 }

@@ -258,6 +258,11 @@ impl Recorder {
         }
     }
 
+    /// The last accepted time and state y = (q, q̇) (after a reset, the state after it).
+    pub(crate) fn last(&self) -> (f64, &[f64]) {
+        (self.last_t, &self.last_y)
+    }
+
     /// What a run that failed with `error` had computed: with [`Output::Steps`] or
     /// [`Output::Every`] the last accepted state ends the trajectory (as it ends a finished
     /// one).

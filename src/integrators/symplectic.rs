@@ -8,7 +8,7 @@
 //! step. M is factored once (LDLᵀ).
 
 use super::dense::{Ends, Interpolant};
-use super::{Flow, Integrator, Run};
+use super::{Flow, Integrator, Run, SegmentStepper};
 use crate::dynamics::Dynamics;
 use crate::eom;
 use crate::error::{Error, Result};
@@ -274,7 +274,10 @@ impl Integrator for Splitting {
         Ok(())
     }
 
-    fn integrate<S: Dynamics + ?Sized>(&self, run: &mut Run<'_, S>) -> Result<()> {
+    fn start<S: Dynamics + ?Sized>(
+        self,
+        run: &mut Run<'_, S>,
+    ) -> Result<Box<dyn SegmentStepper<S>>> {
         let n = run.n;
         let dt = run.options.dt.ok_or_else(|| Error::InvalidInput {
             what: "dt",
@@ -291,70 +294,109 @@ impl Integrator for Splitting {
             forced: run.system.structure().forced,
             buf: vec![0.0; n],
         };
-        let mut q = q0.to_vec();
-        let mut v = qd0.to_vec();
+        let q = q0.to_vec();
+        let v = qd0.to_vec();
         let mut acc = vec![0.0; n];
         kick.accelerations(run, t0, &q, &v, &mut acc)?;
-        // Previous end state for dense output, and the (q, q̇) record buffer.
-        let (mut q_old, mut v_old, mut a_old) = (q.clone(), v.clone(), acc.clone());
-        let mut y = vec![0.0; 2 * n];
-        let (a, b) = (&self.tableau.a, &self.tableau.b);
+        Ok(Box::new(SplittingStepper {
+            old: (q.clone(), v.clone(), acc.clone()),
+            y: vec![0.0; 2 * n],
+            split: self,
+            kick,
+            q,
+            v,
+            acc,
+            i: 0,
+            steps,
+        }))
+    }
+}
+
+/// Where a splitting run stands between its equal steps.
+struct SplittingStepper {
+    split: Splitting,
+    kick: Kick,
+    q: Vec<f64>,
+    v: Vec<f64>,
+    /// M⁻¹(Q″ − ∂U/∂q) at (q, v).
+    acc: Vec<f64>,
+    /// The previous step's end (q, q̇, q̈), for its interpolant.
+    old: (Vec<f64>, Vec<f64>, Vec<f64>),
+    /// The (q, q̇) record buffer.
+    y: Vec<f64>,
+    /// Step `i` of `steps` is next.
+    i: usize,
+    steps: usize,
+}
+
+impl<S: Dynamics + ?Sized> SegmentStepper<S> for SplittingStepper {
+    fn step(&mut self, run: &mut Run<'_, S>) -> Result<Flow> {
+        let Self {
+            split,
+            kick,
+            q,
+            v,
+            acc,
+            old: (q_old, v_old, a_old),
+            y,
+            i,
+            steps,
+        } = self;
+        let n = run.n;
+        let (i, steps) = (*i, *steps);
+        self.i += 1;
+        let t = run.grid_time(i, steps);
+        let t_new = run.grid_time(i + 1, steps);
+        let h = t_new - t;
+        let dense = run.needs_interpolant(t_new);
+        if dense {
+            q_old.copy_from_slice(q);
+            v_old.copy_from_slice(v);
+            a_old.copy_from_slice(acc);
+        }
+        let (a, b) = (&split.tableau.a, &split.tableau.b);
         let last_drift = a.len() - 1;
-        for i in 0..steps {
-            let t = run.grid_time(i, steps);
-            let t_new = run.grid_time(i + 1, steps);
-            let h = t_new - t;
-            let dense = run.needs_interpolant(t_new);
-            if dense {
-                q_old.copy_from_slice(&q);
-                v_old.copy_from_slice(&v);
-                a_old.copy_from_slice(&acc);
-            }
-            for j in 0..a.len() {
-                let hb = h * b[j];
-                for (vi, ai) in v.iter_mut().zip(&acc) {
-                    *vi += hb * ai;
-                }
-                let ha = h * a[j];
-                for (qi, vi) in q.iter_mut().zip(&v) {
-                    *qi += ha * vi;
-                }
-                let tj = if j == last_drift {
-                    t_new
-                } else {
-                    t + self.nodes[j] * h
-                };
-                kick.accelerations(run, tj, &q, &v, &mut acc)?;
-            }
-            let hb = h * b[a.len()];
-            for (vi, ai) in v.iter_mut().zip(&acc) {
+        for j in 0..a.len() {
+            let hb = h * b[j];
+            for (vi, ai) in v.iter_mut().zip(acc.iter()) {
                 *vi += hb * ai;
             }
-            if !(q.iter().all(|x| x.is_finite()) && v.iter().all(|x| x.is_finite())) {
-                return Err(Error::NonFinite {
-                    what: "state",
-                    t: t_new,
-                });
+            let ha = h * a[j];
+            for (qi, vi) in q.iter_mut().zip(v.iter()) {
+                *qi += ha * vi;
             }
-            run.stats.accepted_steps += 1;
-            y[..n].copy_from_slice(&q);
-            y[n..].copy_from_slice(&v);
-            let step = dense.then(|| Interpolant::Hermite {
-                t,
-                h,
-                ends: Ends {
-                    q0: &q_old,
-                    v0: &v_old,
-                    a0: &a_old,
-                    q1: &q,
-                    v1: &v,
-                    a1: &acc,
-                },
-            });
-            if run.accept(t, t_new, &y, i + 1 == steps, step.as_ref())? == Flow::Stop {
-                break;
-            }
+            let tj = if j == last_drift {
+                t_new
+            } else {
+                t + split.nodes[j] * h
+            };
+            kick.accelerations(run, tj, q, v, acc)?;
         }
-        Ok(())
+        let hb = h * b[a.len()];
+        for (vi, ai) in v.iter_mut().zip(acc.iter()) {
+            *vi += hb * ai;
+        }
+        if !(q.iter().all(|x| x.is_finite()) && v.iter().all(|x| x.is_finite())) {
+            return Err(Error::NonFinite {
+                what: "state",
+                t: t_new,
+            });
+        }
+        run.stats.accepted_steps += 1;
+        y[..n].copy_from_slice(q);
+        y[n..].copy_from_slice(v);
+        let step = dense.then(|| Interpolant::Hermite {
+            t,
+            h,
+            ends: Ends {
+                q0: q_old,
+                v0: v_old,
+                a0: a_old,
+                q1: q,
+                v1: v,
+                a1: acc,
+            },
+        });
+        run.accept(t, t_new, y, i + 1 == steps, step.as_ref())
     }
 }

@@ -20,7 +20,7 @@
 //! drift. (It coincides with the one-stage Gauss method on (q, p).)
 
 use super::newton::{self, Convergence, ImplicitStep, Legendre, Lu, Verdict};
-use super::{Integrator, Run};
+use super::{Integrator, Run, SegmentStepper};
 use crate::Scalar;
 use crate::dynamics::Dynamics;
 use crate::eom::ForceParts;
@@ -296,12 +296,15 @@ impl Integrator for Variational {
         false
     }
 
-    fn integrate<S: Dynamics + ?Sized>(&self, run: &mut Run<'_, S>) -> Result<()> {
+    fn start<S: Dynamics + ?Sized>(
+        self,
+        run: &mut Run<'_, S>,
+    ) -> Result<Box<dyn SegmentStepper<S>>> {
         let dt = run.options.dt.ok_or_else(|| Error::InvalidInput {
             what: "dt",
             why: "midpoint is a fixed-step method".into(),
         })?;
-        let mut stepper = Stepper::new(run)?;
-        newton::fixed_steps(run, &mut stepper, dt)
+        let stepper = Stepper::new(run)?;
+        Ok(Box::new(newton::FixedSteps::new(run, stepper, dt)?))
     }
 }
