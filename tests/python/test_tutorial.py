@@ -31,3 +31,18 @@ def test_tutorial_examples_run(tmp_path, monkeypatch):
 def test_front_page_example_runs():
     result = doctest.testfile(str(SITE / "index.rst"), module_relative=False)
     assert result.attempted >= 4 and result.failed == 0
+
+
+def test_readme_python_quick_start_runs(tmp_path, monkeypatch):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    readme = (SITE.parents[1] / "README.md").read_text()
+    section = readme[readme.index("## Quick start (Python)"):readme.index("## Set-up")]
+    code = section.split("```python\n", 1)[1].split("```", 1)[0]
+    monkeypatch.chdir(tmp_path)
+    scope: dict = {}
+    exec(compile(code, "README.md", "exec"), scope)
+    assert scope["sol"].stats["method"] == "dop853"
+    assert scope["driven"].parameters["A"] == 0.5
+    assert (tmp_path / "pendulum.png").exists() and (tmp_path / "pendulum.gif").exists()
