@@ -629,13 +629,14 @@ def animate(
         if not model.has_positions:
             model.positions(0.0, np.zeros(model.dof))  # raises the model's own ValueError
         position = model.positions
-    t, q, _, _ = _checked(sol)
+    t, q, qd, _ = _checked(sol)
     if q.shape[1] != model.dof:
         raise ValueError(
             f"the solution has {q.shape[1]} coordinates but the model has {model.dof}: "
             "animate a solution of this model"
         )
-    bad = np.flatnonzero(~(np.isfinite(t) & np.all(np.isfinite(q), axis=1)))
+    finite = np.isfinite(t) & np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(qd), axis=1)
+    bad = np.flatnonzero(~finite)
     if bad.size:
         raise ValueError(
             f"the solution is not finite at point {bad[0]} (t = {t[bad[0]]}): "
