@@ -743,13 +743,16 @@ class _Movie:
 
         # A fixed layout: every draw of the figure puts the axes in the same place.
         fig = Figure(figsize=(4.8, 4.8), dpi=100)
-        fig.subplots_adjust(left=0.13, right=0.97, bottom=0.1, top=0.97)
+        if dim == 3:
+            fig.subplots_adjust(left=0.0, right=0.9, bottom=0.03, top=1.0)
+        else:
+            fig.subplots_adjust(left=0.13, right=0.97, bottom=0.1, top=0.97)
         self.fig = fig
         self.canvas: Any = FigureCanvasAgg(fig)
         if dim == 3:
             ax = fig.add_subplot(projection="3d")
             ax.set_zlim(lo[2], hi[2])
-            ax.set_box_aspect((1.0, 1.0, 1.0))
+            ax.set_box_aspect((1.0, 1.0, 1.0), zoom=0.9)
             ax.set_zlabel("z")
         else:
             ax = fig.add_subplot()
