@@ -233,19 +233,22 @@ def draw_coordinates(
     )
 
 
-def _energy_conserved(sol: "Solution", conserved: Optional[bool], h: FloatArray) -> bool:
-    """Whether to show h's drift (a conserved h) or h itself: as asked, else as the run
-    recorded it (``stats["conserved"]``), else from h: a change under 1e-3 of its size."""
+def _energy_conserved(
+    sol: "Solution", conserved: Optional[bool], h: FloatArray
+) -> Tuple[bool, bool]:
+    """Whether to show h's relative error (a conserved h) or h itself, and whether that is
+    known (asked for, or recorded by the run as ``stats["conserved"]``) rather than judged
+    from h (a change under 1e-3 of its size)."""
     if conserved is not None:
-        return bool(conserved)
+        return bool(conserved), True
     recorded = sol.stats.get("conserved") if isinstance(sol.stats, Mapping) else None
     if isinstance(recorded, bool):
-        return recorded
+        return recorded, True
     finite = h[np.isfinite(h)]
     if finite.size == 0:
-        return False
+        return False, False
     size = max(float(np.max(np.abs(finite))), np.finfo(float).tiny)
-    return float(np.max(np.abs(finite - finite[0]))) <= 1e-3 * size
+    return float(np.max(np.abs(finite - finite[0]))) <= 1e-3 * size, False
 
 
 def plot_solution(
@@ -278,7 +281,8 @@ def plot_solution(
     for ax in (ax_q, ax_v):
         _plain_numbers(ax)
 
-    if _energy_conserved(sol, conserved, h):
+    flat, known = _energy_conserved(sol, conserved, h)
+    if flat:
         scale = abs(float(h[0])) if np.isfinite(h[0]) and h[0] != 0.0 else 0.0
         if scale == 0.0:
             finite = np.abs(h[np.isfinite(h)])
@@ -288,13 +292,17 @@ def plot_solution(
         worst = float(np.nanmax(error)) if np.any(np.isfinite(error)) else math.nan
         ax_h.plot(t, shown, color="black", linewidth=1.0)
         what = "|h − h₀| / |h₀|" if h[0] != 0.0 else "|h − h₀| / max|h|"
-        ax_h.set_ylabel(f"relative energy error\n{what}")
+        # A conserved h's change is the integrator's error; otherwise (judged from h) a change.
+        change = "error" if known else "change"
+        ax_h.set_ylabel(f"relative energy {change}\n{what}")
+        head = ("energy function h, conserved by the system" if known
+                else "energy function h, changing by less than 1e-3 of its size")
         if np.any(np.isfinite(shown)):
             ax_h.set_yscale("log")
-            note = f"energy function h conserved by the system: max relative error {worst:.2g}"
+            note = f"{head}: max relative {change} {worst:.2g}"
         else:
             ax_h.set_ylim(-1.0, 1.0)
-            note = "energy function h conserved by the system: h − h₀ = 0 at every point"
+            note = f"{head}: h − h₀ = 0 at every point"
     else:
         # h's slope is not in the solution: estimated from the neighbours, for a smooth curve.
         ts, (hh,) = _monotone(t, h[:, None])

@@ -46,7 +46,7 @@ def test_plot_curves_pass_through_the_solution_and_name_the_coordinates(tmp_path
     sol = model.simulate([1.0, 0.5], [0.0, 0.0], 3.0, rtol=1e-8, atol=1e-10)
     assert sol.names == ("th1", "th2")
     path = tmp_path / "dp.png"
-    fig = sol.plot(path, title="double pendulum")
+    fig = sol.plot(path, title="double pendulum", conserved=model.structure["conservative"])
     ax_q, ax_v, ax_h = fig.axes
     for ax, data in ((ax_q, sol.q), (ax_v, sol.qd)):
         assert len(ax.lines) == 2
@@ -69,6 +69,11 @@ def test_plot_curves_pass_through_the_solution_and_name_the_coordinates(tmp_path
     assert ax_h.get_yscale() == "log"
     assert "relative energy error" in ax_h.get_ylabel()
     assert f"{want.max():.2g}" in ax_h.get_title(loc="left")
+    assert "conserved by the system" in ax_h.get_title(loc="left")
+    # Not told, and not recorded by the run: judged from h, and said so.
+    judged = sol.plot().axes[2]
+    assert judged.get_yscale() == "log" and "relative energy change" in judged.get_ylabel()
+    assert "less than 1e-3" in judged.get_title(loc="left")
     for ax in (ax_q, ax_v):
         assert ax.yaxis.get_major_formatter().get_useOffset() is False
     assert fig._suptitle.get_text() == "double pendulum"
