@@ -605,3 +605,17 @@ def test_work_precision_floor_and_round_off_caveat():
     styles = method_styles(["rk4", "mine", "theirs"])
     assert len(set(styles.values())) == 3
     assert len({c for c, _ in styles.values()}) == 3
+
+
+def test_movie_frames_are_blitted_not_redrawn(tmp_path, monkeypatch):
+    # What makes a 300-frame GIF take seconds: the figure is drawn in full twice (the palette's
+    # last frame, the still background), every frame only blits the moving artists.
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    draws = []
+    full = FigureCanvasAgg.draw
+    monkeypatch.setattr(FigureCanvasAgg, "draw", lambda self: draws.append(1) or full(self))
+    model = lg.scenes.double_pendulum(**DP)
+    sol = model.simulate([1.0, 0.5], [0.0, 0.0], 2.0, t_eval=np.linspace(0.0, 2.0, 200))
+    assert gif_frames(model.animate(sol, tmp_path / "dp.gif", max_frames=60))[0] == 60
+    assert len(draws) == 2
