@@ -106,6 +106,10 @@ class Model:
     backend : {"native", "interpreter"}
         What evaluates the derived equations of motion: machine code (the default) or the
         interpreter. Kept by :meth:`with_parameters` and by pickling.
+    drawing : sequence of 2- or 3-tuples of expressions, optional
+        Points to draw in :meth:`animate`, as expressions in t, the coordinates and parameters
+        — for pictures only: they take no part in the dynamics (an energy-route model, say a
+        double pendulum stated by T and U, gets its bobs this way).
 
     Raises
     ------
@@ -129,6 +133,7 @@ class Model:
         "_parameters",
         "_backend",
         "_native",
+        "_drawing_points",
     )
 
     _coordinates: Tuple[Coordinate, ...]
@@ -141,6 +146,7 @@ class Model:
     _parameters: Dict[str, Any]
     _backend: str
     _native: Any
+    _drawing_points: Optional[Tuple[Tuple[Expr, ...], ...]]
 
     def __init__(
         self,
@@ -154,6 +160,7 @@ class Model:
         positions: Optional[Sequence[Sequence[ExprLike]]] = None,
         masses: Optional[Sequence[ExprLike]] = None,
         backend: str = "native",
+        drawing: Optional[Sequence[Sequence[ExprLike]]] = None,
     ) -> None:
         if not isinstance(backend, str):
             raise TypeError(
@@ -217,6 +224,10 @@ class Model:
         for j, r in enumerate(pos or ()):
             for x in r:
                 checks.append((f"position of particle {j}", x, False))
+        points = None if drawing is None else _drawing_points(drawing, "drawing")
+        for j, r in enumerate(points or ()):
+            for x in r:
+                checks.append((f"drawing point {j}", x, False))
         for what, e, velocities in checks:
             check_symbols(what, e, names, values, velocities, used)
         for j, m in enumerate(mass or ()):
@@ -239,6 +250,7 @@ class Model:
         self._forces, self._positions, self._masses = f_, pos, mass
         self._parameters = values
         self._backend = backend
+        self._drawing_points = points
         self._native = self._compile()
 
     def _compile(self) -> Any:
@@ -321,6 +333,11 @@ class Model:
         return self._positions
 
     @property
+    def drawing(self) -> Optional[Tuple[Tuple[Expr, ...], ...]]:
+        """The points given as ``drawing=`` (expressions for :meth:`animate`), or ``None``."""
+        return getattr(self, "_drawing_points", None)
+
+    @property
     def has_positions(self) -> bool:
         """Whether the model has particles to draw: the particle route, or a scene whose
         bodies have positions (every scene but ``forced_two_mass``, ``damped_oscillator`` and
@@ -384,18 +401,33 @@ class Model:
         max_frames: int = 300,
         trail: bool = True,
         chain: Optional[bool] = None,
+        drawing: Optional[Sequence[Sequence[ExprLike]]] = None,
     ) -> "Path":
         """Write a movie of the solution ``sol`` of this model: a GIF (pillow) or an MP4
         (ffmpeg), by the suffix of ``path``.
 
-        The solution is resampled to at most ``max_frames`` frames evenly spaced in t (linear
-        interpolation of q), the axes have equal aspect and fixed limits that hold the whole
-        trajectory. Pendulum chains are drawn as rods from the pivot through the bobs, rolling
-        bodies as circles with a diameter that shows their rotation, the rest as points; trails
-        follow the particles (the last bob of a chain, the centre of a rolling body). An adaptive
-        method's own steps may be few and far apart: for a smooth movie, simulate with
-        ``t_eval=numpy.linspace(t0, t_end, max_frames)``. Needs matplotlib
+        What moves: the points of ``drawing`` (here or given to the model), else the model's
+        particles (:meth:`positions`). Frames are evenly spaced in t (``max_frames`` of them,
+        or one per point of a shorter solution); between the solution's points q is the cubic
+        Hermite interpolant of q and q̇. The axes have equal aspect and fixed limits that hold
+        the whole trajectory. Pendulum scenes are drawn as rods from the pivot through the
+        bobs, rolling bodies as circles with a diameter that shows their rotation; for any other
+        model rods join the points whose distance the motion keeps (a chain stated by its
+        positions gets its rods), the rest are points. Trails follow the particles (the last
+        bob of a chain, the centre of a rolling body). Only the moving parts are redrawn per
+        frame: a 300-frame GIF takes a few seconds. Needs matplotlib and pillow
         (``pip install lagrangian[plot]``).
+
+        >>> import lagrangian as lg
+        >>> th1, th2 = lg.coordinates("th1 th2")
+        >>> T = th1.d**2 + 0.5*th2.d**2 + th1.d*th2.d*lg.cos(th1 - th2)
+        >>> U = -9.81*(2*lg.cos(th1) + lg.cos(th2))
+        >>> x1, y1 = lg.sin(th1), -lg.cos(th1)
+        >>> dp = lg.Model(coordinates=[th1, th2], kinetic=T, potential=U,
+        ...               drawing=[(x1, y1), (x1 + lg.sin(th2), y1 - lg.cos(th2))])
+        >>> sol = dp.simulate([1.0, 0.5], [0.0, 0.0], 2.0)
+        >>> dp.animate(sol, "dp.gif", max_frames=60)     # doctest: +SKIP
+        PosixPath('dp.gif')
 
         Parameters
         ----------
@@ -410,8 +442,11 @@ class Model:
         trail : bool
             Draw the particles' paths so far.
         chain : bool, optional
-            Draw the particles as a chain of rods from the origin in their order (for a pendulum
-            stated on the particle route); by default only the pendulum scenes are.
+            ``True``: draw the points as a chain of rods from the origin in their order;
+            ``False``: as points only; by default as described above.
+        drawing : sequence of 2- or 3-tuples of expressions, optional
+            The points to draw, as expressions in t, the coordinates and parameters; by
+            default the model's ``drawing=``, if it has one.
 
         Returns
         -------
@@ -421,9 +456,10 @@ class Model:
         Raises
         ------
         ValueError
-            For a model without positions, an empty or non-finite solution, a solution with
-            another number of coordinates, a suffix other than ``.gif``/``.mp4``, ``fps`` ≤ 0,
-            ``max_frames`` < 1.
+            For a model without positions or drawing, an empty or non-finite solution, a
+            solution with another number of coordinates, a suffix other than
+            ``.gif``/``.mp4``, ``fps`` ≤ 0, ``max_frames`` < 1, a drawing point that is not
+            an expression of t, the coordinates and parameters.
         RuntimeError
             For ``.mp4`` without ffmpeg.
         ImportError
@@ -431,10 +467,16 @@ class Model:
         """
         from . import _plot
 
-        drawing = self._drawing() if chain is None else None
+        points = self.drawing if drawing is None else _drawing_points(drawing, "drawing")
+        if drawing is not None and points is not None:
+            names = {c.name for c in self._coordinates}
+            for j, r in enumerate(points):
+                for x in r:
+                    check_symbols(f"drawing point {j}", x, names, self._parameters, False, {})
+        scene_drawing = self._drawing() if points is None else None
         return _plot.animate(
-            self, sol, path, fps=fps, max_frames=max_frames, trail=trail, drawing=drawing,
-            chain=bool(chain),
+            self, sol, path, fps=fps, max_frames=max_frames, trail=trail, drawing=scene_drawing,
+            chain=chain, points=points,
         )
 
     @property
@@ -1008,6 +1050,12 @@ class Model:
             parts.append(f"parameters={self._parameters!r}")
         if self._backend != "native":
             parts.append(f"backend={self._backend!r}")
+        if self.drawing is not None:
+            parts.append(
+                "drawing=["
+                + ", ".join("(" + ", ".join(repr(x) for x in r) + ")" for r in self.drawing)
+                + "]"
+            )
         return "Model(" + ", ".join(parts) + ")"
 
     def __reduce__(self) -> Tuple[Any, ...]:
@@ -1031,6 +1079,9 @@ class Model:
             layout["dim"] = len(self._positions[0])
             add("positions", [x for r in self._positions for x in r])
             add("masses", self._masses)
+        if self.drawing is not None:
+            layout["drawing_dim"] = len(self.drawing[0])
+            add("drawing", [x for r in self.drawing for x in r])
         nodes, ids = serialize(roots)
         state = {
             "coordinates": [c.name for c in self._coordinates],
@@ -1059,6 +1110,11 @@ def _model_from_state(state: Dict[str, Any]) -> Model:
     if flat is not None:
         dim = layout["dim"]
         positions = [tuple(flat[i : i + dim]) for i in range(0, len(flat), dim)]
+    drawing = None
+    flat = get("drawing")
+    if flat is not None:
+        dim = layout["drawing_dim"]
+        drawing = [tuple(flat[i : i + dim]) for i in range(0, len(flat), dim)]
     return Model(
         coordinates=[Coordinate(n) for n in state["coordinates"]],
         kinetic=one["kinetic"],
@@ -1069,7 +1125,37 @@ def _model_from_state(state: Dict[str, Any]) -> Model:
         positions=positions,
         masses=get("masses"),
         backend=state.get("backend", "native"),
+        drawing=drawing,
     )
+
+
+def _drawing_points(points: object, what: str) -> Tuple[Tuple[Expr, ...], ...]:
+    """Points to draw: a non-empty sequence of 2- or 3-tuples of expressions (all the same
+    length) without velocities."""
+    if isinstance(points, (Expr, str)) or not isinstance(points, Sequence):
+        raise TypeError(
+            f"{what} must be a sequence of points (x, y) or (x, y, z) of expressions, "
+            f"got {points!r}"
+        )
+    out = []
+    for j, p in enumerate(points):
+        if isinstance(p, (Expr, str)) or not isinstance(p, Sequence):
+            raise TypeError(f"{what} point {j} must be a tuple (x, y) or (x, y, z), got {p!r}")
+        out.append(tuple(Expr.lift(x) for x in p))
+    if not out:
+        raise ValueError(f"{what} is empty: give at least one point (x, y)")
+    dims = {len(r) for r in out}
+    if len(dims) != 1 or dims.pop() not in (2, 3):
+        raise ValueError(f"every {what} point must have 2 or 3 components, all the same")
+    for j, r in enumerate(out):
+        for x in r:
+            for sym in x.free_symbols():
+                if sym.op == "qd":
+                    raise ValueError(
+                        f"{what} point {j} depends on the velocity {sym!r}: a drawing is a "
+                        "function of t, the coordinates and parameters"
+                    )
+    return tuple(out)
 
 
 

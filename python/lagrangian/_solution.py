@@ -195,11 +195,20 @@ class Solution:
         )
 
     def plot(
-        self, path: Optional[PathLike] = None, *, title: Optional[str] = None
+        self,
+        path: Optional[PathLike] = None,
+        *,
+        title: Optional[str] = None,
+        conserved: Optional[bool] = None,
     ) -> "Figure":
-        """A figure of the trajectory: the coordinates q, the velocities q̇ and the energy h
-        against t, in three stacked panels. The energy panel also shows the drift |h − h₀| on a
-        logarithmic right-hand axis, its maximum in the legend.
+        """A figure of the trajectory in three stacked panels against t: the coordinates q and
+        the velocities q̇, labelled with the coordinates' names and drawn as smooth curves
+        between the solution's points (cubic Hermite interpolation of q with its slope q̇), and
+        the energy function h.
+
+        When h is conserved the third panel shows the relative energy error
+        |h − h₀| / |h₀| on a logarithmic axis; for a forced, damped or time-dependent system,
+        whose h changes by right, it shows h itself (no offset notation on any axis).
 
         Needs matplotlib (``pip install lagrangian[plot]``); the figure is a
         :class:`matplotlib.figure.Figure` not registered with ``pyplot``, so nothing is shown
@@ -212,6 +221,10 @@ class Solution:
             format.
         title : str, optional
             A title above the panels.
+        conserved : bool, optional
+            Whether h is conserved (``model.structure["conservative"]`` and not
+            ``"time_dependent"``); by default ``stats["conserved"]`` when the run recorded it,
+            else judged from h (a change below 1e-3 of its size counts as conserved).
 
         Returns
         -------
@@ -226,5 +239,4 @@ class Solution:
         """
         from ._plot import plot_solution
 
-        return plot_solution(self, path, title=title)
-
+        return plot_solution(self, path, title=title, conserved=conserved)

@@ -166,45 +166,20 @@ class WorkPrecision(Sequence[Row]):
         """Log error against log wall time, one line per method (matplotlib, ``pip install
         lagrangian[plot]``).
 
-        ``peers`` may be another :class:`WorkPrecision` (SciPy runs, say), drawn dashed. With
-        ``path`` the figure is also saved. Returns the :class:`matplotlib.figure.Figure` (not
-        registered with ``pyplot``; a notebook displays it).
+        Every method has its own colour and marker, the same in every figure; each point is
+        labelled with its tolerance (adaptive methods, rtol = atol) or step dt (fixed-step
+        ones); the legend sits outside the data. The floor the errors can be measured to is
+        drawn and labelled — the agreement of the two reference runs, or round-off for an exact
+        reference — and errors at or below it are shaded with a caveat: their order is noise.
+
+        ``peers`` may be another :class:`WorkPrecision` (SciPy runs, say), drawn dashed with
+        hollow markers. With ``path`` (``.png``, ``.svg`` or ``.pdf``) the figure is also saved;
+        with ``ax`` it is drawn on those axes. Returns the :class:`matplotlib.figure.Figure`
+        (not registered with ``pyplot``; a notebook displays it).
         """
-        from ._plot import _require_matplotlib
+        from ._plot import plot_work_precision
 
-        _require_matplotlib()
-        from matplotlib.figure import Figure
-
-        if ax is None:
-            fig = Figure(figsize=(6.4, 4.8), layout="constrained")
-            ax = fig.add_subplot()
-        else:
-            fig = ax.figure
-        for source, style in ((self, "-"), (peers, "--")):
-            if source is None:
-                continue
-            for method in source.methods:
-                done = [r for r in source.by_method(method) if r.failure is None and r.error]
-                if done:
-                    ax.loglog(
-                        [r.seconds for r in done], [r.error for r in done], style, marker="o",
-                        markersize=4, label=method,
-                    )
-        agreement = self.reference.agreement
-        if agreement:
-            ax.axhline(agreement, color="grey", linewidth=0.8, linestyle=":")
-            ax.annotate("reference agreement", (0.02, agreement), xycoords=("axes fraction", "data"),
-                        fontsize=7, color="grey", va="bottom")
-        ax.set_xlabel("wall time [s]")
-        ax.set_ylabel("relative final-state error")
-        if self.title:
-            ax.set_title(self.title)
-        ax.grid(True, which="major", alpha=0.3)
-        ax.legend(fontsize=7, ncol=2)
-        if path is not None:
-            fig.savefig(path, dpi=110)
-        return fig
-
+        return plot_work_precision(self, path, ax=ax, peers=peers)
 
 
 def _format_seconds(s: Optional[float]) -> str:

@@ -33,36 +33,94 @@ def gif_frames(path):
 # -- Solution.plot -------------------------------------------------------------------------
 
 
-def test_plot_lines_hold_solution_data(tmp_path):
+def curve_at(line, times):
+    """The y of a drawn line at the given x (which are among its points)."""
+    x, y = np.asarray(line.get_xdata()), np.asarray(line.get_ydata())
+    index = np.searchsorted(x, times)
+    assert_array_equal(x[index], times)
+    return y[index]
+
+
+def test_plot_curves_pass_through_the_solution_and_name_the_coordinates(tmp_path):
     model = lg.scenes.double_pendulum(**DP)
     sol = model.simulate([1.0, 0.5], [0.0, 0.0], 3.0, rtol=1e-8, atol=1e-10)
     assert sol.names == ("th1", "th2")
     path = tmp_path / "dp.png"
-    fig = sol.plot(path, title="double pendulum")
-    ax_q, ax_v, ax_h, drift = fig.axes
+    fig = sol.plot(path, title="double pendulum", conserved=model.structure["conservative"])
+    ax_q, ax_v, ax_h = fig.axes
     for ax, data in ((ax_q, sol.q), (ax_v, sol.qd)):
         assert len(ax.lines) == 2
         for i, line in enumerate(ax.lines):
-            assert_array_equal(line.get_xdata(), sol.t)
-            assert_array_equal(line.get_ydata(), data[:, i])
+            # Smooth: many more points than the solution, through every one of its points.
+            assert len(line.get_xdata()) > 5 * len(sol)
+            assert_array_equal(curve_at(line, sol.t), data[:, i])
+            assert line.get_marker() in ("None", None, "")
     assert [x.get_label() for x in ax_q.lines] == ["th1", "th2"]
     assert [x.get_label() for x in ax_v.lines] == ["dth1/dt", "dth2/dt"]
-    (h,) = ax_h.lines
-    assert_array_equal(h.get_xdata(), sol.t)
-    assert_array_equal(h.get_ydata(), sol.energy)
-    # The drift |h − h0| on the right axis, zeros left out of the log scale.
-    (d,) = drift.lines
-    want = np.abs(sol.energy - sol.energy[0])
+    assert "th1" in ax_q.get_ylabel() and "th2" in ax_q.get_ylabel()
+    assert "dth1/dt" in ax_v.get_ylabel()
+    assert ax_h.get_xlabel() == "t"
+    # A conserved h: its relative error on a log axis, zeros left out of the log scale.
+    (d,) = ax_h.lines
+    want = np.abs(sol.energy - sol.energy[0]) / abs(sol.energy[0])
     got = d.get_ydata()
     assert np.isnan(got[0]) and want[0] == 0.0
-    assert_array_equal(got[want > 0], want[want > 0])
-    assert drift.get_yscale() == "log"
-    assert f"{want.max():.3g}" in d.get_label()
+    assert_allclose(got[want > 0], want[want > 0], rtol=1e-15)
+    assert ax_h.get_yscale() == "log"
+    assert "relative energy error" in ax_h.get_ylabel()
+    assert f"{want.max():.2g}" in ax_h.get_title(loc="left")
+    assert "conserved by the system" in ax_h.get_title(loc="left")
+    # Not told, and not recorded by the run: judged from h, and said so.
+    judged = sol.plot().axes[2]
+    assert judged.get_yscale() == "log" and "relative energy change" in judged.get_ylabel()
+    assert "less than 1e-3" in judged.get_title(loc="left")
+    for ax in (ax_q, ax_v):
+        assert ax.yaxis.get_major_formatter().get_useOffset() is False
     assert fig._suptitle.get_text() == "double pendulum"
     with open(path, "rb") as f:
         assert f.read(8) == b"\x89PNG\r\n\x1a\n"
     with Image.open(path) as im:
         assert im.size[0] > 100 and im.size[1] > 100
+
+
+def test_plot_curves_between_adaptive_steps_follow_the_motion():
+    # Few, long steps of DOP853 on x'' = -4x (about 11 per period): the drawn curves follow
+    # cos 2t between them to 5e-3 and 3e-2, where straight segments are off by 0.14.
+    osc = lg.scenes.damped_oscillator(m=1.0, k=4.0, c=0.0)
+    sol = osc.simulate([1.0], [0.0], 20.0, rtol=1e-6, atol=1e-6)
+    assert np.max(np.diff(sol.t)) > 0.5
+    fig = sol.plot()
+    (q_line,), (v_line,) = fig.axes[0].lines, fig.axes[1].lines
+    t = np.asarray(q_line.get_xdata())
+    assert_allclose(q_line.get_ydata(), np.cos(2 * t), atol=5e-3)
+    assert_allclose(v_line.get_ydata(), -2 * np.sin(2 * t), atol=3e-2)
+    straight = np.interp(t, sol.t, sol.q[:, 0])
+    assert np.max(np.abs(straight - np.cos(2 * t))) > 0.1
+
+
+def test_plot_energy_itself_when_not_conserved():
+    damped = lg.scenes.damped_oscillator(m=1.0, k=4.0, c=0.3)
+    assert not damped.structure["conservative"]
+    sol = damped.simulate([1.0], [0.0], 10.0)
+    fig = sol.plot()
+    ax_h = fig.axes[2]
+    assert ax_h.get_yscale() == "linear"
+    (h,) = ax_h.lines
+    assert_allclose(curve_at(h, sol.t), sol.energy, rtol=1e-15)
+    assert "not conserved" in ax_h.get_title(loc="left")
+    assert ax_h.yaxis.get_major_formatter().get_useOffset() is False
+    # Asked for explicitly, either way.
+    assert sol.plot(conserved=True).axes[2].get_yscale() == "log"
+    x, = lg.coordinates("x")
+    osc = lg.Model(coordinates=[x], kinetic=0.5 * x.d**2, potential=0.5 * x**2)
+    still = osc.simulate([1.0], [0.0], 1.0, rtol=1e-12, atol=1e-12)
+    assert still.plot(conserved=False).axes[2].get_yscale() == "linear"
+    # No offset notation on an energy that moves in its 9th digit.
+    big = lg.Solution(still.t, still.q, still.qd, 1e6 + 1e-3 * still.t,
+                      {"method": "none", "accepted_steps": 0})
+    ax = big.plot(conserved=False).axes[2]
+    ax.figure.draw_without_rendering()
+    assert ax.yaxis.get_offset_text().get_text() == ""
 
 
 def test_plot_formats_by_suffix(tmp_path):
@@ -85,8 +143,9 @@ def test_plot_without_names_and_empty_errors():
     sol = lg.Solution(t, q, -q, np.ones(4), {"method": "none", "accepted_steps": 0})
     fig = sol.plot()
     assert [x.get_label() for x in fig.axes[0].lines] == ["q0", "q1"]
-    # A perfectly conserved energy has no drift to put on a log scale.
-    assert fig.axes[3].get_yscale() == "linear"
+    # A perfectly conserved energy has no error to put on a log scale.
+    assert fig.axes[2].get_yscale() == "linear"
+    assert "h − h₀ = 0" in fig.axes[2].get_title(loc="left")
     empty = lg.Solution(np.zeros(0), np.zeros((0, 1)), np.zeros((0, 1)), np.zeros(0),
                         {"method": "none", "accepted_steps": 0})
     with pytest.raises(ValueError, match="empty"):
@@ -319,3 +378,244 @@ def test_animate_mp4_needs_ffmpeg(tmp_path):
     else:
         with pytest.raises(RuntimeError, match="ffmpeg"):
             pend.animate(sol, tmp_path / "p.mp4")
+
+
+# -- Model(drawing=...) and the movie's frames ---------------------------------------------
+
+
+def double_pendulum_drawn(l1=1.1, l2=0.8):
+    """The seed's double pendulum stated by T and U (energy route), with its bobs to draw."""
+    model = double_pendulum_dsl(l1=l1, l2=l2)
+    th1, th2 = model.coordinates
+    pl1, pl2 = lg.parameters("l1 l2")
+    x1, y1 = pl1 * lg.sin(th1), -pl1 * lg.cos(th1)
+    points = [(x1, y1), (x1 + pl2 * lg.sin(th2), y1 - pl2 * lg.cos(th2))]
+    return lg.Model(coordinates=model.coordinates, kinetic=model.kinetic,
+                    potential=model.potential, parameters=model.parameters, drawing=points)
+
+
+def test_drawing_points_evaluate_to_the_closed_form():
+    from lagrangian._plot import expression_positions
+
+    model = double_pendulum_drawn()
+    assert not model.has_positions and len(model.drawing) == 2
+    f = expression_positions(model.drawing, ["th1", "th2"], model.parameters)
+    states = np.array(STATES)
+    assert_allclose(f(np.zeros(len(STATES)), states), [dp_closed_form(q) for q in STATES],
+                    rtol=1e-15, atol=1e-15)
+    # New parameter values reach the drawing; pickling keeps it.
+    longer = model.with_parameters(l1=2.0)
+    g = expression_positions(longer.drawing, ["th1", "th2"], longer.parameters)
+    assert_allclose(g(np.zeros(1), states[:1]), [dp_closed_form(STATES[0], l1=2.0)],
+                    rtol=1e-15)
+    import pickle
+
+    back = pickle.loads(pickle.dumps(model))
+    assert back.drawing == model.drawing
+    assert "drawing=[" in repr(model)
+    assert_array_equal(back.accelerations(0.0, [0.3, 0.1], [0.0, 0.0]),
+                       model.accelerations(0.0, [0.3, 0.1], [0.0, 0.0]))
+
+
+def test_drawing_points_may_use_time():
+    from lagrangian._plot import expression_positions
+
+    x, = lg.coordinates("x")
+    model = lg.Model(coordinates=[x], kinetic=0.5 * x.d**2, potential=0.5 * x**2,
+                     drawing=[(x + lg.t, lg.cos(x))])
+    f = expression_positions(model.drawing, ["x"], {})
+    assert_allclose(f(np.array([0.5, 2.0]), np.array([[0.1], [0.3]])),
+                    [[[0.6, math.cos(0.1)]], [[2.3, math.cos(0.3)]]], rtol=1e-15)
+
+
+def test_drawing_errors():
+    th, = lg.coordinates("th")
+    T, U = 0.5 * th.d**2, -lg.cos(th)
+    with pytest.raises(ValueError, match="velocity"):
+        lg.Model(coordinates=[th], kinetic=T, potential=U, drawing=[(th.d, th)])
+    with pytest.raises(ValueError, match="2 or 3 components"):
+        lg.Model(coordinates=[th], kinetic=T, potential=U, drawing=[(th,)])
+    with pytest.raises(ValueError, match="empty"):
+        lg.Model(coordinates=[th], kinetic=T, potential=U, drawing=[])
+    with pytest.raises(TypeError, match="sequence of points"):
+        lg.Model(coordinates=[th], kinetic=T, potential=U, drawing=th)
+    other, = lg.coordinates("phi")
+    with pytest.raises(ValueError, match="not a coordinate"):
+        lg.Model(coordinates=[th], kinetic=T, potential=U, drawing=[(other, th)])
+    k, = lg.parameters("k")
+    with pytest.raises(ValueError, match="no value"):
+        lg.Model(coordinates=[th], kinetic=T, potential=U, drawing=[(k * th, th)])
+    model = lg.Model(coordinates=[th], kinetic=T, potential=U)
+    sol = model.simulate([0.5], [0.0], 1.0, t_eval=np.linspace(0.0, 1.0, 4))
+    with pytest.raises(ValueError, match="velocity"):
+        model.animate(sol, "never.gif", drawing=[(th.d, th)])
+    with pytest.raises(ValueError, match="not a coordinate"):
+        model.animate(sol, "never.gif", drawing=[(other, th)])
+
+
+def test_animate_energy_route_with_drawing(tmp_path):
+    model = double_pendulum_drawn()
+    sol = model.simulate([1.0, 0.5], [0.0, 0.0], 2.0)
+    frames, size = gif_frames(model.animate(sol, tmp_path / "dp.gif", max_frames=20))
+    assert frames == 20 and size[0] > 100
+    # Or points given to animate, for a model that has none.
+    plain = double_pendulum_dsl()
+    th1, _ = plain.coordinates
+    out = plain.animate(sol, tmp_path / "one.gif", max_frames=5,
+                        drawing=[(lg.sin(th1), -lg.cos(th1))])
+    assert gif_frames(out)[0] == 5
+
+
+def test_rods_where_the_motion_keeps_a_distance():
+    from lagrangian._plot import auto_drawing, expression_positions
+
+    model = double_pendulum_drawn()
+    sol = model.simulate([1.0, 0.5], [0.0, 0.0], 3.0)
+    f = expression_positions(model.drawing, ["th1", "th2"], model.parameters)
+    dense = f(sol.t, sol.q)
+    chain = auto_drawing(dense)
+    assert chain.rods == ((-1, 0), (0, 1)) and chain.trail == (1,)
+    assert chain.marks == ((0.0, 0.0),)
+    # A spring (elastic pendulum): no rod; a dumbbell flying free: one rod, not to the origin.
+    elastic = lg.scenes.elastic_pendulum(m=1.0, k=20.0, l0=1.0, g=9.81)
+    esol = elastic.simulate([1.2, 0.5], [0.0, 0.0], 3.0)
+    assert auto_drawing(elastic.positions(esol.t, esol.q)).rods == ()
+    x, y, a = lg.coordinates("x y a")
+    dumbbell = [(x + lg.cos(a), y + lg.sin(a)), (x - lg.cos(a), y - lg.sin(a))]
+    f = expression_positions(dumbbell, ["x", "y", "a"], {})
+    q = np.stack([np.linspace(1, 3, 50), np.linspace(0, 1, 50), np.linspace(0, 6, 50)], axis=1)
+    assert auto_drawing(f(np.zeros(50), q)).rods == ((0, 1),)
+
+
+def movie_of(model, sol, frames=12):
+    from lagrangian import _plot
+
+    times = _plot._frame_times(sol.t, frames)
+    frame_pos = model.positions(times, _plot.trajectory(sol, times)[0])
+    dense_t = np.linspace(sol.t[0], sol.t[-1], 10 * len(times))
+    dense = model.positions(dense_t, _plot.trajectory(sol, dense_t)[0])
+    return _plot._Movie(model._drawing(), times, frame_pos, dense_t, dense, [1])
+
+
+@pytest.mark.parametrize("make,q0", [
+    (lambda: lg.scenes.double_pendulum(**DP), [1.0, 0.5]),
+    (lambda: lg.scenes.ball_in_sphere(**BALL), [1.0]),
+], ids=["double_pendulum", "ball_in_sphere"])
+def test_blitted_frames_equal_full_redraws(make, q0):
+    model = make()
+    sol = model.simulate(q0, [0.0] * len(q0), 1.0)
+    movie = movie_of(model, sol)
+    blitted = [frame.copy() for frame in movie.frames()]
+    for artist in movie.moving:
+        artist.set_animated(False)
+    for i in (0, 5, len(blitted) - 1):
+        movie.update(i)
+        movie.canvas.draw()
+        full = np.asarray(movie.canvas.buffer_rgba())
+        differs = np.any(np.abs(full.astype(int) - blitted[i].astype(int)) > 2, axis=2)
+        assert np.mean(differs) < 2e-3, (i, np.mean(differs))
+
+
+def test_gif_frames_keep_the_rendered_colours(tmp_path):
+    model = lg.scenes.double_pendulum(**DP)
+    sol = model.simulate([1.0, 0.5], [0.0, 0.0], 1.0)
+    path = model.animate(sol, tmp_path / "dp.gif", max_frames=12)
+    movie = movie_of(model, sol)
+    rendered = [frame[:, :, :3].astype(int) for frame in movie.frames()]
+    with Image.open(path) as im:
+        for i in (0, 6, 11):
+            im.seek(i)
+            got = np.asarray(im.convert("RGB")).astype(int)
+            error = np.abs(got - rendered[i])
+            # One palette for every frame, no dithering: white stays white, colours stay close.
+            assert np.mean(error) < 1.0 and np.percentile(error, 99.9) < 24
+            assert np.all(got[rendered[i].sum(axis=2) == 3 * 255] == 255)
+
+
+# -- WorkPrecision.plot --------------------------------------------------------------------
+
+
+def hand_made_work_precision(agreement, lowest=1e-9):
+    from lagrangian._measure import Reference
+    from lagrangian._workprec import Row
+
+    rows = []
+    for k, method in enumerate(m for m in lg.methods() if m != "auto"):
+        for j, tol in enumerate([1e-4, 1e-7, 1e-10]):
+            fixed = method in ("rk4", "stormer_verlet", "yoshida4", "yoshida6", "yoshida8",
+                               "blanes_moan4", "midpoint", "gauss4", "gauss6")
+            error = 10.0 ** (-2 - 3 * j - 0.1 * k) if j < 2 else lowest * (1 + k)
+            rows.append(Row(method, None if fixed else tol, 0.01 / 2**j if fixed else None,
+                            error, None, 1e-4 * (k + 1) * 4**j, 10, 100))
+    rows.append(Row("gauss6", None, 1.0, None, None, None, 0, 0, "ConvergenceError: …"))
+    ref = Reference(np.zeros(1), np.zeros(1), "computed", "two runs", agreement)
+    wp = lg.WorkPrecision(rows, ref, "hand-made")
+    peers = lg.WorkPrecision(
+        [Row(f"scipy {m}", tol, None, 10 * tol, None, 1e-2 * tol**-0.1, 10, 100)
+         for m in ("RK45", "DOP853", "Radau", "LSODA") for tol in (1e-4, 1e-8)], ref)
+    return wp, peers
+
+
+def test_work_precision_every_method_its_own_colour_and_marker(tmp_path):
+    wp, peers = hand_made_work_precision(agreement=1e-12)
+    fig = wp.plot(tmp_path / "wp.png", peers=peers)
+    ax = fig.axes[0]
+    lines = [line for line in ax.get_lines() if not line.get_label().startswith("_")]
+    assert len(lines) == 16
+    looks = {(line.get_color(), line.get_marker()) for line in lines}
+    assert len({c for c, _ in looks}) == 16 and len({m for _, m in looks}) == 16
+    assert {line.get_linestyle() for line in lines if "scipy" in line.get_label()} == {"--"}
+    # The same method looks the same in every figure.
+    again = lg.WorkPrecision(wp.by_method("gauss6"), wp.reference).plot()
+    (g6,) = [x for x in again.axes[0].get_lines() if x.get_label() == "gauss6"]
+    (first,) = [x for x in lines if x.get_label() == "gauss6"]
+    assert (g6.get_color(), g6.get_marker()) == (first.get_color(), first.get_marker())
+    # Each point labelled with its tolerance or step.
+    texts = [t.get_text() for t in ax.texts]
+    assert texts.count("1e-4") == 3 + 4 and "0.0025" in texts
+    drawn = sum(len(line.get_xdata()) for line in lines)
+    assert len([t for t in ax.texts if t.get_fontsize() < 6]) == drawn
+    # The legend sits outside the data.
+    fig.draw_without_rendering()
+    legend = ax.get_legend().get_window_extent()
+    assert legend.x0 >= ax.get_window_extent().x1
+    with Image.open(tmp_path / "wp.png") as im:
+        assert im.size[0] > 500
+
+
+def test_work_precision_floor_and_round_off_caveat():
+    from lagrangian._plot import method_styles
+
+    wp, _ = hand_made_work_precision(agreement=1e-12, lowest=1e-9)
+    ax = wp.plot().axes[0]
+    texts = " ".join(t.get_text() for t in ax.texts)
+    assert "reference floor 1.0e-12" in texts and "grey: at round-off" not in texts
+    floor = [x for x in ax.get_lines() if list(x.get_ydata()) == [1e-12, 1e-12]]
+    assert len(floor) == 1
+    # Errors down at the floor: shaded, with the caveat.
+    wp, _ = hand_made_work_precision(agreement=1e-12, lowest=5e-13)
+    ax = wp.plot().axes[0]
+    assert "grey: at round-off" in " ".join(t.get_text() for t in ax.texts)
+    assert len(ax.patches) == 1 and ax.get_ylim()[0] < 5e-13
+    # An exact reference: the floor is round-off.
+    wp, _ = hand_made_work_precision(agreement=None, lowest=1e-15)
+    ax = wp.plot().axes[0]
+    assert "round-off floor" in " ".join(t.get_text() for t in ax.texts)
+    # Names not known get looks no other name in the figure has.
+    styles = method_styles(["rk4", "mine", "theirs"])
+    assert len(set(styles.values())) == 3
+    assert len({c for c, _ in styles.values()}) == 3
+
+
+def test_movie_frames_are_blitted_not_redrawn(tmp_path, monkeypatch):
+    # What makes a 300-frame GIF take seconds: the figure is drawn in full twice (the palette's
+    # last frame, the still background), every frame only blits the moving artists.
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    draws = []
+    full = FigureCanvasAgg.draw
+    monkeypatch.setattr(FigureCanvasAgg, "draw", lambda self: draws.append(1) or full(self))
+    model = lg.scenes.double_pendulum(**DP)
+    sol = model.simulate([1.0, 0.5], [0.0, 0.0], 2.0, t_eval=np.linspace(0.0, 2.0, 200))
+    assert gif_frames(model.animate(sol, tmp_path / "dp.gif", max_frames=60))[0] == 60
+    assert len(draws) == 2

@@ -1,0 +1,48 @@
+"""The tutorial of the documentation site (docs/site/tutorial.rst) runs as written."""
+
+import doctest
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("matplotlib")
+pytest.importorskip("PIL")
+
+SITE = Path(__file__).resolve().parents[2] / "docs" / "site"
+TUTORIAL = SITE / "tutorial.rst"
+
+
+def test_tutorial_examples_run(tmp_path, monkeypatch):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    monkeypatch.chdir(tmp_path)
+    result = doctest.testfile(str(TUTORIAL), module_relative=False, report=True,
+                              optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    assert result.attempted > 50
+    assert result.failed == 0
+    # The pictures the tutorial shows are the ones it writes.
+    for name in ("pendulum.png", "forced_two_mass.png", "work_precision.png"):
+        assert (tmp_path / name).read_bytes().startswith(b"\x89PNG")
+        assert f"_static/{name}" in TUTORIAL.read_text()
+    assert (tmp_path / "double_pendulum.gif").read_bytes().startswith(b"GIF89a")
+
+
+def test_front_page_example_runs():
+    result = doctest.testfile(str(SITE / "index.rst"), module_relative=False)
+    assert result.attempted >= 4 and result.failed == 0
+
+
+def test_readme_python_quick_start_runs(tmp_path, monkeypatch):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    readme = (SITE.parents[1] / "README.md").read_text()
+    section = readme[readme.index("## Quick start (Python)"):readme.index("## Set-up")]
+    code = section.split("```python\n", 1)[1].split("```", 1)[0]
+    monkeypatch.chdir(tmp_path)
+    scope: dict = {}
+    exec(compile(code, "README.md", "exec"), scope)
+    assert scope["sol"].stats["method"] == "dop853"
+    assert scope["driven"].parameters["A"] == 0.5
+    assert (tmp_path / "pendulum.png").exists() and (tmp_path / "pendulum.gif").exists()
