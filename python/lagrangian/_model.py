@@ -768,7 +768,11 @@ class Model:
                 err.solution = Solution._from_native(partial, names, event_names, str(err))
                 err._partial = None
             raise
-        return Solution._from_native(out, names, event_names)
+        sol = Solution._from_native(out, names, event_names)
+        # Whether h = q̇·p − L is a constant of this run (its plot shows the drift then).
+        resets = any(e.reset for e in events or ())
+        sol.stats["conserved"] = bool(self._native.structure()["conservative"]) and not resets
+        return sol
 
     def equilibrium(
         self,

@@ -174,8 +174,11 @@ def trajectory(sol: "Solution", times: FloatArray) -> Tuple[FloatArray, FloatArr
     q is the cubic Hermite interpolant of the solution's q and q̇ (third order: q̇ is the exact
     slope of q); q̇ the Hermite interpolant of q̇ with the q̈ of those cubics at the points. The
     solution's own points are reproduced exactly. This is the one function that makes curves
-    out of a solution; a dense-output interpolant would replace it.
+    out of a solution. A solution run with ``dense=True`` is drawn from the method's own
+    interpolant instead.
     """
+    if getattr(sol, "interpolant", None) is not None:
+        return sol(times)
     t, q, qd, _ = _checked(sol)
     t, (q, qd) = _monotone(t, q, qd)
     return _hermite(t, q, qd, times), _hermite(t, qd, _second_derivatives(t, q, qd), times)

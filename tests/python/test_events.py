@@ -237,3 +237,15 @@ def test_events_on_a_scene():
     g, l = pend.parameters["g"], pend.parameters["l"]
     quarter = math.sqrt(l / g) * ellipk(math.sin(0.25) ** 2)
     assert sol.t[-1] == pytest.approx(quarter, abs=1e-10)
+
+
+def test_plot_of_a_dense_solution_draws_its_interpolant():
+    pytest.importorskip("matplotlib")
+    x, = lg.coordinates("x")
+    spring = lg.Model(coordinates=[x], kinetic=0.5 * x.d**2, potential=0.5 * x**2)
+    sol = spring.simulate([0.0], [1.0], 10.0, method="dop853", rtol=1e-10, atol=1e-12, dense=True)
+    line = sol.plot().axes[0].lines[0]
+    t, drawn = line.get_xdata(), line.get_ydata()
+    assert len(t) > 5 * len(sol)
+    assert np.array_equal(drawn, sol(t)[0][:, 0])
+    assert np.max(np.abs(drawn - np.sin(t))) < 1e-8

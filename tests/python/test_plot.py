@@ -70,7 +70,11 @@ def test_plot_curves_pass_through_the_solution_and_name_the_coordinates(tmp_path
     assert "relative energy error" in ax_h.get_ylabel()
     assert f"{want.max():.2g}" in ax_h.get_title(loc="left")
     assert "conserved by the system" in ax_h.get_title(loc="left")
+    # Recorded by the run (stats["conserved"]): the same figure.
+    assert sol.stats["conserved"] is True
+    assert "relative energy error" in sol.plot().axes[2].get_ylabel()
     # Not told, and not recorded by the run: judged from h, and said so.
+    del sol.stats["conserved"]
     judged = sol.plot().axes[2]
     assert judged.get_yscale() == "log" and "relative energy change" in judged.get_ylabel()
     assert "less than 1e-3" in judged.get_title(loc="left")
