@@ -6,7 +6,11 @@
 //! symplectic methods, the quintic Hermite polynomial through the step's ends), so that a
 //! condition which changes sign and back inside one step is still seen, as robust codes do. A
 //! sign change between two samples is refined by Brent's method on the interpolant to a few
-//! units of round-off in t. An event is a change between non-zero values: g touching zero and
+//! units of round-off in t. The continuous extension of DOPRI5 and DOP853 costs three or four
+//! evaluations per step, so their steps are sampled first on the free quintic Hermite
+//! interpolant through the step's ends; only a step where g changes sign is searched again on
+//! the method's own interpolant, which then locates the root. An event is a change between
+//! non-zero values: g touching zero and
 //! returning is none, and a condition that is exactly zero at the start takes its sign from the
 //! first non-zero sample. After a reset the event sits on its root; its sign is taken a
 //! thousandth of a step along the new motion, so that the next crossing counts however soon it
@@ -236,6 +240,8 @@ pub(crate) struct Tracker {
     sign: Vec<f64>,
     pub(crate) found: Vec<Occurrences>,
     y: Vec<f64>,
+    /// Work space of [`Tracker::quiet`]: each event's sign and value at the step's end.
+    ends: Vec<(f64, f64)>,
 }
 
 impl Tracker {
@@ -247,6 +253,7 @@ impl Tracker {
             sign: vec![0.0; events.len()],
             found: vec![Occurrences::default(); events.len()],
             y: vec![0.0; 2 * n],
+            ends: Vec::with_capacity(events.len()),
         }
     }
 
@@ -291,6 +298,48 @@ impl Tracker {
         self.start(t, y)?;
         self.sign[fired] = sign(self.g(fired, t_p, y_p)?);
         Ok(())
+    }
+
+    /// Whether no event occurs in the step (t, t_new], sampled on `step`, which may be a
+    /// cheaper interpolant than the method's own: then the step's signs are taken and nothing
+    /// else is needed. Otherwise nothing changes, and the step is to be searched with
+    /// [`Tracker::scan`] on the method's interpolant.
+    pub(crate) fn quiet(
+        &mut self,
+        t: f64,
+        t_new: f64,
+        y_new: &[f64],
+        step: &Interpolant<'_>,
+    ) -> Result<bool> {
+        let h = t_new - t;
+        let mut ends = std::mem::take(&mut self.ends);
+        ends.clear();
+        for i in 0..self.events.len() {
+            let samples = self.events[i].samples;
+            let (mut sign_ref, mut g) = (self.sign[i], self.value[i]);
+            for j in 1..=samples + 1 {
+                g = if j == samples + 1 {
+                    self.g(i, t_new, y_new)?
+                } else {
+                    self.at(i, t, h, j as f64 / (samples + 1) as f64, step)?
+                };
+                if g != 0.0 {
+                    let s = sign(g);
+                    if sign_ref != 0.0 && s != sign_ref && self.events[i].direction.admits(s) {
+                        self.ends = ends;
+                        return Ok(false);
+                    }
+                    sign_ref = s;
+                }
+            }
+            ends.push((sign_ref, g));
+        }
+        for (i, &(s, g)) in ends.iter().enumerate() {
+            self.sign[i] = s;
+            self.value[i] = g;
+        }
+        self.ends = ends;
+        Ok(true)
     }
 
     /// Search the step (t, t_new] whose interpolant is `step`: record the occurrences up to the

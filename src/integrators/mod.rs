@@ -399,6 +399,28 @@ impl<S: Dynamics + ?Sized> Run<'_, S> {
         self.events.active() || self.dense.is_some() || self.out.wants_dense(t_new)
     }
 
+    /// For a method whose own interpolant costs evaluations (a Runge–Kutta continuous
+    /// extension): when only events need it, first sample the step on the cheap interpolant
+    /// `rough` (quintic Hermite through the step's ends). `Some(flow)` when no event occurs in
+    /// the step, which is then accepted; `None` when the method's own interpolant is needed.
+    pub(crate) fn accept_if_quiet(
+        &mut self,
+        t: f64,
+        t_new: f64,
+        y_new: &[f64],
+        last: bool,
+        rough: &Interpolant<'_>,
+    ) -> Result<Option<Flow>> {
+        if !self.events.active() || self.dense.is_some() || self.out.wants_dense(t_new) {
+            return Ok(None);
+        }
+        if !self.events.quiet(t, t_new, y_new, rough)? {
+            return Ok(None);
+        }
+        self.out.step(t_new, y_new, last);
+        Ok(Some(if last { Flow::End } else { Flow::Continue }))
+    }
+
     /// A step from t to `t_new` was accepted, ending at `y_new`; `step` is its interpolant when
     /// [`Run::needs_interpolant`] said so. Searches the events, emits the requested output times
     /// and the step, keeps the interpolant for the continuous solution.

@@ -180,7 +180,25 @@ impl ExplicitRk {
         let h = t_new - t;
         let s = self.tableau.stages();
         let n = run.n;
-        let flow = if !run.needs_interpolant(t_new) {
+        let hermite = Interpolant::Hermite {
+            t,
+            h,
+            ends: Ends {
+                q0: &c.y[..n],
+                v0: &c.y[n..],
+                a0: &c.k[0][n..],
+                q1: &c.y_new[..n],
+                v1: &c.y_new[n..],
+                a1: &c.k[s][n..],
+            },
+        };
+        let quiet = match &self.tableau.dense {
+            Some(_) => run.accept_if_quiet(t, t_new, &c.y_new, last, &hermite)?,
+            None => None,
+        };
+        let flow = if let Some(flow) = quiet {
+            flow
+        } else if !run.needs_interpolant(t_new) {
             run.accept(t, t_new, &c.y_new, last, None)?
         } else if let Some(d) = &self.tableau.dense {
             for (i, (ci, row)) in d.c.iter().zip(&d.a).enumerate() {
@@ -209,19 +227,7 @@ impl ExplicitRk {
             };
             run.accept(t, t_new, &c.y_new, last, Some(&step))?
         } else {
-            let step = Interpolant::Hermite {
-                t,
-                h,
-                ends: Ends {
-                    q0: &c.y[..n],
-                    v0: &c.y[n..],
-                    a0: &c.k[0][n..],
-                    q1: &c.y_new[..n],
-                    v1: &c.y_new[n..],
-                    a1: &c.k[s][n..],
-                },
-            };
-            run.accept(t, t_new, &c.y_new, last, Some(&step))?
+            run.accept(t, t_new, &c.y_new, last, Some(&hermite))?
         };
         std::mem::swap(&mut c.y, &mut c.y_new);
         c.k.swap(0, s);
