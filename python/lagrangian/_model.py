@@ -629,8 +629,15 @@ class Model:
         t0 : float
             Start time.
         method : str
-            One of :func:`lagrangian.methods`. ``"auto"`` picks a symplectic method for a
-            separable conservative system with a fixed ``dt``, DOP853 otherwise.
+            One of :func:`lagrangian.methods`. ``"auto"`` chooses from the system's structure,
+            the options and the initial state, and says why in ``sol.stats["choice"]``: for a
+            conservative system (no dissipation, no forces, no explicit t) with a fixed ``dt``,
+            ``blanes_moan4`` when it is separable (constant mass matrix, U(q)), ``gauss4``
+            otherwise (symplectic for any L); in every other case (forced, dissipative,
+            time-dependent, or tolerances without ``dt``) ``radau5`` when the system is stiff
+            at the initial state, ``dop853`` otherwise (adaptive, or at the fixed ``dt``).
+            Stiff means a decaying mode of the Jacobian at least 1000 times faster than every
+            mode the solution must follow, so that an explicit step would be set by stability.
         dt : float, optional
             Fixed step, with the sign of ``t_end - t0``; without it the adaptive methods
             control the local error with ``rtol`` and ``atol``.
