@@ -57,9 +57,10 @@ def main(argv: Optional[List[str]] = None) -> int:
         "report",
         help="work–precision, long-run energy, SciPy peers and the stability matrix, written "
         "to a folder (Markdown, PNG, JSON)",
-        description="Work–precision of every method on each scene, long-run energy, SciPy "
-        f"peers and the stability matrix, written to a folder (default: {DEFAULT_OUT}/): "
-        "README.md, report.json and one PNG per scene.",
+        description=textwrap.fill(
+            "Work–precision of every method on each scene, long-run energy, SciPy peers and "
+            f"the stability matrix, written to a folder (default: {DEFAULT_OUT}/): README.md, "
+            "report.json and one PNG per scene.", width=78),
         epilog=_listing("scenes (--scenes)", scenes),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -72,9 +73,10 @@ def main(argv: Optional[List[str]] = None) -> int:
     stab = sub.add_parser(
         "stability",
         help="print the stability matrix",
-        description="Every method on stiff and extreme cases, each run classified (solved, "
-        "error, chaotic, coarse or WRONG); the matrix is printed as Markdown. Exit status 1 "
-        "when a run is WRONG.",
+        description=textwrap.fill(
+            "Every method on stiff and extreme cases, each run classified (solved, error, "
+            "chaotic, coarse or WRONG); the matrix is printed as Markdown. Exit status 1 when "
+            "a run is WRONG.", width=78),
         epilog=_listing("cases (--cases)", cases) + "\n\n" + _methods_listing(),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

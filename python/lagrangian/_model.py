@@ -443,13 +443,26 @@ class Model:
 
     @property
     def structure(self) -> Dict[str, Any]:
-        """What the engine found the system to be: ``time_dependent``, ``constant_mass`` (M is
-        factored once), ``separable`` (explicit symplectic methods apply), ``dissipative``,
-        ``forced``, ``conservative``; and ``backend``, what computes the accelerations:
-        ``"native"`` (eq. 55 derived on the expression graph and compiled to machine code),
-        ``"interpreter"`` (the same, interpreted: ``backend="interpreter"``, or where no native
-        code could be made) or ``"rust"`` (a ready-made scene). A model stated by particles gets
-        its T derived from the positions and runs the same way."""
+        """What the engine found the system to be, as a dict:
+
+        - ``dof``: the number of coordinates;
+        - ``time_dependent``: the Lagrangian L = T − U reads t (a moving support, a potential
+          that changes with time), so the energy function h = q̇·p − L changes;
+        - ``driven``: the equations of motion read t at all — L, the dissipation Φ or the
+          forces Q″ do (a harmonic drive F cos ωt is ``driven`` but not ``time_dependent``);
+        - ``forced``: generalized forces Q″ are present, driven or not;
+        - ``dissipative``: a Rayleigh dissipation function Φ is present;
+        - ``conservative``: none of ``time_dependent``, ``forced``, ``dissipative``: h is
+          conserved;
+        - ``constant_mass``: M is one constant matrix, factored once;
+        - ``separable``: constant M and U(t, q), so the explicit symplectic methods apply;
+        - ``backend``: what computes the accelerations: ``"native"`` (eq. 55 derived on the
+          expression graph and compiled to machine code), ``"interpreter"`` (the same,
+          interpreted: ``backend="interpreter"``, or where no native code could be made) or
+          ``"rust"`` (a ready-made scene).
+
+        A model stated by particles gets its T derived from the positions and runs the same
+        way."""
         return dict(self._native.structure())
 
     def with_parameters(self, **values: float) -> "Model":
