@@ -10,7 +10,7 @@ from __future__ import annotations
 import builtins
 import math
 import numbers
-from typing import Any, Dict, Iterable, List, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterable, List, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -385,7 +385,7 @@ def _ufunc_operand(name: str, x: object) -> ExprLike:
 _FUNCTIONS = ("sin", "cos", "tan", "exp", "log", "sqrt", "sinh", "cosh", "tanh", "atan2", "abs")
 
 # NumPy's ufuncs that have an expression counterpart, by name.
-_UFUNCS: Dict[str, Any] = {
+_UFUNCS: Dict[str, Callable[..., Expr]] = {
     "add": lambda a, b: _binary("add", a, b),
     "subtract": lambda a, b: _binary("sub", a, b),
     "multiply": lambda a, b: _binary("mul", a, b),
