@@ -543,4 +543,58 @@ mod tests {
         assert_eq!(c.judge(0.9e-2), Verdict::Failed);
         assert_eq!(Convergence::new(5).judge(f64::NAN), Verdict::Failed);
     }
+
+    #[test]
+    fn failures_name_what_was_not_finite() {
+        // A quantity that went non-finite is named, with the time it was evaluated at.
+        let mut c = Convergence::new(10);
+        c.judge(1e-3);
+        assert_eq!(c.not_finite("forces", 0.25), Verdict::Failed);
+        assert_eq!(
+            c.failure(0.2),
+            Error::NonFinite {
+                what: "forces",
+                t: 0.25
+            }
+        );
+        // A non-finite increment from finite residuals is the increment's.
+        let mut c = Convergence::new(10);
+        c.judge(f64::INFINITY);
+        assert_eq!(
+            c.failure(0.5),
+            Error::NonFinite {
+                what: "Newton increment",
+                t: 0.5
+            }
+        );
+        // A non-finite Jacobian is named; a finite but singular one is a Newton failure.
+        let c = Convergence::unfactored(&[1.0, f64::NAN], 1.5);
+        assert_eq!(
+            c.failure(1.0),
+            Error::NonFinite {
+                what: "Jacobian",
+                t: 1.5
+            }
+        );
+        assert!(matches!(
+            Convergence::unfactored(&[0.0, 0.0], 1.5).failure(1.0),
+            Error::NewtonFailure {
+                t: 1.0,
+                iterations: 0,
+                ..
+            }
+        ));
+        // Divergence with finite increments stays a Newton failure.
+        let mut c = Convergence::new(10);
+        c.judge(1e-2);
+        c.judge(2e-2);
+        assert_eq!(
+            c.failure(3.0),
+            Error::NewtonFailure {
+                t: 3.0,
+                iterations: 2,
+                residual: 2e-2
+            }
+        );
+    }
 }
