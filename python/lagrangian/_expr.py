@@ -145,10 +145,12 @@ class Expr:
                 f"numpy.{name} is not defined for expressions: use + - * / ** and the "
                 f"functions of lagrangian ({', '.join('lg.' + f for f in _FUNCTIONS)})"
             )
-        if method != "__call__" or kwargs:
-            how = f"numpy.{name}.{method}" if method != "__call__" else f"numpy.{name}"
-            raise TypeError(f"{how} with {', '.join(kwargs) or 'this method'} is not defined "
-                            "for expressions: call it on expressions and numbers only")
+        if method != "__call__":
+            raise TypeError(f"numpy.{name}.{method} is not defined for expressions: call "
+                            f"numpy.{name} itself, on expressions and numbers")
+        if kwargs:
+            raise TypeError(f"numpy.{name} with {'=, '.join(kwargs)}= is not defined for "
+                            "expressions: give only the operands")
         return build(*(_ufunc_operand(name, x) for x in inputs))
 
     # -- structure ----------------------------------------------------------------------
