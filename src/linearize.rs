@@ -143,10 +143,22 @@ pub fn linearize<S: Dynamics + ?Sized>(
     finite(lower.as_slice(), "Jacobian of the accelerations", t)?;
     let k = -(&m * lower.columns(0, n));
     let c = -(&m * lower.columns(n, n));
+    // Finite factors can still overflow in the products.
+    finite(k.as_slice(), "stiffness matrix K", t)?;
+    finite(c.as_slice(), "damping matrix C", t)?;
     let mut a = DMatrix::zeros(2 * n, 2 * n);
     a.view_mut((0, n), (n, n)).fill_with_identity();
     a.view_mut((n, 0), (n, 2 * n)).copy_from(&lower);
     let eigenvalues = state_eigenvalues(&a, q)?;
+    if !eigenvalues
+        .iter()
+        .all(|z| z.re.is_finite() && z.im.is_finite())
+    {
+        return Err(Error::NonFinite {
+            what: "eigenvalues of A",
+            t,
+        });
+    }
     Ok(Linearization {
         t,
         q: DVector::from_column_slice(q),

@@ -166,3 +166,69 @@ fn bad_input_carries_nothing() {
     assert!(matches!(failed.error, Error::DimensionMismatch { .. }));
     assert!(failed.partial.is_none() && failed.last.is_none());
 }
+
+/// U = √x: the force −1/(2√x) pulls x to the edge of the model's domain, where U is NaN.
+#[derive(Debug, Clone, Copy)]
+struct RootWell;
+impl Potential for RootWell {
+    fn potential<D: Scalar>(&self, _t: D, q: &[D]) -> D {
+        q[0].sqrt()
+    }
+    fn depends_on_time(&self) -> bool {
+        false
+    }
+}
+
+/// From x = ½, ẋ = −3 the motion reaches x = 0 at t* = √2 [2E(√E − √w₀) − ⅔(E^{3/2} − w₀^{3/2})],
+/// with E = ẋ²/2 + √x the energy and w₀ = ẋ₀²/2 (u = √x, w = E − u in ∫ dx / √(2(E − √x))).
+fn edge_time() -> f64 {
+    let w0 = 4.5_f64;
+    let e = w0 + 0.5_f64.sqrt();
+    2f64.sqrt() * (2.0 * e * (e.sqrt() - w0.sqrt()) - (2.0 / 3.0) * (e.powf(1.5) - w0.powf(1.5)))
+}
+
+#[test]
+fn non_finite_inside_an_implicit_step_is_reported_as_non_finite() {
+    // Every method meets the NaN beyond x = 0 in the step that reaches t*: the explicit ones in
+    // their state, the implicit ones inside the Newton iteration of a stage. Both are
+    // `NonFinite`, naming the quantity and a time within a step of t*, not a Newton failure
+    // with a residual of NaN.
+    let system = System::new(1, UnitMass).with_potential(RootWell);
+    let t_star = edge_time();
+    let dt = 0.01;
+    let runs = [
+        (Method::Rk4, Options::fixed(dt)),
+        (Method::Midpoint, Options::fixed(dt)),
+        (Method::Gauss4, Options::fixed(dt)),
+        (Method::Gauss6, Options::fixed(dt)),
+        (Method::Radau5, Options::fixed(dt)),
+        (Method::Radau5, Options::adaptive(1e-8, 1e-10)),
+    ];
+    for (method, options) in runs {
+        let failed = solve_partial(&system, &[0.5], &[-3.0], (0.0, 1.0), method, &options, None)
+            .unwrap_err();
+        let Error::NonFinite { what, t } = failed.error else {
+            panic!("{method} {:?}: {:?}", options.dt, failed.error)
+        };
+        println!("{method} {:?}: {}", options.dt, failed.error);
+        assert!(
+            [
+                "state",
+                "accelerations",
+                "forces",
+                "momenta",
+                "stage positions",
+                "stage state",
+                "Jacobian",
+            ]
+            .contains(&what),
+            "{method}: {what}"
+        );
+        assert!((t - t_star).abs() <= dt, "{method}: t = {t}, t* = {t_star}");
+        // The partial trajectory stops at the edge (to the run's own error), with every
+        // value finite.
+        let (t_last, q_last, _) = failed.last.unwrap();
+        assert!((t_last - t_star).abs() <= dt, "{method}: {t_last}");
+        assert!(q_last[0] > 0.0 && q_last[0].is_finite());
+    }
+}

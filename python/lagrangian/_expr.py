@@ -10,7 +10,9 @@ from __future__ import annotations
 import builtins
 import math
 import numbers
-from typing import Any, Dict, Iterable, List, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterable, List, Sequence, Tuple, Union
+
+import numpy as np
 
 __all__ = [
     "Expr",
@@ -62,8 +64,6 @@ class Expr:
     """
 
     __slots__ = ("_op", "_args", "_hash")
-    # numpy scalars and arrays defer to the reflected operators below.
-    __array_ufunc__ = None
 
     _op: str
     _args: Tuple[Any, ...]
@@ -132,6 +132,26 @@ class Expr:
 
     def __abs__(self) -> "Expr":
         return Expr("abs", (self,))
+
+    def __array_ufunc__(self, ufunc: Any, method: str, *inputs: Any, **kwargs: Any) -> "Expr":
+        """NumPy's functions on expressions: ``np.cos(x)`` is ``lg.cos(x)``, and a NumPy
+        number on the left of an operator (``np.float64(2.0) * x``) is a number. A ufunc with
+        no expression counterpart, a ufunc method (``reduce``, …), ``out=`` or an array operand
+        is a ``TypeError`` that says what to use."""
+        name = getattr(ufunc, "__name__", repr(ufunc))
+        build = _UFUNCS.get(name)
+        if build is None:
+            raise TypeError(
+                f"numpy.{name} is not defined for expressions: use + - * / ** and the "
+                f"functions of lagrangian ({', '.join('lg.' + f for f in _FUNCTIONS)})"
+            )
+        if method != "__call__":
+            raise TypeError(f"numpy.{name}.{method} is not defined for expressions: call "
+                            f"numpy.{name} itself, on expressions and numbers")
+        if kwargs:
+            raise TypeError(f"numpy.{name} with {'=, '.join(kwargs)}= is not defined for "
+                            "expressions: give only the operands")
+        return build(*(_ufunc_operand(name, x) for x in inputs))
 
     # -- structure ----------------------------------------------------------------------
     @property
@@ -346,6 +366,52 @@ def atan2(y: ExprLike, x: ExprLike) -> Expr:
 def abs(x: ExprLike) -> Expr:  # noqa: A001 - mirrors math.fabs / builtins.abs for expressions
     """|x| (``builtins.abs`` works on expressions too)."""
     return _unary("abs", x)
+
+
+def _ufunc_operand(name: str, x: object) -> ExprLike:
+    """An operand of a NumPy ufunc on expressions: an expression, or a real number (a NumPy
+    scalar or 0-d array is one)."""
+    if isinstance(x, Expr):
+        return x
+    if isinstance(x, np.ndarray) and x.ndim == 0:
+        x = x[()]
+    if _is_number(x):
+        return float(x)  # type: ignore[arg-type]
+    raise TypeError(
+        f"numpy.{name} of an expression and {type(x).__name__} {x!r}: expressions combine "
+        "with real numbers only (build one expression per element for an array)"
+    )
+
+
+# The functions of expressions, as the package exports them.
+_FUNCTIONS = ("sin", "cos", "tan", "exp", "log", "sqrt", "sinh", "cosh", "tanh", "atan2", "abs")
+
+# NumPy's ufuncs that have an expression counterpart, by name.
+_UFUNCS: Dict[str, Callable[..., Expr]] = {
+    "add": lambda a, b: _binary("add", a, b),
+    "subtract": lambda a, b: _binary("sub", a, b),
+    "multiply": lambda a, b: _binary("mul", a, b),
+    "divide": lambda a, b: _binary("div", a, b),
+    "true_divide": lambda a, b: _binary("div", a, b),
+    "power": lambda a, b: _binary("pow", a, b),
+    "float_power": lambda a, b: _binary("pow", a, b),
+    "arctan2": atan2,
+    "negative": lambda a: _unary("neg", a),
+    "positive": Expr.lift,
+    "absolute": abs,
+    "fabs": abs,
+    "square": lambda a: _binary("pow", a, 2),
+    "reciprocal": lambda a: _binary("div", 1.0, a),
+    "sin": sin,
+    "cos": cos,
+    "tan": tan,
+    "exp": exp,
+    "log": log,
+    "sqrt": sqrt,
+    "sinh": sinh,
+    "cosh": cosh,
+    "tanh": tanh,
+}
 
 
 # -- traversal and serialization ------------------------------------------------------------

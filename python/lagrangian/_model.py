@@ -486,13 +486,26 @@ class Model:
 
     @property
     def structure(self) -> Dict[str, Any]:
-        """What the engine found the system to be: ``time_dependent``, ``constant_mass`` (M is
-        factored once), ``separable`` (explicit symplectic methods apply), ``dissipative``,
-        ``forced``, ``conservative``; and ``backend``, what computes the accelerations:
-        ``"native"`` (eq. 55 derived on the expression graph and compiled to machine code),
-        ``"interpreter"`` (the same, interpreted: ``backend="interpreter"``, or where no native
-        code could be made) or ``"rust"`` (a ready-made scene). A model stated by particles gets
-        its T derived from the positions and runs the same way."""
+        """What the engine found the system to be, as a dict:
+
+        - ``dof``: the number of coordinates;
+        - ``time_dependent``: the Lagrangian L = T − U reads t (a moving support, a potential
+          that changes with time), so the energy function h = q̇·p − L changes;
+        - ``driven``: the equations of motion read t at all — L, the dissipation Φ or the
+          forces Q″ do (a harmonic drive F cos ωt is ``driven`` but not ``time_dependent``);
+        - ``forced``: generalized forces Q″ are present, driven or not;
+        - ``dissipative``: a Rayleigh dissipation function Φ is present;
+        - ``conservative``: none of ``time_dependent``, ``forced``, ``dissipative``: h is
+          conserved;
+        - ``constant_mass``: M is one constant matrix, factored once;
+        - ``separable``: constant M and U(t, q), so the explicit symplectic methods apply;
+        - ``backend``: what computes the accelerations: ``"native"`` (eq. 55 derived on the
+          expression graph and compiled to machine code), ``"interpreter"`` (the same,
+          interpreted: ``backend="interpreter"``, or where no native code could be made) or
+          ``"rust"`` (a ready-made scene).
+
+        A model stated by particles gets its T derived from the positions and runs the same
+        way."""
         return dict(self._native.structure())
 
     def with_parameters(self, **values: float) -> "Model":
@@ -674,8 +687,15 @@ class Model:
         t0 : float
             Start time.
         method : str
-            One of :func:`lagrangian.methods`. ``"auto"`` picks a symplectic method for a
-            separable conservative system with a fixed ``dt``, DOP853 otherwise.
+            One of :func:`lagrangian.methods`. ``"auto"`` chooses from the system's structure,
+            the options and the initial state, and says why in ``sol.stats["choice"]``: for a
+            conservative system (no dissipation, no forces, no explicit t) with a fixed ``dt``,
+            ``blanes_moan4`` when it is separable (constant mass matrix, U(q)), ``gauss4``
+            otherwise (symplectic for any L); in every other case (forced, dissipative,
+            time-dependent, or tolerances without ``dt``) ``radau5`` when the system is stiff
+            at the initial state, ``dop853`` otherwise (adaptive, or at the fixed ``dt``).
+            Stiff means a decaying mode of the Jacobian at least 1000 times faster than every
+            mode the solution must follow, so that an explicit step would be set by stability.
         dt : float, optional
             Fixed step, with the sign of ``t_end - t0``; without it the adaptive methods
             control the local error with ``rtol`` and ``atol``.

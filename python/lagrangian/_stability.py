@@ -28,7 +28,7 @@ from ._cases import kepler_exact, kepler_periapsis, oscillator_exact
 from ._model import Model
 from ._measure import FINAL_ONLY, UNSUPPORTED, Reference, computed_reference, state_error
 
-__all__ = ["Case", "Outcome", "StabilityMatrix", "stability_cases", "run_stability"]
+__all__ = ["Case", "Outcome", "StabilityMatrix", "check_methods", "stability_cases", "run_stability"]
 
 Progress = Callable[[str], None]
 Exact = Callable[[float], Tuple[Any, Any]]
@@ -378,11 +378,36 @@ def run_case(case: Case, methods: Sequence[str], reference: Optional[Reference],
     return out
 
 
+def check_methods(methods: Sequence[str]) -> List[str]:
+    """The canonical names of ``methods`` (aliases such as ``"verlet"`` resolved), or a
+    ``ValueError`` naming the first unknown one (or ``"auto"``, which is no one method) and
+    listing the known ones: checked before any run."""
+    known = [m for m in _lagrangian.methods() if m != "auto"]
+    if not methods:
+        raise ValueError(f"no methods given; known: {', '.join(known)}")
+    names = []
+    for name in methods:
+        if not isinstance(name, str):
+            raise ValueError(f"method {name!r} is not a name; known: {', '.join(known)}")
+        try:
+            canonical = _lagrangian.method_info(name)[0]
+        except ValueError:
+            canonical = None
+        if canonical is None:
+            raise ValueError(f"unknown method {name!r}; known: {', '.join(known)}")
+        if canonical == "auto":
+            raise ValueError("'auto' picks a method per run; list the methods to compare: "
+                             f"{', '.join(known)}")
+        names.append(canonical)
+    return names
+
+
 def run_stability(quick: bool = False, methods: Optional[Sequence[str]] = None,
                   cases: Optional[Sequence[str]] = None,
                   progress: Progress = print) -> StabilityMatrix:
-    """Run every method on every stability case (``lagrangian stability``)."""
-    names = list(methods) if methods is not None else [
+    """Run every method on every stability case (``lagrangian stability``). Unknown methods or
+    cases are a ``ValueError`` before any run."""
+    names = check_methods(methods) if methods is not None else [
         m for m in _lagrangian.methods() if m != "auto"]
     chosen = stability_cases(quick)
     if cases is not None:

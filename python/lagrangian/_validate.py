@@ -28,10 +28,32 @@ __all__ = [
 FloatArray = npt.NDArray[np.float64]
 
 
-def vector(what: str, value: object, n: int) -> FloatArray:
-    """``value`` as a float vector of length ``n``, or a ``ValueError`` that says why not."""
+def _not_a_number(what: str, value: object, n: int) -> None:
+    """Reject a string or ``None`` (which NumPy would read as characters or as NaN)."""
     if isinstance(value, (str, bytes)):
         raise ValueError(f"{what} must be a sequence of {n} numbers, got a string")
+    if value is None:
+        raise ValueError(f"{what} is None, which is not a number: give a sequence of {n} numbers")
+
+
+def _non_finite(what: str, value: object, arr: FloatArray) -> ValueError:
+    """The error for the first entry of ``arr`` that is not finite: an entry given as ``None``
+    (NaN to NumPy) is named as such."""
+    index = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
+    label = f"{what}[{', '.join(map(str, index))}]"
+    try:
+        given = np.asarray(value, dtype=object)
+        entry = given[index] if given.shape == arr.shape else given.reshape(arr.shape)[index]
+    except (TypeError, ValueError, IndexError):
+        entry = arr[index]
+    if entry is None:
+        return ValueError(f"{label} is None, which is not a number")
+    return ValueError(f"{label} = {arr[index]} is not finite")
+
+
+def vector(what: str, value: object, n: int) -> FloatArray:
+    """``value`` as a float vector of length ``n``, or a ``ValueError`` that says why not."""
+    _not_a_number(what, value, n)
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as e:
@@ -43,31 +65,27 @@ def vector(what: str, value: object, n: int) -> FloatArray:
             f"{what} has shape {arr.shape} but the model has {n} coordinates"
         )
     if not np.isfinite(arr).all():
-        bad = np.flatnonzero(~np.isfinite(arr))[0]
-        raise ValueError(f"{what}[{bad}] = {arr[bad]} is not finite")
+        raise _non_finite(what, value, arr)
     return np.ascontiguousarray(arr)
 
 
 def states(what: str, value: object, n: int) -> FloatArray:
     """``value`` as one state (a float vector of length ``n``) or ``k`` states as the rows of a
     float array of shape ``(k, n)``, or a ``ValueError`` that says why not."""
-    if isinstance(value, (str, bytes)):
-        raise ValueError(f"{what} must be a sequence of {n} numbers, got a string")
+    _not_a_number(what, value, n)
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as e:
         raise ValueError(f"{what} must be a sequence of {n} numbers: {e}") from None
     if arr.ndim != 2:
-        return vector(what, arr, n)
+        return vector(what, value, n)
     if arr.shape[1] != n:
         raise ValueError(
             f"{what} has shape {arr.shape} but needs ({n},) or (k, {n}) for k states: "
             f"the model has {n} coordinates"
         )
-    bad = np.argwhere(~np.isfinite(arr))
-    if bad.size:
-        i, j = bad[0]
-        raise ValueError(f"{what}[{i}, {j}] = {arr[i, j]} is not finite")
+    if not np.isfinite(arr).all():
+        raise _non_finite(what, value, arr)
     return np.ascontiguousarray(arr)
 
 

@@ -25,7 +25,7 @@ from ._measure import (
     final_state,
     state_error,
 )
-from ._model import Model
+from ._model import ArrayLike, Model
 from ._validate import number, real, vector
 
 __all__ = ["Reference", "Row", "WorkPrecision", "work_precision", "state_error"]
@@ -212,12 +212,12 @@ def _given_reference(reference: ReferenceLike, n: int, t_end: float) -> Referenc
 
 def work_precision(
     model: Model,
-    q0: Sequence[float],
-    qd0: Sequence[float],
+    q0: ArrayLike,
+    qd0: ArrayLike,
     t_end: float,
     methods: Optional[Sequence[str]] = None,
-    tolerances: Sequence[float] = (1e-4, 1e-6, 1e-8, 1e-10),
-    dts: Sequence[float] = (),
+    tolerances: ArrayLike = (1e-4, 1e-6, 1e-8, 1e-10),
+    dts: ArrayLike = (),
     reference: ReferenceLike = None,
     repeats: int = 3,
     *,
@@ -243,8 +243,8 @@ def work_precision(
     ----------
     model : Model
         The system.
-    q0, qd0 : array_like
-        Initial state at ``t0``.
+    q0, qd0 : array_like, shape (dof,)
+        Initial state at ``t0``: sequences or NumPy arrays, as :meth:`Model.simulate` takes.
     t_end : float
         The final time; the error is measured on the state there.
     methods : sequence of str, optional

@@ -64,8 +64,9 @@ pub(super) fn choose<S: Dynamics + ?Sized>(
              DOP853 (order 8) at that step"
         ),
         None if s.conservative() => format!(
-            "tolerances given, {not_stiff}: DOP853 with error control, dense output and \
-             stiffness detection (the symplectic methods, {}, need a fixed dt)",
+            "no fixed dt (adaptive steps to rtol and atol), {not_stiff}: DOP853 with error \
+             control, dense output and stiffness detection (the symplectic methods, {}, need a \
+             fixed dt)",
             if s.separable {
                 "blanes_moan4"
             } else {
@@ -73,8 +74,8 @@ pub(super) fn choose<S: Dynamics + ?Sized>(
             }
         ),
         None => format!(
-            "tolerances given, {not_stiff}: DOP853 with error control, dense output and \
-             stiffness detection"
+            "no fixed dt (adaptive steps to rtol and atol), {not_stiff}: DOP853 with error \
+             control, dense output and stiffness detection"
         ),
     };
     (Method::Dop853, why)

@@ -284,8 +284,14 @@ impl Stepper {
     }
 
     /// Stage positions, momenta and forces for the current stage velocities; the residual
-    /// Rᵢ = Pᵢ − p₀ − h Σⱼ aᵢⱼ Gⱼ into `r`. `false` when a value is not finite.
-    fn residual<S: Dynamics + ?Sized>(&mut self, run: &mut Run<'_, S>, t: f64, h: f64) -> bool {
+    /// Rᵢ = Pᵢ − p₀ − h Σⱼ aᵢⱼ Gⱼ into `r`. When a value is not finite, which one and the time
+    /// of its stage.
+    fn residual<S: Dynamics + ?Sized>(
+        &mut self,
+        run: &mut Run<'_, S>,
+        t: f64,
+        h: f64,
+    ) -> std::result::Result<(), (&'static str, f64)> {
         let (n, s) = (self.n, self.tab.stages());
         let (a, c) = (&self.tab.a, &self.tab.c);
         let q0 = &self.y[..n];
@@ -310,6 +316,16 @@ impl Stepper {
                 &mut self.tmp,
             );
             run.stats.rhs_evaluations += 1;
+            let finite = |x: &[f64]| x.iter().all(|v| v.is_finite());
+            if !finite(&self.qs[i * n..(i + 1) * n]) {
+                return Err(("stage positions", ti));
+            }
+            if !finite(&self.ps[i * n..(i + 1) * n]) {
+                return Err(("momenta", ti));
+            }
+            if !finite(&self.gs[i * n..(i + 1) * n]) {
+                return Err(("forces", ti));
+            }
         }
         for i in 0..s {
             let ri = &mut self.r[i * n..(i + 1) * n];
@@ -323,7 +339,11 @@ impl Stepper {
                 }
             }
         }
-        self.r.iter().all(|x| x.is_finite())
+        if self.r.iter().all(|x| x.is_finite()) {
+            Ok(())
+        } else {
+            Err(("Newton residual", t))
+        }
     }
 
     /// Simplified Newton on the stage velocities with the current factorization: whether it
@@ -337,13 +357,12 @@ impl Stepper {
         let mut conv = Convergence::new(MAX_ITERATIONS);
         if !newton::same_step(self.lu_h, h) {
             // The factorization failed: nothing to iterate with.
-            conv.judge(f64::NAN);
-            return (false, conv);
+            return (false, Convergence::unfactored(self.jac.as_slice(), t));
         }
         let floor = 1e-3 * self.v_scale;
         loop {
-            if !self.residual(run, t, h) {
-                conv.judge(f64::NAN);
+            if let Err((what, at)) = self.residual(run, t, h) {
+                conv.not_finite(what, at);
                 return (false, conv);
             }
             self.lu.solve(&mut self.r);

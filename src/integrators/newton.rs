@@ -180,6 +180,9 @@ pub(crate) enum Verdict {
 /// before the last increment (the stage forces) must agree with the final iterate to
 /// round-off too — or when increments below [`PLATEAU`] stop shrinking (the residual's
 /// round-off floor); fail when θ ≥ 1 above that, or after `max_iterations`.
+///
+/// An iteration ended by a NaN or an infinity remembers which quantity it was and when, so
+/// that its failure is [`Error::NonFinite`], as in the explicit methods, not a residual of NaN.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Convergence {
     previous: f64,
@@ -190,6 +193,8 @@ pub(crate) struct Convergence {
     /// The last contraction factor θ (0 until two increments are known).
     pub(crate) rate: f64,
     max_iterations: usize,
+    /// The quantity that was not finite, and the time it was evaluated at.
+    non_finite: Option<(&'static str, f64)>,
 }
 
 impl Convergence {
@@ -200,19 +205,42 @@ impl Convergence {
             last: f64::INFINITY,
             rate: 0.0,
             max_iterations,
+            non_finite: None,
         }
     }
 
     /// The record of an iteration that failed after `iterations` with a last scaled increment
-    /// (or residual) `last`, judged elsewhere.
-    pub(crate) fn failed(iterations: usize, last: f64) -> Self {
+    /// (or residual) `last`, judged elsewhere; `non_finite` as in
+    /// [`not_finite`](Self::not_finite) when a NaN or an infinity ended it.
+    pub(crate) fn failed(
+        iterations: usize,
+        last: f64,
+        non_finite: Option<(&'static str, f64)>,
+    ) -> Self {
         Self {
             previous: f64::INFINITY,
             iterations,
             last,
             rate: f64::NAN,
             max_iterations: iterations,
+            non_finite,
         }
+    }
+
+    /// The Newton matrix could not be factored (it is singular, or not finite): the attempt
+    /// fails before its first iteration. `jacobian` is the Jacobian it was built from, and the
+    /// time of its evaluation.
+    pub(crate) fn unfactored(jacobian: &[f64], t: f64) -> Self {
+        let finite = jacobian.iter().all(|x| x.is_finite());
+        Self::failed(0, f64::INFINITY, (!finite).then_some(("Jacobian", t)))
+    }
+
+    /// End the iteration because `what`, evaluated at time `t`, is not finite.
+    pub(crate) fn not_finite(&mut self, what: &'static str, t: f64) -> Verdict {
+        self.iterations += 1;
+        self.last = f64::NAN;
+        self.non_finite = Some((what, t));
+        Verdict::Failed
     }
 
     /// Judge the scaled norm `d` of the increment just applied.
@@ -244,12 +272,21 @@ impl Convergence {
         }
     }
 
-    /// The typed error for a failed iteration of the step starting at `t`.
+    /// The typed error for a failed iteration of the step starting at `t`: [`Error::NonFinite`]
+    /// when a value was not finite (a non-finite increment from finite residuals is the Newton
+    /// increment's), [`Error::NewtonFailure`] otherwise.
     pub(crate) fn failure(&self, t: f64) -> Error {
-        Error::NewtonFailure {
-            t,
-            iterations: self.iterations,
-            residual: self.last,
+        match self.non_finite {
+            Some((what, at)) => Error::NonFinite { what, t: at },
+            None if self.iterations > 0 && !self.last.is_finite() => Error::NonFinite {
+                what: "Newton increment",
+                t,
+            },
+            None => Error::NewtonFailure {
+                t,
+                iterations: self.iterations,
+                residual: self.last,
+            },
         }
     }
 }
@@ -289,7 +326,8 @@ impl Legendre {
     ///
     /// # Errors
     /// [`Error::SingularMassMatrix`] when M cannot be factored (the Legendre map is not
-    /// invertible there), [`Error::NewtonFailure`] when the iteration does not converge.
+    /// invertible there), [`Error::NonFinite`] when the momenta or the velocity are not
+    /// finite, [`Error::NewtonFailure`] when the iteration does not converge.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn velocity<S: Dynamics + ?Sized>(
         &mut self,
@@ -310,6 +348,10 @@ impl Legendre {
             system.momenta_into(t, q, v, &mut self.residual);
             for (r, pi) in self.residual.iter_mut().zip(p) {
                 *r -= pi;
+            }
+            if !self.residual.iter().all(|x| x.is_finite()) {
+                conv.not_finite("momenta", t);
+                return Err(conv.failure(t));
             }
             ldlt_solve(&self.mass, n, &mut self.residual);
             for (vi, d) in v.iter_mut().zip(&self.residual) {
@@ -526,5 +568,59 @@ mod tests {
         assert_eq!(c.judge(1e-2), Verdict::Continue);
         assert_eq!(c.judge(0.9e-2), Verdict::Failed);
         assert_eq!(Convergence::new(5).judge(f64::NAN), Verdict::Failed);
+    }
+
+    #[test]
+    fn failures_name_what_was_not_finite() {
+        // A quantity that went non-finite is named, with the time it was evaluated at.
+        let mut c = Convergence::new(10);
+        c.judge(1e-3);
+        assert_eq!(c.not_finite("forces", 0.25), Verdict::Failed);
+        assert_eq!(
+            c.failure(0.2),
+            Error::NonFinite {
+                what: "forces",
+                t: 0.25
+            }
+        );
+        // A non-finite increment from finite residuals is the increment's.
+        let mut c = Convergence::new(10);
+        c.judge(f64::INFINITY);
+        assert_eq!(
+            c.failure(0.5),
+            Error::NonFinite {
+                what: "Newton increment",
+                t: 0.5
+            }
+        );
+        // A non-finite Jacobian is named; a finite but singular one is a Newton failure.
+        let c = Convergence::unfactored(&[1.0, f64::NAN], 1.5);
+        assert_eq!(
+            c.failure(1.0),
+            Error::NonFinite {
+                what: "Jacobian",
+                t: 1.5
+            }
+        );
+        assert!(matches!(
+            Convergence::unfactored(&[0.0, 0.0], 1.5).failure(1.0),
+            Error::NewtonFailure {
+                t: 1.0,
+                iterations: 0,
+                ..
+            }
+        ));
+        // Divergence with finite increments stays a Newton failure.
+        let mut c = Convergence::new(10);
+        c.judge(1e-2);
+        c.judge(2e-2);
+        assert_eq!(
+            c.failure(3.0),
+            Error::NewtonFailure {
+                t: 3.0,
+                iterations: 2,
+                residual: 2e-2
+            }
+        );
     }
 }

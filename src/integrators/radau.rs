@@ -112,6 +112,15 @@ struct Newton {
     iterations: usize,
     rate: f64,
     last: f64,
+    /// The quantity that was not finite and its time, when that ended the iteration.
+    non_finite: Option<(&'static str, f64)>,
+}
+
+impl Newton {
+    /// The failed iteration as the shared record, whose `failure` is the typed error.
+    fn record(&self) -> Convergence {
+        Convergence::failed(self.iterations, self.last, self.non_finite)
+    }
 }
 
 struct Stepper {
@@ -317,6 +326,7 @@ impl Stepper {
             iterations: 0,
             rate: f64::NAN,
             last: f64::INFINITY,
+            non_finite: None,
         };
         let mut dw_norm_old: Option<f64> = None;
         for k in 0..self.max_iter {
@@ -325,14 +335,23 @@ impl Stepper {
                 for i in 0..m {
                     self.stage[i] = self.y[i] + self.z[j][i];
                 }
-                match run.rhs(t + C[j] * h, &self.stage, &mut self.fz[j]) {
+                let tj = t + C[j] * h;
+                if !self.stage.iter().all(|x| x.is_finite()) {
+                    out.non_finite = Some(("stage state", tj));
+                    return Ok(out);
+                }
+                match run.rhs(tj, &self.stage, &mut self.fz[j]) {
                     Ok(()) => {}
-                    Err(Error::NonFinite { .. }) => return Ok(out),
+                    Err(Error::NonFinite { what, t }) => {
+                        out.non_finite = Some((what, t));
+                        return Ok(out);
+                    }
                     Err(e) => return Err(e),
                 }
-            }
-            if !self.fz.iter().all(|f| f.iter().all(|x| x.is_finite())) {
-                return Ok(out);
+                if !self.fz[j].iter().all(|x| x.is_finite()) {
+                    out.non_finite = Some(("accelerations", tj));
+                    return Ok(out);
+                }
             }
             for i in 0..m {
                 let (f0, f1, f2) = (self.fz[0][i], self.fz[1][i], self.fz[2][i]);
@@ -412,11 +431,13 @@ impl Stepper {
     ) -> Result<std::result::Result<Newton, Newton>> {
         loop {
             let result = if !newton::same_step(self.lu_h, h) && !self.factor(run, h) {
+                let jacobian_finite = self.jac.iter().all(|x| x.is_finite());
                 Newton {
                     converged: false,
                     iterations: 0,
                     rate: f64::NAN,
                     last: f64::INFINITY,
+                    non_finite: (!jacobian_finite).then_some(("Jacobian", t)),
                 }
             } else {
                 self.predict(h);
@@ -593,11 +614,7 @@ impl Stepper {
                 }
                 if h_abs < floor {
                     return Err(match newton_failure {
-                        Some(nf) => Error::NewtonFailure {
-                            t,
-                            iterations: nf.iterations,
-                            residual: nf.last,
-                        },
+                        Some(nf) => nf.record().failure(t),
                         None => Error::StepSizeTooSmall { t, h: h_abs },
                     });
                 }
@@ -725,7 +742,7 @@ impl<S: Dynamics + ?Sized> ImplicitStep<S> for Stepper {
         match self.solve_step(run, t, h)? {
             Err(nf) => {
                 self.lu_h = f64::NAN;
-                Ok(Some(Convergence::failed(nf.iterations, nf.last)))
+                Ok(Some(nf.record()))
             }
             Ok(result) => {
                 self.new_state();

@@ -180,9 +180,9 @@ impl Stepper {
         h: f64,
     ) -> (bool, Convergence) {
         let mut conv = Convergence::new(MAX_ITERATIONS);
+        let t_mid = t + 0.5 * h;
         if !newton::same_step(self.lu_h, h) {
-            conv.judge(f64::NAN);
-            return (false, conv);
+            return (false, Convergence::unfactored(self.jac.as_slice(), t_mid));
         }
         let n = self.n;
         let floor = 1e-3 * self.v_scale;
@@ -190,7 +190,7 @@ impl Stepper {
             residual_into(
                 run.system,
                 self.parts,
-                t + 0.5 * h,
+                t_mid,
                 h,
                 &self.y[..n],
                 &self.p,
@@ -202,7 +202,15 @@ impl Stepper {
             );
             run.stats.rhs_evaluations += 1;
             if !self.r.iter().all(|x| x.is_finite()) {
-                conv.judge(f64::NAN);
+                let finite = |x: &[f64]| x.iter().all(|v| v.is_finite());
+                let what = if !finite(&self.qm) {
+                    "stage positions"
+                } else if !finite(&self.g) {
+                    "forces"
+                } else {
+                    "momenta"
+                };
+                conv.not_finite(what, t_mid);
                 return (false, conv);
             }
             self.lu.solve(&mut self.r);

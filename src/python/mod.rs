@@ -130,9 +130,15 @@ impl PyModel {
     /// `eval` at each state of (t, q, q̇) in the fast form ([`States`]), each writing a value of
     /// shape `shape` (`[]`: a float); the values as an array of shape `shape`, or (k, *shape)
     /// for k states. `None` when the arguments are not in the fast form.
+    ///
+    /// The one exit of every evaluation at given states, so the one place that no NaN or
+    /// infinity passes: finite inputs can still overflow (q̇ = 1e200 squared), and then the
+    /// result is [`Error::NonFinite`] naming `what`, not the value.
+    #[allow(clippy::too_many_arguments)]
     fn each_state<'py>(
         &self,
         py: Python<'py>,
+        what: &'static str,
         t: &Bound<'py, PyAny>,
         q: &Bound<'py, PyAny>,
         qd: &Bound<'py, PyAny>,
@@ -149,6 +155,7 @@ impl PyModel {
             for (k, out) in values.chunks_exact_mut(size).enumerate() {
                 let (q, qd) = states.state(k, n);
                 eval(states.t, q, qd, out)?;
+                crate::dynamics::finite(out, what, states.t)?;
             }
             let mut dims = states.rows.map(|k| vec![k]).unwrap_or_default();
             dims.extend_from_slice(shape);
@@ -225,13 +232,19 @@ impl PyModel {
         self.model.dof()
     }
 
-    /// The structure flags the engine uses: time dependence, constant mass matrix,
-    /// separability, dissipation, forcing.
+    /// The structure flags the engine uses: time dependence of L, constant mass matrix,
+    /// separability, dissipation, forcing; and whether the equations of motion read t at all
+    /// (`driven`: L, Φ or Q″ do), which `time_dependent` alone does not say.
     fn structure<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let s = self.model.structure();
+        let driven = match &self.compiled {
+            Some(compiled) => compiled.driven(),
+            None => self.model.scene_driven().unwrap_or(s.time_dependent),
+        };
         let d = PyDict::new(py);
         d.set_item("dof", s.dof)?;
         d.set_item("time_dependent", s.time_dependent)?;
+        d.set_item("driven", driven)?;
         d.set_item("constant_mass", s.constant_mass)?;
         d.set_item("separable", s.separable)?;
         d.set_item("dissipative", s.dissipative)?;
@@ -252,7 +265,7 @@ impl PyModel {
         qd: &Bound<'py, PyAny>,
     ) -> PyResult<Option<Bound<'py, PyAny>>> {
         let n = self.model.dof();
-        self.each_state(py, t, q, qd, &[n], |t, q, qd, out| {
+        self.each_state(py, "accelerations", t, q, qd, &[n], |t, q, qd, out| {
             self.model.accelerations_into(t, q, qd, out)?;
             Ok(())
         })
@@ -267,7 +280,7 @@ impl PyModel {
         qd: &Bound<'py, PyAny>,
     ) -> PyResult<Option<Bound<'py, PyAny>>> {
         let n = self.model.dof();
-        self.each_state(py, t, q, qd, &[n, n], |t, q, qd, out| {
+        self.each_state(py, "mass matrix", t, q, qd, &[n, n], |t, q, qd, out| {
             out.copy_from_slice(self.model.mass_matrix(t, q, qd)?.transpose().as_slice());
             Ok(())
         })
@@ -281,7 +294,7 @@ impl PyModel {
         q: &Bound<'py, PyAny>,
         qd: &Bound<'py, PyAny>,
     ) -> PyResult<Option<Bound<'py, PyAny>>> {
-        self.each_state(py, t, q, qd, &[], |t, q, qd, out| {
+        self.each_state(py, "energy", t, q, qd, &[], |t, q, qd, out| {
             out[0] = self.model.energy(t, q, qd)?;
             Ok(())
         })
@@ -296,7 +309,7 @@ impl PyModel {
         qd: &Bound<'py, PyAny>,
     ) -> PyResult<Option<Bound<'py, PyAny>>> {
         let n = self.model.dof();
-        self.each_state(py, t, q, qd, &[n], |t, q, qd, out| {
+        self.each_state(py, "momenta", t, q, qd, &[n], |t, q, qd, out| {
             out.copy_from_slice(self.model.momenta(t, q, qd)?.as_slice());
             Ok(())
         })
@@ -310,7 +323,7 @@ impl PyModel {
         q: &Bound<'py, PyAny>,
         qd: &Bound<'py, PyAny>,
     ) -> PyResult<Option<Bound<'py, PyAny>>> {
-        self.each_state(py, t, q, qd, &[], |t, q, qd, out| {
+        self.each_state(py, "Lagrangian", t, q, qd, &[], |t, q, qd, out| {
             out[0] = self.model.lagrangian_at(t, q, qd)?;
             Ok(())
         })
@@ -376,6 +389,14 @@ impl PyModel {
             let Some((count, dim, r)) = self.model.positions(&t, &q) else {
                 return Ok(None);
             };
+            if let Some(k) = r.iter().position(|x| !x.is_finite()) {
+                let state = k / (count * dim).max(1);
+                return Err(Error::NonFinite {
+                    what: "positions",
+                    t: t[state],
+                }
+                .into());
+            }
             let r = Array3::from_shape_vec((t.len(), count, dim), r)
                 .map_err(|e| PyValueError::new_err(e.to_string()))?;
             Ok(Some(r.into_pyarray(py)))

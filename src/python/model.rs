@@ -8,7 +8,10 @@ use crate::tape::{
     Binary, Energies, EnergyModel, EomProgram, Function, Graph, Inputs, Node, Tape, TapeParticles,
     Unary, particle_kinetic,
 };
-use crate::{Dynamics, Error, Result, Scalar, Structure};
+use crate::{
+    CartesianForces, Dissipation, Dynamics, Error, GeneralizedForces, KineticEnergy,
+    ParticleSystem, Particles, Potential, Result, Scalar, Structure, System,
+};
 use std::sync::Arc;
 
 /// The enum over the tape models and every scene of the registry, its dispatch macro `each!`,
@@ -49,6 +52,15 @@ macro_rules! any_model {
                 Err(bad(format!("the scene {name} has no variant")))
             }
 
+            /// Whether the equations of motion of a scene read t explicitly (see [`Driven`]);
+            /// `None` for a model stated in Python, whose tapes say it ([`Compiled::driven`]).
+            pub(crate) fn scene_driven(&self) -> Option<bool> {
+                match self {
+                    AnyModel::Energy(_) | AnyModel::Particles(..) => None,
+                    $(AnyModel::$scene(s) => Some(s.driven()),)*
+                }
+            }
+
             /// The particles' positions at the states (t_i, q_i) (`q` row after row) as
             /// (count, dim, values), or `None` for a system stated by its energies only.
             pub(crate) fn positions(&self, t: &[f64], q: &[f64]) -> Option<Positions> {
@@ -62,6 +74,40 @@ macro_rules! any_model {
     };
 }
 scenes!(any_model);
+
+/// Whether a Rust system's equations of motion read t explicitly: L does (the structure's
+/// `time_dependent`), or the generalized forces do (a drive such as F cos ωt). Such a system is
+/// not autonomous even when its L is.
+pub(crate) trait Driven {
+    fn driven(&self) -> bool;
+}
+
+impl<T, U, R, Q> Driven for System<T, U, R, Q>
+where
+    T: KineticEnergy,
+    U: Potential,
+    R: Dissipation,
+    Q: GeneralizedForces,
+{
+    fn driven(&self) -> bool {
+        self.structure().time_dependent || self.forces.depends_on_time()
+    }
+}
+
+impl<P, U, R, Q, F> Driven for ParticleSystem<P, U, R, Q, F>
+where
+    P: Particles,
+    U: Potential,
+    R: Dissipation,
+    Q: GeneralizedForces,
+    F: CartesianForces,
+{
+    fn driven(&self) -> bool {
+        self.structure().time_dependent
+            || self.forces.depends_on_time()
+            || self.cartesian.depends_on_time()
+    }
+}
 
 impl Dynamics for AnyModel {
     fn dof(&self) -> usize {
@@ -439,6 +485,20 @@ impl Compiled {
             eom,
             energies: energies.map(|parts| (Arc::new(g), parts)),
         })
+    }
+
+    /// Whether the equations of motion read t explicitly: t appears in T, U, Φ or Q″.
+    pub(crate) fn driven(&self) -> bool {
+        [
+            &self.kinetic,
+            &self.potential,
+            &self.dissipation,
+            &self.forces,
+        ]
+        .into_iter()
+        .flatten()
+        .chain(self.particles.as_ref().map(|(r, _, _)| r))
+        .any(|tape| tape.depends_on_time())
     }
 
     /// B = ∂ẋ/∂u at the operating point of `lin`, for the parameters `inputs` (indices) at the

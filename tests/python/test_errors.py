@@ -3,6 +3,7 @@ subclasses of LagrangianError whose messages say where (t) and what to try."""
 
 import math
 import os
+import re
 import signal
 import threading
 import time
@@ -196,6 +197,30 @@ def test_non_finite_error():
     model = lg.Model(coordinates=[x], kinetic=0.5 * x.d**2, potential=lg.sqrt(x))
     with pytest.raises(lg.NonFiniteError, match="at t = 0.16"):
         model.simulate([0.5], [-3.0], 10.0, method="rk4", dt=0.01)
+
+
+@pytest.mark.parametrize("method, dt", [("rk4", 0.01), ("midpoint", 0.01), ("gauss4", 0.01),
+                                        ("gauss6", 0.01), ("radau5", 0.01), ("radau5", None)])
+def test_non_finite_is_named_for_every_method(method, dt):
+    # U = √x is NaN beyond x = 0, which the motion reaches at t* = 0.16254...: an implicit
+    # method meets the NaN inside the Newton iteration of a stage, and reports it as the
+    # explicit methods do — NonFiniteError naming the quantity and a time within a step of t* —
+    # not as a ConvergenceError with a residual of NaN.
+    x, = lg.coordinates("x")
+    model = lg.Model(coordinates=[x], kinetic=0.5 * x.d**2, potential=lg.sqrt(x))
+    t_star = 0.16254048729668633
+    with pytest.raises(lg.NonFiniteError) as info:
+        model.simulate([0.5], [-3.0], 1.0, method=method, dt=dt, rtol=1e-8, atol=1e-10)
+    message = str(info.value)
+    assert "residual" not in message
+    match = re.match(r"non-finite (\w[\w ]*) at t = ([0-9.e-]+):", message)
+    assert match, message
+    assert match.group(1) in ("state", "accelerations", "forces", "momenta", "stage positions",
+                              "stage state", "Jacobian"), message
+    assert abs(float(match.group(2)) - t_star) <= 0.01, message
+    assert info.value.t is not None and abs(info.value.t - t_star) <= 0.01
+    # The model still works.
+    assert model.energy(0.0, [0.5], [-3.0]) == pytest.approx(4.5 + math.sqrt(0.5), rel=1e-15)
 
 
 def test_keyboard_interrupt_stops_simulate():
