@@ -36,8 +36,16 @@
 //! and [`Error::NewtonFailure`] when an implicit step cannot be solved. [`solve_partial`] keeps
 //! what a failed run computed: [`Failed`] carries the trajectory up to the last accepted step.
 //!
-//! A new method is one file implementing the crate's internal `Integrator` trait and one line in
-//! its registry (`src/integrators/mod.rs`).
+//! Events ([`Event`], in [`Options::events`]) are sign changes of conditions g(t, q, q̇), found
+//! with every method on each step's interpolant and refined to round-off; a terminal event ends
+//! the run, a reset changes the state and the run goes on ([`Solution::events`],
+//! [`Solution::status`]). [`Options::dense`] keeps every step's interpolant as a callable
+//! [`Dense`] solution. [`Solver`] takes a run a step at a time; [`solve`] is that solver in a
+//! loop.
+//!
+//! A new method is one file implementing the crate's internal `Integrator` trait (its `start`
+//! gives a stepper that takes one accepted step at a time and hands it to the run) and one line
+//! in its registry (`src/integrators/mod.rs`).
 //!
 //! ```
 //! use lagrangian::integrators::{Method, Options, solve};
