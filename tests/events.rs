@@ -120,7 +120,7 @@ fn bouncing_ball_impacts_form_a_geometric_series() {
     let system = System::new(1, UnitMass).with_potential(Gravity(g));
     let bounce = Event::new("floor", |_t, q, _qd| q[0])
         .falling()
-        .with_reset(move |_t, _q, qd| qd[0] = -e * qd[0]);
+        .with_reset(move |_t, _q, qd| qd[0] *= -e);
     let t1 = (2.0 * h / g).sqrt();
     let v1 = g * t1;
     let mut impacts = vec![t1];
@@ -443,7 +443,7 @@ fn solver_steps_are_the_runs_steps() {
     let system = System::new(1, UnitMass).with_potential(Gravity(g));
     let bounce = Event::new("floor", |_t, q, _qd| q[0])
         .falling()
-        .with_reset(move |_t, _q, qd| qd[0] = -e * qd[0]);
+        .with_reset(move |_t, _q, qd| qd[0] *= -e);
     for &method in Method::ALL {
         let options = match method.is_adaptive() {
             Some(true) => Options::adaptive(1e-9, 1e-9),
