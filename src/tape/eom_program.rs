@@ -224,7 +224,7 @@ pub fn eom_graph(graph: &mut Graph, dof: usize, parts: &Energies) -> Result<EomG
 
 /// Largest number of coordinates whose solve M q̈ = f is unrolled into machine code
 /// ([`solved_graph`]); larger systems factor M at run time. Measured on the pendulum chain
-/// (tests/graph_derivatives.rs, `eom_program_speed`): unrolled, one call costs 0.55× (n = 8)
+/// (tests/integration/graph_derivatives.rs, `eom_program_speed`): unrolled, one call costs 0.55× (n = 8)
 /// and 0.51× (n = 16) of the program plus the run-time LDLᵀ of the time; at n = 32 0.94×
 /// (7.3 against 7.8 µs: a tape that large gets Cranelift's single-pass register allocator),
 /// while the build grows from 76 to 105 ms.

@@ -1,9 +1,7 @@
 //! Events (issue 14): sign changes of conditions located on each step's interpolant, terminal
 //! events, resets, and the continuous solution, against closed forms.
 
-mod common;
-
-use common::UnitMass;
+use crate::common::UnitMass;
 use lagrangian::integrators::{
     Direction, Event, Method, Options, Output, Solution, Status, solve, solve_partial,
 };

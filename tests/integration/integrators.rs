@@ -2,10 +2,8 @@
 //! energy behaviour of the symplectic methods, time reversibility, tolerance proportionality,
 //! dense output, backward integration, method choice and every typed failure.
 
-mod common;
-
+use crate::common::UnitMass;
 use approx::assert_relative_eq;
-use common::UnitMass;
 use lagrangian::integrators::{
     Method, Options, Output, Solution, SymplecticTableau, Tableau, solve,
 };

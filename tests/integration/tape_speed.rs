@@ -1,13 +1,11 @@
 //! Timing of tape models (not a timed assertion): run with
-//! `cargo test --release --test tape_speed -- --ignored --nocapture`.
+//! `cargo test --release --test integration tape_speed:: -- --ignored --nocapture`.
 //!
 //! It times the double pendulum as `benches/python_vs_rust.py` states it in Python, and a chain of
 //! n pendulums, through [`EnergyModel`] (what the Python module builds) and through the plain
 //! [`TapeSystem`] (every derivative pass evaluated on the tape).
 
-mod common;
-
-use common::time;
+use crate::common::time;
 use lagrangian::Dynamics;
 use lagrangian::tape::{EnergyModel, Function, Graph, Inputs, Tape, TapeSystem, models};
 use std::hint::black_box;

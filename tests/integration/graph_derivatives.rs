@@ -3,11 +3,9 @@
 //! [`EnergyModel`] on the same energies.
 //!
 //! The timing at the end is not a timed assertion: run it with
-//! `CARGO_PROFILE_RELEASE_LTO=false cargo test --release --test graph_derivatives -- --ignored --nocapture`.
+//! `CARGO_PROFILE_RELEASE_LTO=false cargo test --release --features jit --test integration graph_derivatives:: -- --ignored --nocapture`.
 
-mod common;
-
-use common::{Rng, time};
+use crate::common::{Rng, time};
 use lagrangian::num_dual::Dual64;
 use lagrangian::tape::{
     Binary, Energies, EnergyModel, EomProgram, Function, Graph, Inputs, Seeds, Tape, Unary, Wrt,

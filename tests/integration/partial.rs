@@ -1,9 +1,7 @@
 //! Failures keep what was computed: [`solve_partial`] on a run that blows up (ẍ = x²) returns
 //! the trajectory up to the last accepted step, and it agrees with the closed form there.
 
-mod common;
-
-use common::UnitMass;
+use crate::common::UnitMass;
 use lagrangian::integrators::{Failed, Method, Options, Output, solve, solve_partial};
 use lagrangian::{Error, Potential, Scalar, System};
 

@@ -4,10 +4,8 @@
 //! decay of a damped oscillator, stiff problems, the seed's scenes against their closed forms,
 //! the method choice, and the typed Newton failure.
 
-mod common;
-
+use crate::common::UnitMass;
 use approx::assert_relative_eq;
-use common::UnitMass;
 use lagrangian::integrators::{Method, Options, Output, Solution, solve};
 use lagrangian::scenes::{
     BallInSphere, ChargedParticle, DampedOscillator, DoublePendulum, DrivenPendulum,

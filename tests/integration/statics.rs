@@ -2,10 +2,8 @@
 //! the stability of their equilibria (by K where M is singular, by the linearization where it is
 //! not), and the solver's failures as typed errors.
 
-mod common;
-
+use crate::common::UnitMass;
 use approx::assert_relative_eq;
-use common::UnitMass;
 use lagrangian::scenes::{
     DifferentialPulley, Lever, RhombusLink, SimplePendulum, SpringRhombus, TwoSprings,
 };

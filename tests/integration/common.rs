@@ -1,4 +1,4 @@
-//! Helpers shared by the integration tests (`mod common;` in each test file; each uses some).
+//! Helpers shared by the integration tests (`crate::common` in each test module; each uses some).
 #![allow(dead_code)]
 
 use lagrangian::{KineticEnergy, Scalar};

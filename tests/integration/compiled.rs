@@ -14,8 +14,7 @@ use lagrangian::tape::{
 use lagrangian::{Dynamics, Result};
 use std::sync::Arc;
 
-mod common;
-use common::Rng;
+use crate::common::Rng;
 
 const UNARY: [Unary; 12] = Unary::ALL;
 const BINARY: [Binary; 6] = Binary::ALL;
@@ -376,7 +375,7 @@ fn compiled_eom_matches_energy_route_on_random_models() {
             };
             // The models are of size one (parameters, states and the functions' values in
             // their domains): a small q̈ is a cancellation of terms of that size, so 1 is the
-            // floor of the scale, as in tests/graph_derivatives.rs.
+            // floor of the scale, as in tests/integration/graph_derivatives.rs.
             let scale = want.iter().fold(1.0_f64, |s, x| s.max(x.abs()));
             for i in 0..n {
                 let err = (got[i] - want[i]).abs() / scale;

@@ -1,0 +1,25 @@
+//! The integration tests, one module per concept, in one test binary.
+//!
+//! Every test binary links the whole crate and its dependencies, so one binary instead of one per
+//! file saves a link (and its debug info) per file: `cargo test` builds and links this once.
+//!
+//! **A new integration test file goes here**: put it in `tests/integration/` and add its `mod`
+//! line below (behind `#[cfg(feature = "...")]` if it needs a feature); shared helpers are in
+//! `common.rs` (`use crate::common::...`). A file left in `tests/` itself would still run, but as
+//! a binary of its own. Run one module with `cargo test --test integration NAME::`
+//! (e.g. `cargo test --features jit --test integration events::`).
+
+mod ad;
+mod common;
+mod compiled;
+mod events;
+mod graph_derivatives;
+mod implicit;
+mod integrators;
+mod linearize;
+mod partial;
+mod routes;
+mod scenes;
+mod stability;
+mod statics;
+mod tape_speed;
