@@ -58,8 +58,8 @@ impl Interpolant<'_> {
 /// The explicit Runge–Kutta methods with a continuous extension keep Hairer's polynomial
 /// (DOPRI5: order 4, DOP853: order 7); every other method the quintic Hermite interpolant in q
 /// through (q, q̇, q̈) at both ends of each step (error O(h⁶) in q, O(h⁵) in q̇: order 5). Across
-/// a reset of an event the solution jumps; at the event's time it gives the state after the
-/// reset.
+/// a reset of an event the solution jumps; at the event's time it gives the state before the
+/// reset, as the event's record and the requested output times do.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dense {
     /// Components of y = (q, q̇).
@@ -114,8 +114,6 @@ impl Dense {
                 (*t, *h)
             }
         };
-        // A piece that starts where the previous one ended after a reset replaces nothing: the
-        // lookup takes the later piece at a shared time.
         self.start.push(t);
         self.step.push(h);
         self.end.push(end);
@@ -176,8 +174,9 @@ impl Dense {
         if !t.is_finite() || (t - first) * dir < 0.0 || (t - last) * dir > 0.0 {
             return Err(outside());
         }
-        // The last piece that starts at or before t (the piece after a reset wins at its time).
-        let k = self.start.partition_point(|&s| (s - t) * dir <= 0.0).max(1) - 1;
+        // The last piece that starts before t (at a reset's time, the piece before it: the
+        // state before the reset, as the event records and the output times give it).
+        let k = self.start.partition_point(|&s| (s - t) * dir < 0.0).max(1) - 1;
         let (t0, h) = (self.start[k], self.step[k]);
         if self.rows > 0 {
             let width = (1 + self.rows) * self.dim;

@@ -441,6 +441,8 @@ impl<S: Dynamics + ?Sized> Run<'_, S> {
         step: Option<&Interpolant<'_>>,
     ) -> Result<Flow> {
         let done = if last { Flow::End } else { Flow::Continue };
+        // An empty step (t_new = t by rounding at the end of a span) holds nothing to search.
+        let step = step.filter(|_| t_new != t);
         let Some(step) = step else {
             self.out.step(t_new, y_new, last);
             return Ok(done);
@@ -813,7 +815,7 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
                     y,
                     event,
                     terminal,
-                    h,
+                    fired,
                 } = run.stop.take().expect("a stopped step leaves its stop");
                 if terminal {
                     run.out.step(t, &y, true);
@@ -824,19 +826,22 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
                 let mut after = y.clone();
                 run.events.reset(event, t, &mut after)?;
                 run.out.jump(t, &y, &after);
-                if (run.t_end - t) * run.dir() <= 0.0 {
+                let dir = run.dir();
+                // A reset within round-off of the end ends the run: no step fits after it.
+                if (run.t_end - t) * dir <= 10.0 * f64::EPSILON * t.abs().max(run.t_end.abs()) {
+                    let t_end = run.t_end;
+                    let mut buf = std::mem::take(&mut run.buf);
+                    run.out.dense(t_end, &after, &mut buf, |_, out| {
+                        out.copy_from_slice(&after)
+                    });
+                    run.buf = buf;
                     return Ok(StepOutcome::Finished);
                 }
                 let attempts = run.stats.accepted_steps + run.stats.rejected_steps;
                 if attempts >= run.options.max_steps {
                     return Err(Error::TooManySteps { t, steps: attempts });
                 }
-                // Where the new motion goes: a thousandth of a step along ẏ.
-                let mut dy = vec![0.0; 2 * run.n];
-                run.rhs(t, &after, &mut dy)?;
-                let dt = 1e-3 * h * run.dir();
-                let probe: Vec<f64> = after.iter().zip(&dy).map(|(y, d)| y + dt * d).collect();
-                run.events.restart(t, &after, event, (t + dt, &probe))?;
+                run.events.restart(t, &after, &fired)?;
                 run.t0 = t;
                 run.y0 = after;
                 Ok(StepOutcome::Reset { event, t })
