@@ -387,6 +387,7 @@ fn non_finite_condition_is_a_typed_error() {
     );
     let partial: Solution = failed.partial.unwrap();
     assert_eq!(partial.events[0].t.len(), 1); // x = 0 at π
+    assert_eq!(partial.status, Status::Failed);
     // A terminal count of zero is refused before the run.
     let options = Options::default().with_event(Event::new("x", |_t, q, _qd| q[0]).terminal(0));
     let err = solve(
@@ -488,6 +489,14 @@ fn solver_steps_are_the_runs_steps() {
         }
         // Once finished it stays finished.
         assert_eq!(solver.step().unwrap(), StepOutcome::Finished);
+        let mut early = Solver::new(&system, &[1.0], &[0.0], (0.0, 2.0), method, &options).unwrap();
+        early.step().unwrap();
+        let t = early.t();
+        assert_eq!(
+            early.solution().status,
+            Status::Unfinished { t },
+            "{method}"
+        );
         assert_eq!(resets, whole.events[0].t.len(), "{method}");
         assert!(resets >= 2, "{method}");
         assert_eq!(solver.solution(), whole, "{method}");

@@ -713,7 +713,8 @@ class Model:
             Conditions whose sign changes are located along the run, with every method (see
             :class:`Event`): recorded in ``t_events``, ``q_events``, ``qd_events``; a terminal
             event ends the run there, a reset changes the state and the run goes on. Events
-            are searched on every step's interpolant, which costs dense output on every step.
+            are searched on every step's interpolant (DOPRI5 and DOP853 screen each step on
+            the free Hermite interpolant first; see :class:`Event`).
         dense : bool
             Keep every step's interpolant, so that the solution is callable: ``sol(t)`` gives
             (q, q̇) anywhere in the span (``sol.interpolant`` says which interpolant and its
@@ -764,6 +765,8 @@ class Model:
         if output_every is not None:
             kwargs["every"] = integer("output_every", output_every)
         event_names: List[str] = []
+        if events is not None and not isinstance(events, Event):
+            events = list(events)  # read three times below: a generator would be spent
         if events is not None:
             kwargs["events"] = event_specs(events, self._coordinates, self._parameters)
             kwargs["backend"] = self._backend

@@ -52,6 +52,18 @@ impl Interpolant<'_> {
     }
 }
 
+/// [`Dense`]'s contents: (dim, rows, order, dir, start, step, end, data).
+pub type DenseParts = (
+    usize,
+    usize,
+    usize,
+    f64,
+    Vec<f64>,
+    Vec<f64>,
+    Vec<f64>,
+    Vec<f64>,
+);
+
 /// The continuous solution of a run ([`Options::dense`](super::Options::dense)): every
 /// accepted step's own interpolant, callable anywhere in the span.
 ///
@@ -117,6 +129,53 @@ impl Dense {
         self.start.push(t);
         self.step.push(h);
         self.end.push(end);
+    }
+
+    /// Everything it holds, for pickling: (dim, rows, order, dir, start, step, end, data).
+    pub fn to_parts(&self) -> DenseParts {
+        (
+            self.dim,
+            self.rows,
+            self.order,
+            self.dir,
+            self.start.clone(),
+            self.step.clone(),
+            self.end.clone(),
+            self.data.clone(),
+        )
+    }
+
+    /// The solution [`Dense::to_parts`] gave.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] when the parts do not fit together.
+    pub fn from_parts(parts: DenseParts) -> Result<Self> {
+        let (dim, rows, order, dir, start, step, end, data) = parts;
+        let pieces = start.len();
+        let width = if rows > 0 { (1 + rows) * dim } else { 3 * dim };
+        let fits = dim > 0
+            && dim % 2 == 0
+            && (dir == 1.0 || dir == -1.0)
+            && step.len() == pieces
+            && end.len() == pieces
+            && width.checked_mul(pieces) == Some(data.len())
+            && start.iter().chain(&step).chain(&end).all(|x| x.is_finite());
+        if !fits {
+            return Err(Error::InvalidInput {
+                what: "dense solution",
+                why: "its parts do not fit together".into(),
+            });
+        }
+        Ok(Self {
+            dim,
+            rows,
+            order,
+            dir,
+            start,
+            step,
+            end,
+            data,
+        })
     }
 
     /// Order of the interpolant (in q for the Hermite pieces).

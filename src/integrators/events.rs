@@ -213,6 +213,14 @@ pub enum Status {
         /// When.
         t: f64,
     },
+    /// The run failed (the partial solution of a [`Failed`](super::Failed) run).
+    Failed,
+    /// The run was ended by [`Solver::solution`](super::Solver::solution) at `t`, before the end
+    /// of the span.
+    Unfinished {
+        /// The time it had reached.
+        t: f64,
+    },
 }
 
 impl fmt::Display for Status {
@@ -220,6 +228,8 @@ impl fmt::Display for Status {
         match self {
             Self::Finished => f.write_str("reached t_end"),
             Self::Terminated { name, t, .. } => write!(f, "terminal event {name} at t = {t}"),
+            Self::Failed => f.write_str("failed"),
+            Self::Unfinished { t } => write!(f, "stopped at t = {t} before t_end"),
         }
     }
 }

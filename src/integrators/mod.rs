@@ -75,7 +75,7 @@ mod symplectic;
 mod tableau;
 mod variational;
 
-pub use dense::Dense;
+pub use dense::{Dense, DenseParts};
 pub use events::{Condition, Direction, Event, Occurrences, Reset, Status};
 pub(crate) use newton::acceleration_jacobian;
 #[cfg(test)]
@@ -666,8 +666,8 @@ pub struct Solver<'a, S: Dynamics + ?Sized> {
     method: Method,
     /// The current segment's stepper; `None` until the segment's first step.
     stepper: Option<Box<dyn SegmentStepper<S>>>,
-    /// How the run ended, once it has.
-    end: Option<std::result::Result<Status, Error>>,
+    /// How the run ended (the last outcome of [`Solver::step`]), once it has.
+    end: Option<Result<StepOutcome>>,
 }
 
 impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
@@ -775,23 +775,14 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
     /// before ([`Solver::solution`]).
     pub fn step(&mut self) -> Result<StepOutcome> {
         if let Some(end) = &self.end {
-            return end.clone().map(|status| match status {
-                Status::Finished => StepOutcome::Finished,
-                Status::Terminated { event, t, .. } => StepOutcome::Terminated { event, t },
-            });
+            return end.clone();
         }
         let outcome = self.advance();
-        match &outcome {
-            Err(e) => self.end = Some(Err(e.clone())),
-            Ok(StepOutcome::Finished) => self.end = Some(Ok(Status::Finished)),
-            Ok(StepOutcome::Terminated { event, t }) => {
-                self.end = Some(Ok(Status::Terminated {
-                    event: *event,
-                    name: self.run.events.name(*event).to_owned(),
-                    t: *t,
-                }));
-            }
-            Ok(_) => {}
+        if matches!(
+            outcome,
+            Err(_) | Ok(StepOutcome::Finished | StepOutcome::Terminated { .. })
+        ) {
+            self.end = Some(outcome.clone());
         }
         outcome
     }
@@ -865,12 +856,18 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
     }
 
     /// End the run here: the trajectory recorded so far (as [`Options::output`] asks), the
-    /// events found, the continuous solution, and the status (`Finished` unless a terminal
-    /// event stopped it).
+    /// events found, the continuous solution, and how the run ended ([`Status::Unfinished`]
+    /// before the end of the span, [`Status::Failed`] after an error).
     pub fn solution(self) -> Solution {
         let status = match self.end {
-            Some(Ok(status)) => status,
-            _ => Status::Finished,
+            Some(Ok(StepOutcome::Finished)) => Status::Finished,
+            Some(Ok(StepOutcome::Terminated { event, t })) => Status::Terminated {
+                event,
+                name: self.run.events.name(event).to_owned(),
+                t,
+            },
+            Some(Err(_)) => Status::Failed,
+            _ => Status::Unfinished { t: self.t() },
         };
         let Run {
             out,
@@ -900,6 +897,7 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
         failed.partial = failed.partial.map(|sol| Solution {
             events: events.found,
             dense,
+            status: Status::Failed,
             ..sol
         });
         failed

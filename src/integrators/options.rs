@@ -55,7 +55,8 @@ pub struct Options {
     /// every step once a test was positive (Hairer's `NSTIFF`); `None` switches it off.
     pub stiffness_check: Option<usize>,
     /// Conditions whose sign changes are located along the run ([`Event`]); found on every
-    /// step's interpolant, so they cost dense output on every step.
+    /// step's interpolant (DOPRI5 and DOP853 screen each step on the free Hermite interpolant
+    /// first and build their continuous extension only where a sign changes).
     pub events: Vec<Event>,
     /// Keep every step's interpolant: [`Solution::dense`](super::Solution::dense) gives the
     /// state anywhere in the span. Off by default: nothing extra is stored.
