@@ -35,6 +35,8 @@
 //! or Störmer–Verlet: refused with the largest stable `dt`, never a silently exploding answer),
 //! and [`Error::NewtonFailure`] when an implicit step cannot be solved. [`solve_partial`] keeps
 //! what a failed run computed: [`Failed`] carries the trajectory up to the last accepted step.
+//! With the `parallel` feature, `solve_many` runs an ensemble of them on a rayon thread pool
+//! (`ensemble.rs`), bit for bit as a serial loop would.
 //!
 //! A new method is one file implementing the crate's internal `Integrator` trait and one line in
 //! its registry (`src/integrators/mod.rs`).
@@ -54,6 +56,8 @@
 
 mod auto;
 mod dense;
+#[cfg(feature = "parallel")]
+mod ensemble;
 mod gauss;
 mod newton;
 mod options;
@@ -66,6 +70,8 @@ mod symplectic;
 mod tableau;
 mod variational;
 
+#[cfg(feature = "parallel")]
+pub use ensemble::{RunResult, Systems, solve_many};
 pub(crate) use newton::acceleration_jacobian;
 #[cfg(test)]
 pub(crate) use newton::jacobian;
