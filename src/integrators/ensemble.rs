@@ -20,6 +20,14 @@ pub enum Systems<'a, S> {
     Each(&'a (dyn Fn(usize) -> Result<S> + Sync)),
 }
 
+// By hand: a derive would ask for `S: Copy`, but only references are copied.
+impl<S> Clone for Systems<'_, S> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<S> Copy for Systems<'_, S> {}
+
 /// The outcome of one run: its solution, or its failure with what it had computed.
 // `Failed` is a few hundred bytes, once per run: nothing beside the integration.
 #[allow(clippy::result_large_err)]
