@@ -3,6 +3,8 @@
 //! against closed forms; failed runs keep their typed error and do not disturb the others;
 //! [`Output::Final`] keeps the last state only.
 #![cfg(feature = "parallel")]
+// `Failed` is returned once per run, as in the library.
+#![allow(clippy::result_large_err)]
 
 use lagrangian::integrators::{
     Method, Options, Output, RunResult, Systems, solve_many, solve_partial,

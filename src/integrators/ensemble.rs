@@ -60,6 +60,7 @@ pub type RunResult = std::result::Result<Solution, Failed>;
 /// # Errors
 /// [`Error::InvalidInput`] when the thread pool cannot be built; the failures of the runs are
 /// in their results.
+#[allow(clippy::result_large_err)]
 pub fn solve_many<S: Dynamics + Sync>(
     systems: Systems<'_, S>,
     initial: &[(&[f64], &[f64])],
