@@ -26,6 +26,7 @@ __all__ = [
     "scene_exact",
     "scene_model",
     "scene_pivot",
+    "simulate_many",
     "__version__",
 ]
 
