@@ -14,7 +14,7 @@ use crate::integrators::{Failed, Method, Output, RunResult, Solution, Systems, s
 use crate::scenes::registry::Arguments;
 use crate::{Dynamics, Error, Result};
 use numpy::ndarray::{Array1, Array2, Array3, ArrayView2};
-use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
@@ -73,17 +73,16 @@ pub(crate) fn simulate_many<'py>(
     workers: usize,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let n = model.model.dof();
-    let (q0, qd0) = (rows(q0.as_array()), rows(qd0.as_array()));
-    let k = q0.len() / n.max(1);
+    let k = q0.shape()[0];
     for (what, v) in [("q0", &q0), ("qd0", &qd0)] {
-        if v.len() != k * n {
+        if v.shape() != [k, n] {
             return Err(PyValueError::new_err(format!(
-                "{what} has {} entries but {k} runs of {n} coordinates need {}",
-                v.len(),
-                k * n
+                "{what} has shape {:?} but {k} runs of {n} coordinates need ({k}, {n})",
+                v.shape()
             )));
         }
     }
+    let (q0, qd0) = (rows(q0.as_array()), rows(qd0.as_array()));
     check_finite("t0", t0)?;
     check_finite("t_end", t_end)?;
     let times: Option<Vec<f64>> = t_eval.map(|t| t.as_array().iter().copied().collect());
