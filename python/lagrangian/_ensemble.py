@@ -4,6 +4,7 @@ cluster or any ``concurrent.futures.Executor``; and ``Ensemble``, what they retu
 
 from __future__ import annotations
 
+import builtins
 import concurrent.futures
 import hashlib
 import os
@@ -156,12 +157,12 @@ class Ensemble:
             self.stats[key] = counters[:, j].copy()
         if mode == "t_eval" and self.status.any():
             rows = np.arange(len(t))[None, :] >= self.reached[:, None]
-            mask = np.broadcast_to(rows[:, :, None], q.shape)
+            mask = np.broadcast_to(rows[:, :, None], q.shape).copy()
             q, qd = np.ma.masked_array(q, mask), np.ma.masked_array(qd, mask)
         elif mode == "final" and (self.reached == 0).any():
             empty = self.reached == 0
             t = np.ma.masked_array(t, empty)
-            mask = np.broadcast_to(empty[:, None], q.shape)
+            mask = np.broadcast_to(empty[:, None], q.shape).copy()
             q, qd = np.ma.masked_array(q, mask), np.ma.masked_array(qd, mask)
         self.t, self.q, self.qd = t, q, qd
         self.names = () if model is None else tuple(c.name for c in model.coordinates)
@@ -195,9 +196,9 @@ class Ensemble:
         failure = self.failures.get(i)
         if failure is None:
             return None
-        cls = getattr(_lagrangian, failure.error, None)
-        if cls is None:
-            cls = ValueError if failure.error == "ValueError" else RuntimeError
+        cls = getattr(_lagrangian, failure.error, None) or getattr(builtins, failure.error, None)
+        if not (isinstance(cls, type) and issubclass(cls, Exception)):
+            cls = RuntimeError
         err: Exception = cls(failure.message)
         return err
 
