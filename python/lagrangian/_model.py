@@ -29,6 +29,8 @@ from ._validate import (
 if TYPE_CHECKING:
     from pathlib import Path
 
+    from ._ensemble import Ensemble
+
     from ._plot import Drawing
 
 __all__ = ["Model", "methods"]
@@ -796,6 +798,94 @@ class Model:
         resets = any(e.reset for e in events or ())
         sol.stats["conserved"] = bool(self._native.structure()["conservative"]) and not resets
         return sol
+
+    def simulate_many(
+        self,
+        q0: Any,
+        qd0: Any,
+        t_end: float,
+        *,
+        parameters: Optional[Mapping[str, Any]] = None,
+        t_eval: Optional[ArrayLike] = None,
+        t0: float = 0.0,
+        method: str = "auto",
+        dt: Optional[float] = None,
+        rtol: float = 1e-6,
+        atol: float = 1e-9,
+        max_steps: Optional[int] = None,
+        final_only: bool = False,
+        workers: Optional[int] = None,
+        executor: Any = None,
+        chunks: Optional[int] = None,
+        timeout: Optional[float] = None,
+    ) -> "Ensemble":
+        """Integrate many runs at once: initial states and parameter values swept together.
+
+        Run i is exactly what :meth:`simulate` computes from ``(q0[i], qd0[i])`` with the
+        parameters ``{name: parameters[name][i]}`` — bit for bit, whatever the number of
+        threads. The runs go in Rust on a thread pool with the GIL released (Ctrl-C stops them
+        with ``KeyboardInterrupt``), or, with ``executor``, in chunks on a Dask cluster or any
+        :class:`concurrent.futures.Executor`. A run that fails does not stop the others: the
+        :class:`Ensemble` marks it, with its error, and keeps what it computed.
+
+        >>> import numpy as np, lagrangian as lg
+        >>> pendulum = lg.scenes.simple_pendulum(m=1.0, l=1.0, g=9.81)
+        >>> ens = pendulum.simulate_many(np.linspace(0.1, 3.0, 50)[:, None], [0.0], 2.0,
+        ...                              t_eval=np.linspace(0.0, 2.0, 21), rtol=1e-9)
+        >>> ens.q.shape, bool(ens.ok.all())
+        ((50, 21, 1), True)
+
+        Parameters
+        ----------
+        q0, qd0 : array_like, shape (k, dof) or (dof,)
+            Initial coordinates and velocities, one row per run; a single row is used for
+            every run.
+        t_end : float
+            End time, shared by the runs (before ``t0``: backwards).
+        parameters : mapping of str to float or array_like of shape (k,), optional
+            Parameter values: one per run (a sweep), or one for all. The model is compiled
+            once and bound to each run's values (a scene is built for each run).
+        t_eval : array_like, optional
+            Output times shared by every run (as in :meth:`simulate`): ``q`` and ``qd`` are
+            then arrays of shape (k, len(t_eval), dof).
+        t0, method, dt, rtol, atol, max_steps
+            As in :meth:`simulate`, for every run, with its checks and messages.
+        final_only : bool
+            Keep only each run's final state: ``t`` of shape (k,), ``q`` and ``qd`` of shape
+            (k, dof), so that millions of runs fit in memory. Not with ``t_eval``.
+        workers : int, optional
+            Threads of this machine (default: every core); with ``executor``, threads per chunk
+            on its worker (default 1: the executor's own workers give the parallelism).
+        executor : dask.distributed.Client or concurrent.futures.Executor, optional
+            Run the ensemble there, in ``chunks`` chunks of consecutive runs: the model is
+            pickled once (Dask sends it to each worker once; every worker process compiles it
+            once), each chunk runs ``simulate_many`` on a worker, and the results are gathered
+            in order, identical to a local run. ``pip install lagrangian[dask]`` for Dask.
+        chunks : int, optional
+            Number of chunks for ``executor`` (default: 4 per executor thread).
+        timeout : float, optional
+            Seconds to wait for each chunk's result from ``executor`` before
+            :class:`TimeoutError` (default: no limit).
+
+        Returns
+        -------
+        Ensemble
+
+        Raises
+        ------
+        ValueError
+            For bad input, as :meth:`simulate` (and before any run): shapes, non-finite values,
+            runs that do not agree in number, unknown parameters, invalid options.
+        KeyboardInterrupt
+            On Ctrl-C.
+        """
+        from ._ensemble import simulate_many
+
+        return simulate_many(
+            self, q0, qd0, t_end, t0=t0, parameters=parameters, t_eval=t_eval, method=method,
+            dt=dt, rtol=rtol, atol=atol, max_steps=max_steps, final_only=final_only,
+            workers=workers, executor=executor, chunks=chunks, timeout=timeout,
+        )
 
     def equilibrium(
         self,

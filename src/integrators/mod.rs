@@ -35,6 +35,8 @@
 //! or Störmer–Verlet: refused with the largest stable `dt`, never a silently exploding answer),
 //! and [`Error::NewtonFailure`] when an implicit step cannot be solved. [`solve_partial`] keeps
 //! what a failed run computed: [`Failed`] carries the trajectory up to the last accepted step.
+//! With the `parallel` feature, `solve_many` runs an ensemble of them on a rayon thread pool
+//! (`ensemble.rs`), bit for bit as a serial loop would.
 //!
 //! Events ([`Event`], in [`Options::events`]) are sign changes of conditions g(t, q, q̇), found
 //! with every method on each step's interpolant and refined to round-off; a terminal event ends
@@ -63,6 +65,8 @@
 mod auto;
 mod dense;
 mod events;
+#[cfg(feature = "parallel")]
+mod ensemble;
 mod gauss;
 mod newton;
 mod options;
@@ -77,6 +81,8 @@ mod variational;
 
 pub use dense::{Dense, DenseParts};
 pub use events::{Condition, Direction, Event, Occurrences, Reset, Status};
+#[cfg(feature = "parallel")]
+pub use ensemble::{RunResult, Systems, solve_many};
 pub(crate) use newton::acceleration_jacobian;
 #[cfg(test)]
 pub(crate) use newton::jacobian;

@@ -17,6 +17,9 @@ pub enum Output {
     /// extension) between steps, so the step sequence does not change. The times must lie in the
     /// span and be ordered in the direction of integration.
     Times(Vec<f64>),
+    /// Only the final state (the last accepted one if the run fails): for ensembles whose runs
+    /// need nothing else, so that millions of them fit in memory.
+    Final,
 }
 
 /// Options of [`solve`](super::solve). Build them with [`Options::fixed`] or
@@ -246,7 +249,7 @@ impl Options {
             }
         }
         match &self.output {
-            Output::Steps => {}
+            Output::Steps | Output::Final => {}
             Output::Every(0) => {
                 return bad(
                     "output",

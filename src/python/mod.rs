@@ -13,6 +13,7 @@
 //! and `simulate` releases the GIL while it runs and polls for Ctrl-C (`KeyboardInterrupt`)
 //! every 20 ms through [`crate::integrators::solve_with_interrupt`].
 
+mod ensemble;
 mod error;
 mod events;
 mod first_order;
@@ -740,6 +741,8 @@ pub(crate) fn solution_tuple<'py>(
 /// The compiled core of the `lagrangian` package.
 #[pymodule(name = "_lagrangian")]
 mod lagrangian_module {
+    #[pymodule_export]
+    use super::ensemble::simulate_many;
     #[pymodule_export]
     use super::error::{
         ConvergenceError, LagrangianError, NonFiniteError, SingularMassMatrixError, StepSizeError,
