@@ -188,6 +188,8 @@ class Ensemble:
         out["choice"] = self.stats["choice"][i]
         for key in COUNTERS:
             out[key] = int(self.stats[key][i])
+        if self._model is not None:
+            out["conserved"] = self._model._conserved(None)
         return out
 
     def error(self, i: int) -> Optional[Exception]:

@@ -791,13 +791,18 @@ class Model:
             partial = err._partial
             if partial is not None:
                 err.solution = Solution._from_native(partial, names, event_names, str(err))
+                err.solution.stats["conserved"] = self._conserved(events)
                 err._partial = None
             raise
         sol = Solution._from_native(out, names, event_names)
-        # Whether h = q̇·p − L is a constant of this run (its plot shows the drift then).
-        resets = any(e.reset for e in events or ())
-        sol.stats["conserved"] = bool(self._native.structure()["conservative"]) and not resets
+        sol.stats["conserved"] = self._conserved(events)
         return sol
+
+    def _conserved(self, events: Optional[Sequence[Event]]) -> bool:
+        """Whether h = q̇·p − L is a constant of a run with these events (``stats["conserved"]``:
+        its plot shows the drift then): a conservative model, and no reset."""
+        resets = any(e.reset for e in events or ())
+        return bool(self._native.structure()["conservative"]) and not resets
 
     def simulate_many(
         self,

@@ -64,9 +64,9 @@
 
 mod auto;
 mod dense;
-mod events;
 #[cfg(feature = "parallel")]
 mod ensemble;
+mod events;
 mod gauss;
 mod newton;
 mod options;
@@ -80,9 +80,9 @@ mod tableau;
 mod variational;
 
 pub use dense::{Dense, DenseParts};
-pub use events::{Condition, Direction, Event, Occurrences, Reset, Status};
 #[cfg(feature = "parallel")]
 pub use ensemble::{RunResult, Systems, solve_many};
+pub use events::{Condition, Direction, Event, Occurrences, Reset, Status};
 pub(crate) use newton::acceleration_jacobian;
 #[cfg(test)]
 pub(crate) use newton::jacobian;

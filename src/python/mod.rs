@@ -490,7 +490,8 @@ impl PyModel {
                         Ok(sol) => match with_energy(&*model, sol) {
                             (sol, h, None) => Ok((sol, h)),
                             (sol, h, Some(error)) => {
-                                let last = sol.last().map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
+                                let last =
+                                    sol.last().map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
                                 let failed = Failed {
                                     error,
                                     partial: Some(Solution {
@@ -505,7 +506,13 @@ impl PyModel {
                         Err(mut failed) => {
                             let h = match failed.partial.take() {
                                 Some(sol) => {
-                                    let (sol, h, _) = with_energy(&*model, sol);
+                                    let (sol, h, cut) = with_energy(&*model, sol);
+                                    if cut.is_some() {
+                                        // The last state kept is the one the error names.
+                                        failed.last = sol
+                                            .last()
+                                            .map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
+                                    }
                                     failed.partial = Some(sol);
                                     h
                                 }
