@@ -487,7 +487,7 @@ impl PyModel {
                         &options,
                         Some(&interrupt),
                     ) {
-                        Ok(sol) => match with_energy(&*model, sol) {
+                        Ok(sol) => match with_energy(&model, sol) {
                             (sol, h, None) => Ok((sol, h)),
                             (sol, h, Some(error)) => {
                                 let last =
@@ -506,7 +506,7 @@ impl PyModel {
                         Err(mut failed) => {
                             let h = match failed.partial.take() {
                                 Some(sol) => {
-                                    let (sol, h, cut) = with_energy(&*model, sol);
+                                    let (sol, h, cut) = with_energy(&model, sol);
                                     if cut.is_some() {
                                         // The last state kept is the one the error names.
                                         failed.last = sol
