@@ -54,6 +54,7 @@ from ._lagrangian import (
     TooManyStepsError,
     __version__,
 )
+from ._ensemble import Ensemble
 from ._linear import Equilibrium, Linearization, Modes
 from ._model import Model, methods
 from ._solution import Solution
@@ -63,6 +64,7 @@ from ._workprec import WorkPrecision, work_precision
 __all__ = [
     "Coordinate",
     "ConvergenceError",
+    "Ensemble",
     "Equilibrium",
     "Event",
     "Expr",

@@ -16,11 +16,15 @@ class Event:
 
     Pass events to :meth:`Model.simulate` (``events=[...]``); each occurrence is recorded in
     the solution's ``t_events``, ``q_events`` and ``qd_events`` (one array per event, in the
-    order given). The condition is compiled like the energies. Every step is searched on the
-    method's own interpolant — the continuous extension of DOPRI5 and DOP853, the quintic
-    Hermite polynomial through the step's ends for every other method — at its end and at
-    ``samples`` interior points, so a condition that changes sign and back inside one step is
-    still seen; each sign change is refined by Brent's method to round-off in t.
+    order given). The condition is compiled like the energies. Every step is searched at its
+    end and at ``samples`` interior points, so a condition that changes sign and back inside
+    one step is still seen, and each sign change is refined by Brent's method to round-off in
+    t on the method's own interpolant: the continuous extension of DOPRI5 and DOP853 (which
+    screen each step on the free quintic Hermite polynomial through its ends first, and build
+    the extension only where the condition changes sign), the quintic Hermite polynomial for
+    every other method. After a reset the events at its time sit on their roots: each takes
+    its sign again a thousandth into the next step (a crossing closer than that is not seen).
+    Events at one time are all recorded; of their resets, the first event's applies.
 
     >>> import lagrangian as lg
     >>> y, = lg.coordinates("y")

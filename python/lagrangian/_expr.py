@@ -133,12 +133,18 @@ class Expr:
     def __abs__(self) -> "Expr":
         return Expr("abs", (self,))
 
-    def __array_ufunc__(self, ufunc: Any, method: str, *inputs: Any, **kwargs: Any) -> "Expr":
+    def __array_ufunc__(self, ufunc: Any, method: str, *inputs: Any, **kwargs: Any) -> Any:
         """NumPy's functions on expressions: ``np.cos(x)`` is ``lg.cos(x)``, and a NumPy
-        number on the left of an operator (``np.float64(2.0) * x``) is a number. A ufunc with
-        no expression counterpart, a ufunc method (``reduce``, …), ``out=`` or an array operand
-        is a ``TypeError`` that says what to use."""
+        number on the left of an operator (``np.float64(2.0) * x``) is a number. ``==`` and
+        ``!=`` with a NumPy number compare as with a Python number (an expression is never
+        equal to a number). A ufunc with no expression counterpart, a ufunc method
+        (``reduce``, …), ``out=`` or an array operand is a ``TypeError`` that says what to
+        use."""
         name = getattr(ufunc, "__name__", repr(ufunc))
+        if name in ("equal", "not_equal") and method == "__call__" and len(inputs) == 2:
+            a, b = inputs
+            same = isinstance(a, Expr) and isinstance(b, Expr) and a.__eq__(b) is True
+            return same if name == "equal" else not same
         build = _UFUNCS.get(name)
         if build is None:
             raise TypeError(

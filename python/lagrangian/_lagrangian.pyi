@@ -27,6 +27,7 @@ __all__ = [
     "scene_exact",
     "scene_model",
     "scene_pivot",
+    "simulate_many",
     "__version__",
 ]
 
@@ -74,6 +75,9 @@ class DenseSolution:
     def span(self) -> Optional[Tuple[float, float]]: ...
     @property
     def steps(self) -> int: ...
+    def __reduce__(self) -> Tuple[Any, ...]: ...
+    @staticmethod
+    def _restore(parts: Tuple[Any, ...]) -> "DenseSolution": ...
 
 class LagrangianError(RuntimeError):
     """Base class of the failures of the mathematics. A failure of ``simulate`` during the run
@@ -116,6 +120,26 @@ def check_options(
     atol: float = 1e-9,
 ) -> None:
     """Check a method and its step options as ``simulate`` does; raises ValueError."""
+
+def simulate_many(
+    model: "NativeModel",
+    q0: _FloatArray,
+    qd0: _FloatArray,
+    t_end: float,
+    t0: float = 0.0,
+    params: Optional[_FloatArray] = None,
+    scenes: Optional[Tuple[str, Sequence[Dict[str, Any]]]] = None,
+    method: str = "auto",
+    dt: Optional[float] = None,
+    rtol: float = 1e-6,
+    atol: float = 1e-9,
+    t_eval: Optional[_FloatArray] = None,
+    max_steps: Optional[int] = None,
+    final_only: bool = False,
+    workers: int = 0,
+) -> Any:
+    """An ensemble of runs in Rust on ``workers`` threads (0: every core): (t, q, qd, reached,
+    counters, method, choice, choices, failures); see ``_ensemble.py``."""
 
 def method_info(name: str) -> Tuple[str, Optional[bool], Optional[int]]:
     """(canonical name, adaptive, order) of a method name; raises ValueError if unknown."""

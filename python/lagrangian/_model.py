@@ -29,6 +29,8 @@ from ._validate import (
 if TYPE_CHECKING:
     from pathlib import Path
 
+    from ._ensemble import Ensemble
+
     from ._plot import Drawing
 
 __all__ = ["Model", "methods"]
@@ -713,7 +715,8 @@ class Model:
             Conditions whose sign changes are located along the run, with every method (see
             :class:`Event`): recorded in ``t_events``, ``q_events``, ``qd_events``; a terminal
             event ends the run there, a reset changes the state and the run goes on. Events
-            are searched on every step's interpolant, which costs dense output on every step.
+            are searched on every step's interpolant (DOPRI5 and DOP853 screen each step on
+            the free Hermite interpolant first; see :class:`Event`).
         dense : bool
             Keep every step's interpolant, so that the solution is callable: ``sol(t)`` gives
             (q, q̇) anywhere in the span (``sol.interpolant`` says which interpolant and its
@@ -764,6 +767,8 @@ class Model:
         if output_every is not None:
             kwargs["every"] = integer("output_every", output_every)
         event_names: List[str] = []
+        if events is not None and not isinstance(events, Event):
+            events = list(events)  # read three times below: a generator would be spent
         if events is not None:
             kwargs["events"] = event_specs(events, self._coordinates, self._parameters)
             kwargs["backend"] = self._backend
@@ -786,13 +791,106 @@ class Model:
             partial = err._partial
             if partial is not None:
                 err.solution = Solution._from_native(partial, names, event_names, str(err))
+                err.solution.stats["conserved"] = self._conserved(events)
                 err._partial = None
             raise
         sol = Solution._from_native(out, names, event_names)
-        # Whether h = q̇·p − L is a constant of this run (its plot shows the drift then).
-        resets = any(e.reset for e in events or ())
-        sol.stats["conserved"] = bool(self._native.structure()["conservative"]) and not resets
+        sol.stats["conserved"] = self._conserved(events)
         return sol
+
+    def _conserved(self, events: Optional[Sequence[Event]]) -> bool:
+        """Whether h = q̇·p − L is a constant of a run with these events (``stats["conserved"]``:
+        its plot shows the drift then): a conservative model, and no reset."""
+        resets = any(e.reset for e in events or ())
+        return bool(self._native.structure()["conservative"]) and not resets
+
+    def simulate_many(
+        self,
+        q0: Any,
+        qd0: Any,
+        t_end: float,
+        *,
+        parameters: Optional[Mapping[str, Any]] = None,
+        t_eval: Optional[ArrayLike] = None,
+        t0: float = 0.0,
+        method: str = "auto",
+        dt: Optional[float] = None,
+        rtol: float = 1e-6,
+        atol: float = 1e-9,
+        max_steps: Optional[int] = None,
+        final_only: bool = False,
+        workers: Optional[int] = None,
+        executor: Any = None,
+        chunks: Optional[int] = None,
+        timeout: Optional[float] = None,
+    ) -> "Ensemble":
+        """Integrate many runs at once: initial states and parameter values swept together.
+
+        Run i is exactly what :meth:`simulate` computes from ``(q0[i], qd0[i])`` with the
+        parameters ``{name: parameters[name][i]}`` — bit for bit, whatever the number of
+        threads. The runs go in Rust on a thread pool with the GIL released (Ctrl-C stops them
+        with ``KeyboardInterrupt``), or, with ``executor``, in chunks on a Dask cluster or any
+        :class:`concurrent.futures.Executor`. A run that fails does not stop the others: the
+        :class:`Ensemble` marks it, with its error, and keeps what it computed.
+
+        >>> import numpy as np, lagrangian as lg
+        >>> pendulum = lg.scenes.simple_pendulum(m=1.0, l=1.0, g=9.81)
+        >>> ens = pendulum.simulate_many(np.linspace(0.1, 3.0, 50)[:, None], [0.0], 2.0,
+        ...                              t_eval=np.linspace(0.0, 2.0, 21), rtol=1e-9)
+        >>> ens.q.shape, bool(ens.ok.all())
+        ((50, 21, 1), True)
+
+        Parameters
+        ----------
+        q0, qd0 : array_like, shape (k, dof) or (dof,)
+            Initial coordinates and velocities, one row per run; a single row is used for
+            every run.
+        t_end : float
+            End time, shared by the runs (before ``t0``: backwards).
+        parameters : mapping of str to float or array_like of shape (k,), optional
+            Parameter values: one per run (a sweep), or one for all. The model is compiled
+            once and bound to each run's values (a scene is built for each run).
+        t_eval : array_like, optional
+            Output times shared by every run (as in :meth:`simulate`): ``q`` and ``qd`` are
+            then arrays of shape (k, len(t_eval), dof).
+        t0, method, dt, rtol, atol, max_steps
+            As in :meth:`simulate`, for every run, with its checks and messages.
+        final_only : bool
+            Keep only each run's final state: ``t`` of shape (k,), ``q`` and ``qd`` of shape
+            (k, dof), so that millions of runs fit in memory. Not with ``t_eval``.
+        workers : int, optional
+            Threads of this machine (default: every core); with ``executor``, threads per chunk
+            on its worker (default 1: the executor's own workers give the parallelism).
+        executor : dask.distributed.Client or concurrent.futures.Executor, optional
+            Run the ensemble there, in ``chunks`` chunks of consecutive runs: the model is
+            pickled once (Dask sends it to each worker once; every worker process compiles it
+            once), each chunk runs ``simulate_many`` on a worker, and the results are gathered
+            in order, identical to a local run. ``pip install lagrangian[dask]`` for Dask.
+        chunks : int, optional
+            Number of chunks for ``executor`` (default: 4 per executor thread).
+        timeout : float, optional
+            Seconds to wait for each chunk's result from ``executor`` before
+            :class:`TimeoutError` (default: no limit).
+
+        Returns
+        -------
+        Ensemble
+
+        Raises
+        ------
+        ValueError
+            For bad input, as :meth:`simulate` (and before any run): shapes, non-finite values,
+            runs that do not agree in number, unknown parameters, invalid options.
+        KeyboardInterrupt
+            On Ctrl-C.
+        """
+        from ._ensemble import simulate_many
+
+        return simulate_many(
+            self, q0, qd0, t_end, t0=t0, parameters=parameters, t_eval=t_eval, method=method,
+            dt=dt, rtol=rtol, atol=atol, max_steps=max_steps, final_only=final_only,
+            workers=workers, executor=executor, chunks=chunks, timeout=timeout,
+        )
 
     def equilibrium(
         self,

@@ -52,14 +52,26 @@ impl Interpolant<'_> {
     }
 }
 
+/// [`Dense`]'s contents: (dim, rows, order, dir, start, step, end, data).
+pub type DenseParts = (
+    usize,
+    usize,
+    usize,
+    f64,
+    Vec<f64>,
+    Vec<f64>,
+    Vec<f64>,
+    Vec<f64>,
+);
+
 /// The continuous solution of a run ([`Options::dense`](super::Options::dense)): every
 /// accepted step's own interpolant, callable anywhere in the span.
 ///
 /// The explicit Runge–Kutta methods with a continuous extension keep Hairer's polynomial
 /// (DOPRI5: order 4, DOP853: order 7); every other method the quintic Hermite interpolant in q
 /// through (q, q̇, q̈) at both ends of each step (error O(h⁶) in q, O(h⁵) in q̇: order 5). Across
-/// a reset of an event the solution jumps; at the event's time it gives the state after the
-/// reset.
+/// a reset of an event the solution jumps; at the event's time it gives the state before the
+/// reset, as the event's record and the requested output times do.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dense {
     /// Components of y = (q, q̇).
@@ -114,11 +126,56 @@ impl Dense {
                 (*t, *h)
             }
         };
-        // A piece that starts where the previous one ended after a reset replaces nothing: the
-        // lookup takes the later piece at a shared time.
         self.start.push(t);
         self.step.push(h);
         self.end.push(end);
+    }
+
+    /// Everything it holds, for pickling: (dim, rows, order, dir, start, step, end, data).
+    pub fn to_parts(&self) -> DenseParts {
+        (
+            self.dim,
+            self.rows,
+            self.order,
+            self.dir,
+            self.start.clone(),
+            self.step.clone(),
+            self.end.clone(),
+            self.data.clone(),
+        )
+    }
+
+    /// The solution [`Dense::to_parts`] gave.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] when the parts do not fit together.
+    pub fn from_parts(parts: DenseParts) -> Result<Self> {
+        let (dim, rows, order, dir, start, step, end, data) = parts;
+        let pieces = start.len();
+        let width = if rows > 0 { (1 + rows) * dim } else { 3 * dim };
+        let fits = dim > 0
+            && dim % 2 == 0
+            && (dir == 1.0 || dir == -1.0)
+            && step.len() == pieces
+            && end.len() == pieces
+            && width.checked_mul(pieces) == Some(data.len())
+            && start.iter().chain(&step).chain(&end).all(|x| x.is_finite());
+        if !fits {
+            return Err(Error::InvalidInput {
+                what: "dense solution",
+                why: "its parts do not fit together".into(),
+            });
+        }
+        Ok(Self {
+            dim,
+            rows,
+            order,
+            dir,
+            start,
+            step,
+            end,
+            data,
+        })
     }
 
     /// Order of the interpolant (in q for the Hermite pieces).
@@ -176,8 +233,9 @@ impl Dense {
         if !t.is_finite() || (t - first) * dir < 0.0 || (t - last) * dir > 0.0 {
             return Err(outside());
         }
-        // The last piece that starts at or before t (the piece after a reset wins at its time).
-        let k = self.start.partition_point(|&s| (s - t) * dir <= 0.0).max(1) - 1;
+        // The last piece that starts before t (at a reset's time, the piece before it: the
+        // state before the reset, as the event records and the output times give it).
+        let k = self.start.partition_point(|&s| (s - t) * dir < 0.0).max(1) - 1;
         let (t0, h) = (self.start[k], self.step[k]);
         if self.rows > 0 {
             let width = (1 + self.rows) * self.dim;

@@ -12,15 +12,20 @@
 //! the method's own interpolant, which then locates the root. An event is a change between
 //! non-zero values: g touching zero and
 //! returning is none, and a condition that is exactly zero at the start takes its sign from the
-//! first non-zero sample. After a reset the event sits on its root; its sign is taken a
-//! thousandth of a step along the new motion, so that the next crossing counts however soon it
-//! comes.
+//! first non-zero sample. After a reset the events at its time sit on their roots; each takes
+//! its sign from a sample a thousandth into the next step, so the root it sits on is not found
+//! again and the next crossing counts unless it comes within that thousandth. Events at one time are all
+//! recorded; of their resets only the first event's (in the order given) is applied.
 
 use std::fmt;
 use std::sync::Arc;
 
 use super::dense::Interpolant;
 use crate::error::{Error, Result};
+
+/// Where, as a fraction of the first step after a reset, an event that sat on its root takes
+/// its sign again.
+const SETTLE: f64 = 1e-3;
 
 /// Which sign changes of a condition count.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -208,6 +213,14 @@ pub enum Status {
         /// When.
         t: f64,
     },
+    /// The run failed (the partial solution of a [`Failed`](super::Failed) run).
+    Failed,
+    /// The run was ended by [`Solver::solution`](super::Solver::solution) at `t`, before the end
+    /// of the span.
+    Unfinished {
+        /// The time it had reached.
+        t: f64,
+    },
 }
 
 impl fmt::Display for Status {
@@ -215,6 +228,8 @@ impl fmt::Display for Status {
         match self {
             Self::Finished => f.write_str("reached t_end"),
             Self::Terminated { name, t, .. } => write!(f, "terminal event {name} at t = {t}"),
+            Self::Failed => f.write_str("failed"),
+            Self::Unfinished { t } => write!(f, "stopped at t = {t} before t_end"),
         }
     }
 }
@@ -224,10 +239,11 @@ pub(crate) struct Stop {
     pub(crate) t: f64,
     /// The state at `t`, before any reset.
     pub(crate) y: Vec<f64>,
+    /// The event that stops the run (terminal, or whose reset applies).
     pub(crate) event: usize,
     pub(crate) terminal: bool,
-    /// The size of the step it was found in.
-    pub(crate) h: f64,
+    /// Every event with a root at `t`, `event` first: they all sit on their roots there.
+    pub(crate) fired: Vec<usize>,
 }
 
 /// The state of every event along a run.
@@ -238,9 +254,14 @@ pub(crate) struct Tracker {
     value: Vec<f64>,
     /// The sign of the last non-zero sample; 0 while unknown.
     sign: Vec<f64>,
+    /// Whether the event sat on its root when a reset was applied: then its sign is taken
+    /// from a sample a thousandth into the next step ([`SETTLE`]), so that the root it sits on
+    /// is not found again and the next crossing counts however soon it comes after.
+    settle: Vec<bool>,
     pub(crate) found: Vec<Occurrences>,
     y: Vec<f64>,
-    /// Work space of [`Tracker::quiet`]: each event's sign and value at the step's end.
+    /// Work space: one event's samples (θ, g) over a step, and each event's end of step.
+    points: Vec<(f64, f64)>,
     ends: Vec<(f64, f64)>,
 }
 
@@ -251,8 +272,10 @@ impl Tracker {
             n,
             value: vec![0.0; events.len()],
             sign: vec![0.0; events.len()],
+            settle: vec![false; events.len()],
             found: vec![Occurrences::default(); events.len()],
             y: vec![0.0; 2 * n],
+            points: Vec::new(),
             ends: Vec::with_capacity(events.len()),
         }
     }
@@ -275,29 +298,59 @@ impl Tracker {
         }
     }
 
-    /// Take the signs at (t, y), the start of the run or the state after a reset.
+    /// Take the signs at (t, y), the start of the run.
     pub(crate) fn start(&mut self, t: f64, y: &[f64]) -> Result<()> {
         for i in 0..self.events.len() {
             let g = self.g(i, t, y)?;
             self.value[i] = g;
             self.sign[i] = sign(g);
+            self.settle[i] = false;
         }
         Ok(())
     }
 
-    /// After the reset of event `fired` at (t, y): the signs at the new state, except that
-    /// `fired` itself sits on its root, so its sign is the side the motion leaves to, seen at
-    /// the probe (t_p, y_p) a small step along the new motion.
-    pub(crate) fn restart(
-        &mut self,
-        t: f64,
-        y: &[f64],
-        fired: usize,
-        (t_p, y_p): (f64, &[f64]),
-    ) -> Result<()> {
+    /// After a reset at (t, y), the new state: the signs there, except for the events `fired`
+    /// at t, which sit on their roots: they take their sign a little into the next step.
+    pub(crate) fn restart(&mut self, t: f64, y: &[f64], fired: &[usize]) -> Result<()> {
         self.start(t, y)?;
-        self.sign[fired] = sign(self.g(fired, t_p, y_p)?);
+        for &i in fired {
+            self.sign[i] = 0.0;
+            self.settle[i] = true;
+        }
         Ok(())
+    }
+
+    /// Event `i`'s samples (θ, g) over the step (t, t_new] into `self.points`, the first being
+    /// where the search starts (the step's start, or [`SETTLE`] into the step for an event
+    /// that sat on its root at a reset); whether the sign starts afresh there.
+    fn sample(
+        &mut self,
+        i: usize,
+        t: f64,
+        t_new: f64,
+        y_new: &[f64],
+        step: &Interpolant<'_>,
+    ) -> Result<bool> {
+        let h = t_new - t;
+        let samples = self.events[i].samples;
+        let mut points = std::mem::take(&mut self.points);
+        points.clear();
+        let fresh = self.settle[i];
+        if fresh {
+            points.push((SETTLE, self.at(i, t, h, SETTLE, step)?));
+        } else {
+            points.push((0.0, self.value[i]));
+        }
+        let first = points[0].0;
+        for j in 1..=samples {
+            let theta = j as f64 / (samples + 1) as f64;
+            if theta > first {
+                points.push((theta, self.at(i, t, h, theta, step)?));
+            }
+        }
+        points.push((1.0, self.g(i, t_new, y_new)?));
+        self.points = points;
+        Ok(fresh)
     }
 
     /// Whether no event occurs in the step (t, t_new], sampled on `step`, which may be a
@@ -311,18 +364,12 @@ impl Tracker {
         y_new: &[f64],
         step: &Interpolant<'_>,
     ) -> Result<bool> {
-        let h = t_new - t;
         let mut ends = std::mem::take(&mut self.ends);
         ends.clear();
         for i in 0..self.events.len() {
-            let samples = self.events[i].samples;
-            let (mut sign_ref, mut g) = (self.sign[i], self.value[i]);
-            for j in 1..=samples + 1 {
-                g = if j == samples + 1 {
-                    self.g(i, t_new, y_new)?
-                } else {
-                    self.at(i, t, h, j as f64 / (samples + 1) as f64, step)?
-                };
+            let fresh = self.sample(i, t, t_new, y_new, step)?;
+            let mut sign_ref = if fresh { 0.0 } else { self.sign[i] };
+            for &(_, g) in &self.points {
                 if g != 0.0 {
                     let s = sign(g);
                     if sign_ref != 0.0 && s != sign_ref && self.events[i].direction.admits(s) {
@@ -332,11 +379,13 @@ impl Tracker {
                     sign_ref = s;
                 }
             }
-            ends.push((sign_ref, g));
+            let g_end = self.points.last().map_or(0.0, |p| p.1);
+            ends.push((sign_ref, g_end));
         }
         for (i, &(s, g)) in ends.iter().enumerate() {
             self.sign[i] = s;
             self.value[i] = g;
+            self.settle[i] = false;
         }
         self.ends = ends;
         Ok(true)
@@ -355,58 +404,81 @@ impl Tracker {
         // (θ of the root, event) for every sign change in the step.
         let mut roots: Vec<(f64, usize)> = Vec::new();
         for i in 0..self.events.len() {
-            let samples = self.events[i].samples;
-            let (mut theta_a, mut g_a) = (0.0, self.value[i]);
-            for j in 1..=samples + 1 {
-                let (theta_b, g_b) = if j == samples + 1 {
-                    (1.0, self.g(i, t_new, y_new)?)
-                } else {
-                    let theta = j as f64 / (samples + 1) as f64;
-                    (theta, self.at(i, t, h, theta, step)?)
-                };
-                if g_b != 0.0 {
-                    let s = sign(g_b);
-                    if self.sign[i] != 0.0
-                        && s != self.sign[i]
-                        && self.events[i].direction.admits(s)
-                    {
-                        roots.push((
-                            self.refine(i, t, h, (theta_a, g_a), (theta_b, g_b), step)?,
-                            i,
-                        ));
-                    }
-                    self.sign[i] = s;
+            let fresh = self.sample(i, t, t_new, y_new, step)?;
+            let points = std::mem::take(&mut self.points);
+            let mut sign_ref = if fresh { 0.0 } else { self.sign[i] };
+            for (j, &(theta_b, g_b)) in points.iter().enumerate() {
+                if g_b == 0.0 {
+                    continue;
                 }
-                (theta_a, g_a) = (theta_b, g_b);
+                let s = sign(g_b);
+                if j > 0 && sign_ref != 0.0 && s != sign_ref && self.events[i].direction.admits(s) {
+                    let (theta_a, g_a) = points[j - 1];
+                    roots.push((
+                        self.refine(i, t, h, (theta_a, g_a), (theta_b, g_b), step)?,
+                        i,
+                    ));
+                }
+                sign_ref = s;
             }
-            self.value[i] = g_a;
+            self.sign[i] = sign_ref;
+            self.value[i] = points.last().map_or(0.0, |p| p.1);
+            self.settle[i] = false;
+            self.points = points;
         }
         roots.sort_by(|a, b| a.0.total_cmp(&b.0));
-        for (theta, i) in roots {
-            let t_root = if theta == 1.0 { t_new } else { t + theta * h };
-            let mut y = vec![0.0; 2 * self.n];
-            if theta == 1.0 {
-                y.copy_from_slice(y_new);
-            } else {
-                step.eval(t_root, &mut y);
-            }
-            let found = &mut self.found[i];
-            found.t.push(t_root);
-            found.q.extend_from_slice(&y[..self.n]);
-            found.qd.extend_from_slice(&y[self.n..]);
+        // Roots this close (in θ) are at one time: Brent's resolution.
+        let same = 8.0 * f64::EPSILON * (t.abs() / h.abs()).max(1.0);
+        for (k, &(theta, i)) in roots.iter().enumerate() {
+            let (t_root, y) = self.state_at(t, t_new, y_new, theta, step);
+            self.record(i, t_root, &y);
             let event = &self.events[i];
-            let terminal = event.terminal.is_some_and(|k| found.t.len() >= k);
+            let terminal = event.terminal.is_some_and(|c| self.found[i].t.len() >= c);
             if terminal || event.reset.is_some() {
+                // Every other event with a root at this time is recorded too: it sits on its
+                // root when the run stops or resets.
+                let mut fired = vec![i];
+                for &(other, j) in roots[k + 1..].iter().take_while(|r| r.0 - theta <= same) {
+                    let (t_other, y_other) = self.state_at(t, t_new, y_new, other, step);
+                    self.record(j, t_other, &y_other);
+                    fired.push(j);
+                }
                 return Ok(Some(Stop {
                     t: t_root,
                     y,
                     event: i,
                     terminal,
-                    h: h.abs(),
+                    fired,
                 }));
             }
         }
         Ok(None)
+    }
+
+    /// The time and state at θ of the step.
+    fn state_at(
+        &self,
+        t: f64,
+        t_new: f64,
+        y_new: &[f64],
+        theta: f64,
+        step: &Interpolant<'_>,
+    ) -> (f64, Vec<f64>) {
+        if theta == 1.0 {
+            (t_new, y_new.to_vec())
+        } else {
+            let t_root = t + theta * (t_new - t);
+            let mut y = vec![0.0; 2 * self.n];
+            step.eval(t_root, &mut y);
+            (t_root, y)
+        }
+    }
+
+    fn record(&mut self, i: usize, t: f64, y: &[f64]) {
+        let found = &mut self.found[i];
+        found.t.push(t);
+        found.q.extend_from_slice(&y[..self.n]);
+        found.qd.extend_from_slice(&y[self.n..]);
     }
 
     /// Apply event `i`'s reset to y = (q, q̇) at t.

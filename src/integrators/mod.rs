@@ -35,6 +35,8 @@
 //! or Störmer–Verlet: refused with the largest stable `dt`, never a silently exploding answer),
 //! and [`Error::NewtonFailure`] when an implicit step cannot be solved. [`solve_partial`] keeps
 //! what a failed run computed: [`Failed`] carries the trajectory up to the last accepted step.
+//! With the `parallel` feature, `solve_many` runs an ensemble of them on a rayon thread pool
+//! (`ensemble.rs`), bit for bit as a serial loop would.
 //!
 //! Events ([`Event`], in [`Options::events`]) are sign changes of conditions g(t, q, q̇), found
 //! with every method on each step's interpolant and refined to round-off; a terminal event ends
@@ -62,6 +64,8 @@
 
 mod auto;
 mod dense;
+#[cfg(feature = "parallel")]
+mod ensemble;
 mod events;
 mod gauss;
 mod newton;
@@ -75,7 +79,9 @@ mod symplectic;
 mod tableau;
 mod variational;
 
-pub use dense::Dense;
+pub use dense::{Dense, DenseParts};
+#[cfg(feature = "parallel")]
+pub use ensemble::{RunResult, Systems, solve_many};
 pub use events::{Condition, Direction, Event, Occurrences, Reset, Status};
 pub(crate) use newton::acceleration_jacobian;
 #[cfg(test)]
@@ -441,6 +447,8 @@ impl<S: Dynamics + ?Sized> Run<'_, S> {
         step: Option<&Interpolant<'_>>,
     ) -> Result<Flow> {
         let done = if last { Flow::End } else { Flow::Continue };
+        // An empty step (t_new = t by rounding at the end of a span) holds nothing to search.
+        let step = step.filter(|_| t_new != t);
         let Some(step) = step else {
             self.out.step(t_new, y_new, last);
             return Ok(done);
@@ -664,8 +672,8 @@ pub struct Solver<'a, S: Dynamics + ?Sized> {
     method: Method,
     /// The current segment's stepper; `None` until the segment's first step.
     stepper: Option<Box<dyn SegmentStepper<S>>>,
-    /// How the run ended, once it has.
-    end: Option<std::result::Result<Status, Error>>,
+    /// How the run ended (the last outcome of [`Solver::step`]), once it has.
+    end: Option<Result<StepOutcome>>,
 }
 
 impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
@@ -773,23 +781,14 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
     /// before ([`Solver::solution`]).
     pub fn step(&mut self) -> Result<StepOutcome> {
         if let Some(end) = &self.end {
-            return end.clone().map(|status| match status {
-                Status::Finished => StepOutcome::Finished,
-                Status::Terminated { event, t, .. } => StepOutcome::Terminated { event, t },
-            });
+            return end.clone();
         }
         let outcome = self.advance();
-        match &outcome {
-            Err(e) => self.end = Some(Err(e.clone())),
-            Ok(StepOutcome::Finished) => self.end = Some(Ok(Status::Finished)),
-            Ok(StepOutcome::Terminated { event, t }) => {
-                self.end = Some(Ok(Status::Terminated {
-                    event: *event,
-                    name: self.run.events.name(*event).to_owned(),
-                    t: *t,
-                }));
-            }
-            Ok(_) => {}
+        if matches!(
+            outcome,
+            Err(_) | Ok(StepOutcome::Finished | StepOutcome::Terminated { .. })
+        ) {
+            self.end = Some(outcome.clone());
         }
         outcome
     }
@@ -813,7 +812,7 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
                     y,
                     event,
                     terminal,
-                    h,
+                    fired,
                 } = run.stop.take().expect("a stopped step leaves its stop");
                 if terminal {
                     run.out.step(t, &y, true);
@@ -824,19 +823,22 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
                 let mut after = y.clone();
                 run.events.reset(event, t, &mut after)?;
                 run.out.jump(t, &y, &after);
-                if (run.t_end - t) * run.dir() <= 0.0 {
+                let dir = run.dir();
+                // A reset within round-off of the end ends the run: no step fits after it.
+                if (run.t_end - t) * dir <= 10.0 * f64::EPSILON * t.abs().max(run.t_end.abs()) {
+                    let t_end = run.t_end;
+                    let mut buf = std::mem::take(&mut run.buf);
+                    run.out.dense(t_end, &after, &mut buf, |_, out| {
+                        out.copy_from_slice(&after)
+                    });
+                    run.buf = buf;
                     return Ok(StepOutcome::Finished);
                 }
                 let attempts = run.stats.accepted_steps + run.stats.rejected_steps;
                 if attempts >= run.options.max_steps {
                     return Err(Error::TooManySteps { t, steps: attempts });
                 }
-                // Where the new motion goes: a thousandth of a step along ẏ.
-                let mut dy = vec![0.0; 2 * run.n];
-                run.rhs(t, &after, &mut dy)?;
-                let dt = 1e-3 * h * run.dir();
-                let probe: Vec<f64> = after.iter().zip(&dy).map(|(y, d)| y + dt * d).collect();
-                run.events.restart(t, &after, event, (t + dt, &probe))?;
+                run.events.restart(t, &after, &fired)?;
                 run.t0 = t;
                 run.y0 = after;
                 Ok(StepOutcome::Reset { event, t })
@@ -860,12 +862,18 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
     }
 
     /// End the run here: the trajectory recorded so far (as [`Options::output`] asks), the
-    /// events found, the continuous solution, and the status (`Finished` unless a terminal
-    /// event stopped it).
+    /// events found, the continuous solution, and how the run ended ([`Status::Unfinished`]
+    /// before the end of the span, [`Status::Failed`] after an error).
     pub fn solution(self) -> Solution {
         let status = match self.end {
-            Some(Ok(status)) => status,
-            _ => Status::Finished,
+            Some(Ok(StepOutcome::Finished)) => Status::Finished,
+            Some(Ok(StepOutcome::Terminated { event, t })) => Status::Terminated {
+                event,
+                name: self.run.events.name(event).to_owned(),
+                t,
+            },
+            Some(Err(_)) => Status::Failed,
+            _ => Status::Unfinished { t: self.t() },
         };
         let Run {
             out,
@@ -895,6 +903,7 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
         failed.partial = failed.partial.map(|sol| Solution {
             events: events.found,
             dense,
+            status: Status::Failed,
             ..sol
         });
         failed

@@ -17,6 +17,9 @@ pub enum Output {
     /// extension) between steps, so the step sequence does not change. The times must lie in the
     /// span and be ordered in the direction of integration.
     Times(Vec<f64>),
+    /// Only the final state (the last accepted one if the run fails): for ensembles whose runs
+    /// need nothing else, so that millions of them fit in memory.
+    Final,
 }
 
 /// Options of [`solve`](super::solve). Build them with [`Options::fixed`] or
@@ -55,7 +58,8 @@ pub struct Options {
     /// every step once a test was positive (Hairer's `NSTIFF`); `None` switches it off.
     pub stiffness_check: Option<usize>,
     /// Conditions whose sign changes are located along the run ([`Event`]); found on every
-    /// step's interpolant, so they cost dense output on every step.
+    /// step's interpolant (DOPRI5 and DOP853 screen each step on the free Hermite interpolant
+    /// first and build their continuous extension only where a sign changes).
     pub events: Vec<Event>,
     /// Keep every step's interpolant: [`Solution::dense`](super::Solution::dense) gives the
     /// state anywhere in the span. Off by default: nothing extra is stored.
@@ -245,7 +249,7 @@ impl Options {
             }
         }
         match &self.output {
-            Output::Steps => {}
+            Output::Steps | Output::Final => {}
             Output::Every(0) => {
                 return bad(
                     "output",

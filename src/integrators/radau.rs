@@ -605,17 +605,20 @@ impl Stepper {
                 err_old = None;
             }
             let mut rejected = false;
-            // Why the step shrank last: a Newton failure is reported as such at the floor.
+            // Why the step shrank last: a Newton failure, or an end point where the model is
+            // not finite, is reported as such at the floor.
             let mut newton_failure: Option<Newton> = None;
+            let mut non_finite: Option<Error> = None;
             let (t_new, h, result, err) = loop {
                 let attempts = run.stats.accepted_steps + run.stats.rejected_steps;
                 if attempts >= opts.max_steps {
                     return Err(Error::TooManySteps { t, steps: attempts });
                 }
                 if h_abs < floor {
-                    return Err(match newton_failure {
-                        Some(nf) => nf.record().failure(t),
-                        None => Error::StepSizeTooSmall { t, h: h_abs },
+                    return Err(match (newton_failure, non_finite) {
+                        (Some(nf), _) => nf.record().failure(t),
+                        (None, Some(e)) => e,
+                        (None, None) => Error::StepSizeTooSmall { t, h: h_abs },
                     });
                 }
                 let mut t_new = t + dir * h_abs;
@@ -630,6 +633,7 @@ impl Stepper {
                         run.stats.newton_failures += 1;
                         run.stats.rejected_steps += 1;
                         newton_failure = Some(nf);
+                        non_finite = None;
                         h_abs *= 0.5;
                         self.lu_h = f64::NAN;
                         continue;
@@ -645,13 +649,16 @@ impl Stepper {
                             self.lu_h = f64::NAN;
                             rejected = true;
                             newton_failure = None;
+                            non_finite = None;
                             run.stats.rejected_steps += 1;
                             continue;
                         }
                         match run.rhs(t_new, &self.y_new, &mut self.f_new) {
                             Ok(()) => {}
-                            Err(Error::NonFinite { .. }) => {
+                            Err(e @ Error::NonFinite { .. }) => {
                                 // The end point left the model's domain: back off.
+                                newton_failure = None;
+                                non_finite = Some(e);
                                 h_abs *= 0.5;
                                 self.lu_h = f64::NAN;
                                 rejected = true;

@@ -362,6 +362,11 @@ impl ExplicitRk {
                 h = run.t_end - t;
                 last = true;
             }
+            // A step that lands on t_end by rounding is the last one too.
+            if !last && (t + h - run.t_end) * dir >= 0.0 {
+                h = run.t_end - t;
+                last = true;
+            }
             let t_new = if last { run.t_end } else { t + h };
             let trial = self.stages(run, c, t, h);
             let (err, failure) = match trial {

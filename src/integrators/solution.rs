@@ -105,7 +105,7 @@ pub struct Failed {
     pub error: Error,
     /// The trajectory up to the last accepted step, kept as [`Output`] asks, and the statistics
     /// of the work done. With [`Output::Steps`] or [`Output::Every`] its last row is the last
-    /// accepted state; with [`Output::Times`] it holds the requested times reached. `None` when
+    /// accepted state, with [`Output::Final`] its only row; with [`Output::Times`] it holds the requested times reached. `None` when
     /// the failure came before the first step (bad input, an unsupported method, a fixed `dt`
     /// beyond the stability limit).
     pub partial: Option<Solution>,
@@ -190,7 +190,7 @@ impl Recorder {
             for _ in 0..at_start {
                 self.push(t0, q, qd);
             }
-        } else {
+        } else if self.output != Output::Final {
             self.push(t0, q, qd);
         }
     }
@@ -250,6 +250,7 @@ impl Recorder {
         let keep = match self.output {
             Output::Steps => true,
             Output::Every(k) => last || self.steps.is_multiple_of(k),
+            Output::Final => last,
             Output::Times(_) => false,
         };
         if keep {
@@ -263,9 +264,9 @@ impl Recorder {
         (self.last_t, &self.last_y)
     }
 
-    /// What a run that failed with `error` had computed: with [`Output::Steps`] or
-    /// [`Output::Every`] the last accepted state ends the trajectory (as it ends a finished
-    /// one).
+    /// What a run that failed with `error` had computed: with [`Output::Steps`],
+    /// [`Output::Every`] or [`Output::Final`] the last accepted state ends the trajectory (as
+    /// it ends a finished one).
     pub(crate) fn fail(mut self, error: Error, stats: Statistics) -> Failed {
         let (t, y) = (self.last_t, std::mem::take(&mut self.last_y));
         let (q, qd) = y.split_at(self.n);

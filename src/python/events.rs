@@ -14,7 +14,7 @@ use pyo3::types::PyTuple;
 
 use super::model::{Backend, RawNode, node_ids};
 use crate::error::{Error, Result};
-use crate::integrators::{Dense, Direction, Event};
+use crate::integrators::{Dense, DenseParts, Direction, Event};
 use crate::tape::{Function, Inputs, Tape};
 
 /// One event as the package sends it: the serialized expressions, the condition's output, the
@@ -188,6 +188,18 @@ impl PyDense {
     #[getter]
     fn steps(&self) -> usize {
         self.dense.steps()
+    }
+
+    /// Pickling: rebuilt from its parts by `_restore`.
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (DenseParts,))> {
+        let restore = slf.get_type().getattr("_restore")?;
+        Ok((restore, (slf.get().dense.to_parts(),)))
+    }
+
+    /// The solution of pickled parts.
+    #[staticmethod]
+    fn _restore(parts: DenseParts) -> PyResult<Self> {
+        Ok(Self::new(Dense::from_parts(parts)?))
     }
 }
 

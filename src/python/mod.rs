@@ -13,6 +13,7 @@
 //! and `simulate` releases the GIL while it runs and polls for Ctrl-C (`KeyboardInterrupt`)
 //! every 20 ms through [`crate::integrators::solve_with_interrupt`].
 
+mod ensemble;
 mod error;
 mod events;
 mod first_order;
@@ -477,11 +478,6 @@ impl PyModel {
                         }
                         stopped.get()
                     };
-                    let energy = |sol: &Solution| {
-                        (0..sol.len())
-                            .map(|i| model.energy(sol.t[i], sol.q_at(i), sol.qd_at(i)))
-                            .collect::<Result<Vec<f64>, Error>>()
-                    };
                     match solve_partial(
                         &*model,
                         &q0,
@@ -491,15 +487,37 @@ impl PyModel {
                         &options,
                         Some(&interrupt),
                     ) {
-                        Ok(sol) => match energy(&sol) {
-                            Ok(h) => Ok((sol, h)),
-                            Err(e) => Err(Box::new((e.into(), Vec::new()))),
+                        Ok(sol) => match with_energy(&model, sol) {
+                            (sol, h, None) => Ok((sol, h)),
+                            (sol, h, Some(error)) => {
+                                let last =
+                                    sol.last().map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
+                                let failed = Failed {
+                                    error,
+                                    partial: Some(Solution {
+                                        status: Status::Failed,
+                                        ..sol
+                                    }),
+                                    last,
+                                };
+                                Err(Box::new((failed, h)))
+                            }
                         },
-                        Err(failed) => {
-                            // The partial trajectory's energy, NaN where it cannot be evaluated.
-                            let h = failed.partial.as_ref().map_or_else(Vec::new, |sol| {
-                                energy(sol).unwrap_or_else(|_| vec![f64::NAN; sol.len()])
-                            });
+                        Err(mut failed) => {
+                            let h = match failed.partial.take() {
+                                Some(sol) => {
+                                    let (sol, h, cut) = with_energy(&model, sol);
+                                    if cut.is_some() {
+                                        // The last state kept is the one the error names.
+                                        failed.last = sol
+                                            .last()
+                                            .map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
+                                    }
+                                    failed.partial = Some(sol);
+                                    h
+                                }
+                                None => Vec::new(),
+                            };
                             Err(Box::new((failed, h)))
                         }
                     }
@@ -655,6 +673,29 @@ fn check_options(
     .map(|_| ())
 }
 
+/// The energy function h at every point of `sol`. Where h cannot be evaluated (it overflows),
+/// the solution is cut before that point and the error says where: no NaN in what is returned.
+fn with_energy(model: &AnyModel, mut sol: Solution) -> (Solution, Vec<f64>, Option<Error>) {
+    let mut h = Vec::with_capacity(sol.len());
+    for i in 0..sol.len() {
+        match model.energy(sol.t[i], sol.q_at(i), sol.qd_at(i)) {
+            Ok(e) if e.is_finite() => h.push(e),
+            outcome => {
+                let t = sol.t[i];
+                sol.t.truncate(i);
+                sol.q.truncate(i * sol.dof);
+                sol.qd.truncate(i * sol.dof);
+                let error = match outcome {
+                    Err(e) => e,
+                    Ok(_) => Error::NonFinite { what: "energy", t },
+                };
+                return (sol, h, Some(error));
+            }
+        }
+    }
+    (sol, h, None)
+}
+
 /// (t, q, qd, energy, stats, events, status, message, dense) of a solution, as `simulate`
 /// returns it and a failure carries it: `events` one (t, q, qd) per event, `status` 0 when the
 /// run reached t_end and 1 when a terminal event stopped it, `dense` the continuous solution or
@@ -683,6 +724,7 @@ pub(crate) fn solution_tuple<'py>(
     let status = match sol.status {
         Status::Finished => 0,
         Status::Terminated { .. } => 1,
+        Status::Failed | Status::Unfinished { .. } => -1,
     };
     let message = sol.status.to_string();
     let dense = sol
@@ -706,6 +748,8 @@ pub(crate) fn solution_tuple<'py>(
 /// The compiled core of the `lagrangian` package.
 #[pymodule(name = "_lagrangian")]
 mod lagrangian_module {
+    #[pymodule_export]
+    use super::ensemble::simulate_many;
     #[pymodule_export]
     use super::error::{
         ConvergenceError, LagrangianError, NonFiniteError, SingularMassMatrixError, StepSizeError,

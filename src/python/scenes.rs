@@ -27,7 +27,7 @@ fn real(scene: &str, name: &str, v: &Bound<'_, PyAny>) -> PyResult<f64> {
 }
 
 /// The scene `name`'s arguments, checked by name (see [`Arguments::new`]).
-fn arguments(name: &str, given: &Bound<'_, PyDict>) -> PyResult<Arguments> {
+pub(super) fn arguments(name: &str, given: &Bound<'_, PyDict>) -> PyResult<Arguments> {
     let info = registry::info(name)?;
     let mut pairs = Vec::with_capacity(given.len());
     for (k, v) in given.iter() {

@@ -335,7 +335,8 @@ fn dense_solution_between_steps() {
         &Options::default(),
     );
     assert!(sol.unwrap().dense.is_none());
-    // Across a reset (v → −v at x = 0.5): at the event's time the state after it.
+    // Across a reset (v → −v at x = 0.5): at the event's time the state before it, just after
+    // it the state after it.
     let wall = Event::new("wall", |_t, q, _qd| q[0] - 0.5).with_reset(|_t, _q, qd| qd[0] = -qd[0]);
     let options = Options::adaptive(1e-12, 1e-12)
         .with_event(wall)
@@ -352,8 +353,11 @@ fn dense_solution_between_steps() {
     let t_hit = sol.events[0].t[0];
     assert!((t_hit - (0.5_f64).asin()).abs() < 1e-12);
     let mut y = [0.0; 2];
-    sol.dense.as_ref().unwrap().eval(t_hit, &mut y).unwrap();
-    assert!((y[1] + t_hit.cos()).abs() < 1e-10, "{y:?}");
+    let dense = sol.dense.as_ref().unwrap();
+    dense.eval(t_hit, &mut y).unwrap();
+    assert!((y[1] - t_hit.cos()).abs() < 1e-10, "{y:?}");
+    dense.eval(t_hit + 1e-9, &mut y).unwrap();
+    assert!((y[1] + t_hit.cos()).abs() < 1e-8, "{y:?}");
 }
 
 /// A condition that is not finite fails the run with a typed error naming it; the partial
@@ -381,6 +385,7 @@ fn non_finite_condition_is_a_typed_error() {
     );
     let partial: Solution = failed.partial.unwrap();
     assert_eq!(partial.events[0].t.len(), 1); // x = 0 at π
+    assert_eq!(partial.status, Status::Failed);
     // A terminal count of zero is refused before the run.
     let options = Options::default().with_event(Event::new("x", |_t, q, _qd| q[0]).terminal(0));
     let err = solve(
@@ -416,6 +421,10 @@ fn endless_resets_end_within_the_step_budget() {
             Method::StormerVerlet,
             Options::fixed(1e-3).with_max_steps(15000),
         ),
+        (
+            Method::StormerVerlet,
+            Options::fixed(2e-3).with_max_steps(10000),
+        ),
     ] {
         let options = options.with_event(floor.clone());
         let failed = solve_partial(&system, &[1.0], &[0.0], (0.0, 10.0), method, &options, None)
@@ -428,6 +437,10 @@ fn endless_resets_end_within_the_step_budget() {
         // Every touch after the first is a bounce of 2 v / g ≈ 0.2 ms.
         let t = &failed.partial.unwrap().events[0].t;
         assert!(t.len() > 100, "{method}: {} bounces", t.len());
+        assert!(
+            t.windows(2).all(|w| w[1] > w[0]),
+            "{method}: an impact found twice"
+        );
         assert!(((t[2] - t[1]) - 2e-3 / 9.81).abs() < 1e-9, "{method}");
     }
 }
@@ -474,8 +487,104 @@ fn solver_steps_are_the_runs_steps() {
         }
         // Once finished it stays finished.
         assert_eq!(solver.step().unwrap(), StepOutcome::Finished);
+        let mut early = Solver::new(&system, &[1.0], &[0.0], (0.0, 2.0), method, &options).unwrap();
+        early.step().unwrap();
+        let t = early.t();
+        assert_eq!(
+            early.solution().status,
+            Status::Unfinished { t },
+            "{method}"
+        );
         assert_eq!(resets, whole.events[0].t.len(), "{method}");
         assert!(resets >= 2, "{method}");
         assert_eq!(solver.solution(), whole, "{method}");
+    }
+}
+
+/// Bounces of random balls with every kind of method: each impact is found once, falling, in
+/// order, and the ball stays above the floor — also when the next impact comes within the
+/// first sample interval after a reset.
+#[test]
+fn every_bounce_found_once() {
+    let mut rng = common::Rng(14);
+    let g = 9.81;
+    let system = System::new(1, UnitMass).with_potential(Gravity(g));
+    for run in 0..120 {
+        let (e, h0) = (rng.uniform(0.2, 0.9), rng.uniform(0.1, 2.0));
+        let bounce = Event::new("floor", |_t, q, _qd| q[0])
+            .falling()
+            .with_reset(move |_t, _q, qd| qd[0] *= -e);
+        let t1 = (2.0 * h0 / g).sqrt();
+        // Stop before the impacts come closer than round-off (Zeno time t₁ (1 + e) / (1 − e)).
+        let t_end = t1 + 2.0 * t1 * e * (1.0 - e.powi(6)) / (1.0 - e);
+        let (method, options) = match run % 4 {
+            0 => (Method::Rk4, Options::fixed(rng.uniform(0.05, 0.5))),
+            1 => (
+                Method::StormerVerlet,
+                Options::fixed(rng.uniform(0.05, 0.5)),
+            ),
+            2 => (Method::Gauss4, Options::fixed(rng.uniform(0.05, 0.5))),
+            _ => (Method::Dop853, Options::adaptive(1e-10, 1e-12)),
+        };
+        let options = options.with_event(bounce);
+        let sol = solve(&system, &[h0], &[0.0], (0.0, t_end), method, &options)
+            .unwrap_or_else(|err| panic!("run {run} ({method}), e = {e}, h0 = {h0}: {err:?}"));
+        let found = &sol.events[0];
+        assert!(found.t.len() >= 5, "run {run} ({method}): {:?}", found.t);
+        assert!(
+            found.t.windows(2).all(|w| w[1] > w[0]),
+            "run {run} ({method}): {:?}",
+            found.t
+        );
+        assert!(
+            found.qd.iter().all(|&v| v < 0.0),
+            "run {run} ({method}): {:?}",
+            found.qd
+        );
+        assert!((found.t[0] - t1).abs() < 1e-9, "run {run} ({method})");
+        assert!(
+            sol.q.iter().all(|&y| y > -1e-9),
+            "run {run} ({method}): below the floor"
+        );
+    }
+}
+
+/// Events at the same time as another's reset are recorded too, whatever their order; a
+/// reset within round-off of the end ends the run with the output times asked for.
+#[test]
+fn simultaneous_events_and_resets_at_the_end() {
+    let g = 9.81;
+    let system = System::new(1, UnitMass).with_potential(Gravity(g));
+    let floor = Event::new("floor", |_t, q, _qd| q[0])
+        .falling()
+        .with_reset(|_t, _q, qd| qd[0] *= -0.8);
+    let touch = Event::new("touch", |_t, q, _qd| q[0]).falling();
+    let options = Options::adaptive(1e-10, 1e-12);
+    let first = options
+        .clone()
+        .with_event(floor.clone())
+        .with_event(touch.clone());
+    let second = options.clone().with_event(touch).with_event(floor.clone());
+    let a = solve(&system, &[1.0], &[0.0], (0.0, 3.0), Method::Dop853, &first).unwrap();
+    let b = solve(&system, &[1.0], &[0.0], (0.0, 3.0), Method::Dop853, &second).unwrap();
+    assert!(a.events[0].t.len() >= 5);
+    assert_eq!(a.events[0].t, a.events[1].t);
+    assert_eq!(a.events[0].t, b.events[1].t);
+    assert_eq!(b.events[0].t, b.events[1].t);
+    let t1 = (2.0 / g).sqrt();
+    for k in 1..12 {
+        let t_end = t1 * (1.0 + k as f64 * 1e-16);
+        for method in [Method::Dop853, Method::Radau5] {
+            let options = options
+                .clone()
+                .with_event(floor.clone())
+                .with_output(Output::Times(vec![0.0, 0.5 * t1, t_end]));
+            let sol = solve(&system, &[1.0], &[0.0], (0.0, t_end), method, &options).unwrap();
+            assert_eq!(sol.t, vec![0.0, 0.5 * t1, t_end], "{method}, k = {k}");
+            // At t_end the state after the bounce if the run saw it before the end (at the
+            // bounce's own time, the state before it).
+            let bounced = sol.events[0].t.first().is_some_and(|&t| t < t_end);
+            assert_eq!(sol.qd_at(2)[0] > 0.0, bounced, "{method}, k = {k}");
+        }
     }
 }

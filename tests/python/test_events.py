@@ -179,6 +179,12 @@ def test_dense_solution_is_callable(method, options, tol, order):
         sol(10.5)
     with pytest.raises(ValueError):
         sol(float("nan"))
+    # It pickles (and copies) with its interpolant.
+    import copy
+    import pickle
+
+    for other in (pickle.loads(pickle.dumps(sol)), copy.deepcopy(sol)):
+        assert np.array_equal(other(t)[0], q) and other.interpolant == sol.interpolant
     plain = spring.simulate([0.0], [1.0], 1.0)
     assert plain.interpolant is None
     with pytest.raises(ValueError, match="dense=True"):

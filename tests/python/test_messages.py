@@ -114,6 +114,10 @@ def test_numpy_operators_and_binary_functions_on_expressions() -> None:
     assert np.power(x, 2) == x**2 and np.square(x) == x**2
     assert np.negative(x) == -x and np.divide(1.0, x) == 1.0 / x
     assert np.float64(2.0) * x == 2.0 * x and np.array(2.0) * x == 2.0 * x
+    # Comparing with a NumPy number is comparing with a number: never equal, never an error.
+    assert (np.float64(1.0) == x) is False and (x == np.float64(1.0)) is False
+    assert (np.float64(1.0) != x) is True and x not in [np.float64(2.0)]
+    assert np.equal(x, x) is True and np.not_equal(x, 2 * x) is True
     # The model built with NumPy's functions is the one built with lagrangian's.
     model = lg.Model(coordinates=[x], kinetic=0.5 * x.d**2, potential=-np.cos(x))
     assert model.accelerations(0.0, [0.3], [0.0])[0] == pytest.approx(-math.sin(0.3), rel=1e-15)

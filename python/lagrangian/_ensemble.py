@@ -1,0 +1,518 @@
+"""Ensembles (``Model.simulate_many``): many runs of one model — initial states and parameter
+values swept together — in Rust on all cores of this machine, or split into chunks on a Dask
+cluster or any ``concurrent.futures.Executor``; and ``Ensemble``, what they return."""
+
+from __future__ import annotations
+
+import builtins
+import concurrent.futures
+import hashlib
+import os
+import pickle
+import threading
+from collections import OrderedDict
+from typing import (
+    TYPE_CHECKING,
+    Any,
+    Dict,
+    List,
+    Mapping,
+    NamedTuple,
+    Optional,
+    Sequence,
+    Tuple,
+    Union,
+)
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _lagrangian
+from ._solution import Solution
+from ._validate import integer, number, real, states
+
+if TYPE_CHECKING:
+    from ._model import Model
+
+__all__ = ["Ensemble", "Failure", "simulate_many"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+ArrayLike = Union[Sequence[float], Sequence[Sequence[float]], FloatArray]
+
+# What the native `simulate_many` returns: (t, q, qd, reached, counters, method, choice,
+# choices, failures); see src/python/ensemble.rs.
+Raw = Tuple[Any, Any, Any, IntArray, IntArray, IntArray, IntArray, List[str], List[Any]]
+
+COUNTERS = (
+    "accepted_steps",
+    "rejected_steps",
+    "rhs_evaluations",
+    "jacobian_evaluations",
+    "factorizations",
+    "newton_failures",
+)
+
+
+class Failure(NamedTuple):
+    """Why a run of an :class:`Ensemble` failed."""
+
+    error: str
+    """The name of the exception :meth:`Model.simulate` would raise for this run:
+    ``"SingularMassMatrixError"``, ``"StepSizeError"``, ``"ValueError"``, …"""
+    message: str
+    """Its message."""
+    t: Optional[float]
+    """The last accepted time (the run's data end there), or ``None`` when it failed before
+    its first step (then it has no data)."""
+
+
+class Ensemble:
+    """The runs of :meth:`Model.simulate_many`, in input order.
+
+    Attributes
+    ----------
+    t : numpy.ndarray or list of numpy.ndarray
+        With ``t_eval``: the output times, shared by every run. With ``final_only``: the final
+        time of each run, shape (k,). Otherwise a list of each run's output times.
+    q, qd : numpy.ndarray or list of numpy.ndarray
+        Coordinates and velocities: shape (k, len(t), dof) with ``t_eval``, (k, dof) with
+        ``final_only``, otherwise a list of each run's (points, dof) arrays.
+    reached : numpy.ndarray of int, shape (k,)
+        How many output points each run filled: all of them for a run that finished.
+    status : numpy.ndarray of int8, shape (k,)
+        0 for a run that finished, 1 for one that failed (see :attr:`failures`).
+    failures : dict of int to Failure
+        Why each failed run failed, by run index.
+    stats : dict of str to numpy.ndarray
+        Per-run statistics, one array of length k per key of ``Solution.stats``: ``method``
+        (the method that ran; ``""`` where a run failed before starting), ``choice`` (why
+        ``"auto"`` chose it, else ``None``), ``accepted_steps``, ``rejected_steps``,
+        ``rhs_evaluations``, ``jacobian_evaluations``, ``factorizations``,
+        ``newton_failures``. :meth:`run_stats` gives one run's as ``Solution.stats`` does.
+    parameters : dict of str to numpy.ndarray
+        The swept parameters' values, one per run.
+    names : tuple of str
+        The coordinate names.
+    output : str
+        ``"t_eval"``, ``"final"`` or ``"steps"``: which of the layouts above.
+
+    A failed run keeps what it computed up to its last accepted step, and only that: with
+    ``t_eval`` its rows past the failure are masked (``q`` and ``qd`` are then
+    :class:`numpy.ma.MaskedArray`, only when some run failed; the hidden entries are zeros,
+    never NaN), with ``final_only`` its row is its last accepted state at ``t[i]`` (masked
+    if it failed before its first step), and otherwise its arrays are just shorter.
+    """
+
+    __slots__ = (
+        "t",
+        "q",
+        "qd",
+        "reached",
+        "status",
+        "failures",
+        "stats",
+        "parameters",
+        "names",
+        "output",
+        "_model",
+    )
+
+    t: Any
+    q: Any
+    qd: Any
+    reached: IntArray
+    status: npt.NDArray[np.int8]
+    failures: Dict[int, Failure]
+    stats: Dict[str, Any]
+    parameters: Dict[str, FloatArray]
+    names: Tuple[str, ...]
+    output: str
+
+    def __init__(
+        self,
+        raw: Raw,
+        model: Optional["Model"],
+        mode: str,
+        parameters: Optional[Mapping[str, FloatArray]] = None,
+    ) -> None:
+        t, q, qd, reached, counters, method, choice, choices, failures = raw
+        k = len(reached)
+        self.reached = np.asarray(reached, dtype=np.int64)
+        self.failures = {
+            int(i): Failure(str(name), str(msg), None if ti is None else float(ti))
+            for i, name, msg, ti in failures
+        }
+        self.status = np.zeros(k, dtype=np.int8)
+        self.status[list(self.failures)] = 1
+        names = np.array(list(_lagrangian.methods()) + [""])
+        self.stats = {
+            "method": names[np.asarray(method, dtype=np.int64)],
+            "choice": np.array(list(choices) + [None], dtype=object)[
+                np.asarray(choice, dtype=np.int64)
+            ],
+        }
+        counters = np.asarray(counters, dtype=np.int64).reshape(k, len(COUNTERS))
+        for j, key in enumerate(COUNTERS):
+            self.stats[key] = counters[:, j].copy()
+        if mode == "t_eval" and self.status.any():
+            rows = np.arange(len(t))[None, :] >= self.reached[:, None]
+            mask = np.broadcast_to(rows[:, :, None], q.shape).copy()
+            q, qd = np.ma.masked_array(q, mask), np.ma.masked_array(qd, mask)
+        elif mode == "final" and (self.reached == 0).any():
+            empty = self.reached == 0
+            t = np.ma.masked_array(t, empty)
+            mask = np.broadcast_to(empty[:, None], q.shape).copy()
+            q, qd = np.ma.masked_array(q, mask), np.ma.masked_array(qd, mask)
+        self.t, self.q, self.qd = t, q, qd
+        self.names = () if model is None else tuple(c.name for c in model.coordinates)
+        self.output = mode
+        self.parameters = dict(parameters or {})
+        self._model = model
+
+    @property
+    def ok(self) -> npt.NDArray[np.bool_]:
+        """Whether each run finished, shape (k,)."""
+        ok: npt.NDArray[np.bool_] = self.status == 0
+        return ok
+
+    def __len__(self) -> int:
+        return int(self.reached.shape[0])
+
+    def __repr__(self) -> str:
+        return f"Ensemble(runs={len(self)}, failed={len(self.failures)})"
+
+    def run_stats(self, i: int) -> Dict[str, Any]:
+        """Run ``i``'s statistics, as ``Solution.stats`` has them."""
+        out: Dict[str, Any] = {"method": str(self.stats["method"][i])}
+        out["choice"] = self.stats["choice"][i]
+        for key in COUNTERS:
+            out[key] = int(self.stats[key][i])
+        if self._model is not None:
+            out["conserved"] = self._model._conserved(None)
+        return out
+
+    def error(self, i: int) -> Optional[Exception]:
+        """The exception :meth:`Model.simulate` would raise for run ``i`` (its class and
+        message), or ``None`` for a run that finished."""
+        failure = self.failures.get(i)
+        if failure is None:
+            return None
+        cls = getattr(_lagrangian, failure.error, None) or getattr(builtins, failure.error, None)
+        if not (isinstance(cls, type) and issubclass(cls, Exception)):
+            cls = RuntimeError
+        err: Exception = cls(failure.message)
+        return err
+
+    def solution(self, i: int) -> Solution:
+        """Run ``i`` as a :class:`Solution` (its energy evaluated now): what
+        :meth:`Model.simulate` returns for it, or for a failed run the part computed."""
+        if self._model is None:
+            raise ValueError("this ensemble has no model to evaluate the energy with")
+        rows = int(self.reached[i])
+        if self.output == "steps":
+            t, q, qd = self.t[i], self.q[i], self.qd[i]
+        elif self.output == "t_eval":
+            t = np.asarray(self.t)[:rows]
+            q = np.ma.getdata(self.q)[i, :rows]
+            qd = np.ma.getdata(self.qd)[i, :rows]
+        else:
+            t = np.ma.getdata(self.t)[i : i + rows]
+            q = np.ma.getdata(self.q)[i : i + rows]
+            qd = np.ma.getdata(self.qd)[i : i + rows]
+        model = self._model
+        if self.parameters:
+            model = model.with_parameters(
+                **{name: float(v[i]) for name, v in self.parameters.items()}
+            )
+        energy = np.array(
+            [model.energy(float(t[j]), q[j], qd[j]) for j in range(rows)], dtype=np.float64
+        )
+        return Solution(
+            np.ascontiguousarray(t, dtype=np.float64),
+            np.ascontiguousarray(q, dtype=np.float64),
+            np.ascontiguousarray(qd, dtype=np.float64),
+            energy,
+            self.run_stats(i),
+            names=self.names,
+        )
+
+
+def simulate_many(
+    model: "Model",
+    q0: ArrayLike,
+    qd0: ArrayLike,
+    t_end: float,
+    *,
+    t0: float = 0.0,
+    parameters: Optional[Mapping[str, Any]] = None,
+    t_eval: Optional[ArrayLike] = None,
+    method: str = "auto",
+    dt: Optional[float] = None,
+    rtol: float = 1e-6,
+    atol: float = 1e-9,
+    max_steps: Optional[int] = None,
+    final_only: bool = False,
+    workers: Optional[int] = None,
+    executor: Any = None,
+    chunks: Optional[int] = None,
+    timeout: Optional[float] = None,
+) -> Ensemble:
+    """:meth:`Model.simulate_many` (documented there)."""
+    n = model.dof
+    q, qd = states("q0", q0, n), states("qd0", qd0, n)
+    fixed: Dict[str, float] = {}
+    sweep: Dict[str, FloatArray] = {}
+    known = model.parameters
+    for name, value in (parameters or {}).items():
+        if name not in known:
+            raise ValueError(
+                f"unknown parameter {name!r}; the model's parameters are "
+                f"{', '.join(known) or 'none'}"
+            )
+        arr = np.asarray(value, dtype=np.float64)
+        if arr.ndim == 0:
+            fixed[name] = real(f"parameter {name!r}", value)
+            continue
+        if arr.ndim != 1:
+            raise ValueError(
+                f"parameter {name!r} must be a number or one value per run, got shape {arr.shape}"
+            )
+        bad = np.flatnonzero(~np.isfinite(arr))
+        if bad.size:
+            raise ValueError(f"parameter {name!r}[{bad[0]}] = {arr[bad[0]]} is not finite")
+        sweep[name] = np.ascontiguousarray(arr)
+    sizes: Dict[str, int] = {}
+    for what, a in (("q0", q), ("qd0", qd)):
+        if a.ndim == 2:
+            sizes[f"{what} has {len(a)} rows"] = len(a)
+    for name, v in sweep.items():
+        sizes[f"parameter {name!r} has {len(v)} values"] = len(v)
+    if len(set(sizes.values())) > 1:
+        raise ValueError(
+            "the runs do not agree in number: " + ", ".join(sizes)
+            + " (give one row or value per run, or one for all)"
+        )
+    k = next(iter(sizes.values()), 1)
+    q = np.ascontiguousarray(np.broadcast_to(q, (k, n)))
+    qd = np.ascontiguousarray(np.broadcast_to(qd, (k, n)))
+    base = model.with_parameters(**fixed) if fixed else model
+    options = _options(t0, method, dt, rtol, atol, t_eval, max_steps, final_only)
+    t_end = real("t_end", t_end)
+    if workers is not None and integer("workers", workers) < 1:
+        raise ValueError(f"workers = {workers}: give at least one thread")
+    mode = "final" if final_only else "steps" if t_eval is None else "t_eval"
+    if executor is None or k == 0:
+        raw = _run(base, q, qd, t_end, sweep, options, workers or 0)
+    else:
+        raw = _run_on(executor, base, q, qd, t_end, sweep, options, workers, chunks, timeout)
+    return Ensemble(raw, base, mode, sweep)
+
+
+def _options(
+    t0: float,
+    method: str,
+    dt: Optional[float],
+    rtol: float,
+    atol: float,
+    t_eval: Optional[ArrayLike],
+    max_steps: Optional[int],
+    final_only: bool,
+) -> Dict[str, Any]:
+    """The run options as the native ``simulate_many`` takes them, their types checked (their
+    values are validated in Rust, with ``simulate``'s messages)."""
+    if not isinstance(method, str):
+        raise TypeError(f"method must be a string such as 'dop853', got {method!r}")
+    if not isinstance(final_only, bool):
+        raise TypeError(f"final_only must be True or False, got {final_only!r}")
+    options: Dict[str, Any] = {
+        "t0": real("t0", t0),
+        "method": method,
+        "rtol": number("rtol", rtol),
+        "atol": number("atol", atol),
+        "final_only": final_only,
+    }
+    if dt is not None:
+        options["dt"] = number("dt", dt)
+    if t_eval is not None:
+        times = np.ascontiguousarray(np.asarray(t_eval, dtype=np.float64))
+        if times.ndim != 1:
+            raise ValueError(f"t_eval must be one-dimensional, got shape {times.shape}")
+        options["t_eval"] = times
+    if max_steps is not None:
+        options["max_steps"] = integer("max_steps", max_steps)
+    return options
+
+
+def _run(
+    model: "Model",
+    q: FloatArray,
+    qd: FloatArray,
+    t_end: float,
+    sweep: Mapping[str, FloatArray],
+    options: Mapping[str, Any],
+    workers: int,
+) -> Raw:
+    """The runs on this machine, on ``workers`` threads (0: every core)."""
+    from ._scene_model import SceneModel
+
+    k = len(q)
+    per_run: Dict[str, Any] = {}
+    if sweep:
+        values = model.parameters
+        if isinstance(model, SceneModel):
+            columns = {name: v.tolist() for name, v in sweep.items()}
+            each = [{**values, **{c: v[i] for c, v in columns.items()}} for i in range(k)]
+            per_run["scenes"] = (model.scene, each)
+        else:
+            per_run["params"] = np.ascontiguousarray(
+                np.column_stack(
+                    [sweep[name] if name in sweep else np.full(k, v) for name, v in values.items()]
+                ),
+                dtype=np.float64,
+            )
+    raw: Raw = _lagrangian.simulate_many(
+        model._native, q, qd, t_end, **per_run, **options, workers=workers
+    )
+    return raw
+
+
+# Models unpickled by the chunks run in this process, by the hash of their pickle: a worker
+# compiles each model once, however many chunks it runs.
+_MODELS: "OrderedDict[str, Model]" = OrderedDict()
+_MODELS_LOCK = threading.Lock()
+
+
+def _run_chunk(
+    key: str,
+    blob: bytes,
+    q: FloatArray,
+    qd: FloatArray,
+    t_end: float,
+    sweep: Mapping[str, FloatArray],
+    options: Mapping[str, Any],
+    workers: int,
+) -> Raw:
+    """One chunk of runs, on an executor's worker."""
+    with _MODELS_LOCK:
+        model = _MODELS.get(key)
+        if model is None:
+            model = pickle.loads(blob)
+            _MODELS[key] = model
+            while len(_MODELS) > 8:
+                _MODELS.popitem(last=False)
+    return _run(model, q, qd, t_end, sweep, options, workers)
+
+
+def _run_on(
+    executor: Any,
+    model: "Model",
+    q: FloatArray,
+    qd: FloatArray,
+    t_end: float,
+    sweep: Mapping[str, FloatArray],
+    options: Mapping[str, Any],
+    workers: Optional[int],
+    chunks: Optional[int],
+    timeout: Optional[float],
+) -> Raw:
+    """The runs split into chunks on ``executor`` (a ``dask.distributed.Client`` or a
+    ``concurrent.futures.Executor``), gathered in order."""
+    dask = hasattr(executor, "scatter") and hasattr(executor, "nthreads")
+    if not dask and not isinstance(executor, concurrent.futures.Executor):
+        raise TypeError(
+            "executor must be a dask.distributed.Client or a concurrent.futures.Executor, "
+            f"got {executor!r}"
+        )
+    k = len(q)
+    if chunks is None:
+        if dask:
+            threads = sum(executor.nthreads().values())
+        else:
+            threads = getattr(executor, "_max_workers", None) or os.cpu_count() or 1
+        chunks = 4 * max(1, int(threads))
+    elif integer("chunks", chunks) < 1:
+        raise ValueError(f"chunks = {chunks}: give at least one")
+    bounds = np.linspace(0, k, min(chunks, k) + 1).round().astype(int)
+    blob = pickle.dumps(model)
+    key = hashlib.sha256(blob).hexdigest()
+    # Dask sends the pickled model to every worker once; other executors send its bytes with
+    # each chunk (the worker still compiles it once, see `_MODELS`).
+    shipped: Any = executor.scatter(blob, broadcast=True) if dask else blob
+    submit_options = {"pure": False} if dask else {}
+    futures = [
+        executor.submit(
+            _run_chunk,
+            key,
+            shipped,
+            q[a:b],
+            qd[a:b],
+            t_end,
+            {name: v[a:b] for name, v in sweep.items()},
+            options,
+            workers or 1,
+            **submit_options,
+        )
+        for a, b in zip(bounds[:-1], bounds[1:])
+    ]
+    try:
+        parts: List[Raw] = [f.result(timeout=timeout) for f in futures]
+    except BaseException:
+        for f in futures:
+            f.cancel()
+        raise
+    return _concat(parts, "t_eval" in options)
+
+
+def _concat(parts: List[Raw], shared_t: bool) -> Raw:
+    """The raw results of consecutive chunks as one."""
+    t: List[Any] = []
+    q: List[Any] = []
+    qd: List[Any] = []
+    reached: List[IntArray] = []
+    counters: List[IntArray] = []
+    method: List[IntArray] = []
+    choice: List[IntArray] = []
+    choices: List[str] = []
+    failures: List[Any] = []
+    offset = 0
+    for pt, pq, pqd, preached, pcounters, pmethod, pchoice, pchoices, pfailures in parts:
+        index = {c: j for j, c in enumerate(choices)}
+        remap = np.array([index.setdefault(c, len(index)) for c in pchoices] + [-1])
+        choices = list(index)
+        if isinstance(pt, list):
+            t.extend(pt)
+            q.extend(pq)
+            qd.extend(pqd)
+        else:
+            t.append(pt)
+            q.append(pq)
+            qd.append(pqd)
+        reached.append(preached)
+        counters.append(pcounters)
+        method.append(pmethod)
+        choice.append(remap[np.asarray(pchoice, dtype=np.int64)])
+        failures.extend((i + offset, *rest) for i, *rest in pfailures)
+        offset += len(preached)
+    if isinstance(parts[0][0], list):
+        return (t, q, qd, *_stack(reached, counters, method, choice), choices, failures)
+    return (
+        parts[0][0] if shared_t else np.concatenate(t),
+        np.concatenate(q),
+        np.concatenate(qd),
+        *_stack(reached, counters, method, choice),
+        choices,
+        failures,
+    )
+
+
+def _stack(
+    reached: List[IntArray], counters: List[IntArray], method: List[IntArray], choice: List[IntArray]
+) -> Tuple[IntArray, IntArray, IntArray, IntArray]:
+    """The per-run columns of consecutive chunks, joined."""
+    return (
+        np.concatenate(reached),
+        np.concatenate(counters),
+        np.concatenate(method),
+        np.concatenate(choice),
+    )

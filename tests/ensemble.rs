@@ -1,0 +1,257 @@
+//! Ensembles ([`solve_many`], feature `parallel`): every run bit for bit the serial
+//! [`solve_partial`] of the same problem with 1 and 2 threads, in input order; parameter sweeps
+//! against closed forms; failed runs keep their typed error and do not disturb the others;
+//! [`Output::Final`] keeps the last state only.
+#![cfg(feature = "parallel")]
+// `Failed` is returned once per run, as in the library.
+#![allow(clippy::result_large_err)]
+
+use lagrangian::integrators::{
+    Method, Options, Output, RunResult, Systems, solve_many, solve_partial,
+};
+use lagrangian::scenes::{DampedOscillator, SimplePendulum, elliptic_k};
+use lagrangian::{Error, Result};
+
+const G: f64 = 9.81;
+
+/// `k` initial states (θ₀, 0) with amplitudes spread over (0.1, 3.0).
+fn amplitudes(k: usize) -> Vec<(Vec<f64>, Vec<f64>)> {
+    (0..k)
+        .map(|i| (vec![0.1 + 2.9 * (i as f64 + 0.5) / k as f64], vec![0.0]))
+        .collect()
+}
+
+fn slices(states: &[(Vec<f64>, Vec<f64>)]) -> Vec<(&[f64], &[f64])> {
+    states.iter().map(|(q, qd)| (&q[..], &qd[..])).collect()
+}
+
+#[test]
+fn every_run_is_the_serial_run_bit_for_bit() {
+    let pendulum = SimplePendulum::new(1.0, 1.3, G).system();
+    let states = amplitudes(100);
+    let initial = slices(&states);
+    let span = (0.0, 7.0);
+    let times: Vec<f64> = (0..=70).map(|i| 0.1 * i as f64).collect();
+    for (method, options) in [
+        (Method::Dop853, Options::adaptive(1e-10, 1e-12)),
+        (
+            Method::Dopri5,
+            Options::adaptive(1e-8, 1e-10).with_output(Output::Times(times.clone())),
+        ),
+        (
+            Method::Gauss4,
+            Options::fixed(0.01).with_output(Output::Final),
+        ),
+        (Method::Auto, Options::adaptive(1e-6, 1e-9)),
+    ] {
+        let serial: Vec<RunResult> = initial
+            .iter()
+            .map(|(q0, qd0)| solve_partial(&pendulum, q0, qd0, span, method, &options, None))
+            .collect();
+        assert!(serial.iter().all(|r| r.is_ok()), "{method}");
+        for workers in [1, 2] {
+            let runs = solve_many(
+                Systems::One(&pendulum),
+                &initial,
+                span,
+                method,
+                &options,
+                workers,
+                None,
+            )
+            .unwrap();
+            assert_eq!(runs, serial, "{method} on {workers} threads");
+        }
+    }
+}
+
+/// A sweep over the pendulum's length: with l = g / K(sin(θ₀/2))², a quarter period
+/// √(l/g) K(sin(θ₀/2)) is 1, so every pendulum released at rest from θ₀ passes θ = 0 at t = 1
+/// with θ̇ = −√(2 g (1 − cos θ₀) / l) (energy).
+#[test]
+fn length_sweep_passes_the_bottom_at_the_quarter_period() {
+    let states = amplitudes(200);
+    let initial = slices(&states);
+    let length = |i: usize| -> Result<f64> {
+        let k = elliptic_k((states[i].0[0] / 2.0).sin())?;
+        Ok(G / (k * k))
+    };
+    let build = |i: usize| Ok(SimplePendulum::new(1.0, length(i)?, G).system());
+    let options = Options::adaptive(1e-12, 1e-12).with_output(Output::Final);
+    let runs = solve_many(
+        Systems::Each(&build),
+        &initial,
+        (0.0, 1.0),
+        Method::Dop853,
+        &options,
+        2,
+        None,
+    )
+    .unwrap();
+    assert_eq!(runs.len(), 200);
+    for (i, run) in runs.iter().enumerate() {
+        let sol = run.as_ref().unwrap();
+        assert_eq!(sol.len(), 1, "final only");
+        let (t, q, qd) = sol.last().unwrap();
+        assert_eq!(t, 1.0);
+        let (theta0, l) = (states[i].0[0], length(i).unwrap());
+        let speed = (2.0 * G * (1.0 - theta0.cos()) / l).sqrt();
+        assert!(q[0].abs() < 1e-9 * speed, "run {i}: θ(T/4) = {}", q[0]);
+        assert!(
+            (qd[0] + speed).abs() < 1e-9 * speed,
+            "run {i}: θ̇ = {} against {}",
+            qd[0],
+            -speed
+        );
+    }
+}
+
+/// A sweep over the mass with some zero masses: those runs fail with the typed singular-M
+/// error at the start, keeping the initial state; the others match the closed form.
+#[test]
+fn failed_runs_are_kept_and_do_not_disturb_the_others() {
+    let masses: Vec<f64> = (0..40)
+        .map(|i| {
+            if i % 7 == 3 {
+                0.0
+            } else {
+                0.5 + 0.1 * i as f64
+            }
+        })
+        .collect();
+    let states = vec![(vec![1.0], vec![0.5]); masses.len()];
+    let initial = slices(&states);
+    let build = |i: usize| Ok(DampedOscillator::new(masses[i], 4.0, 0.3).system());
+    let options = Options::adaptive(1e-11, 1e-12).with_output(Output::Final);
+    let runs = solve_many(
+        Systems::Each(&build),
+        &initial,
+        (0.0, 3.0),
+        Method::Dop853,
+        &options,
+        2,
+        None,
+    )
+    .unwrap();
+    for (i, run) in runs.iter().enumerate() {
+        let oscillator = DampedOscillator::new(masses[i], 4.0, 0.3);
+        match run {
+            Ok(sol) => {
+                assert!(masses[i] > 0.0);
+                let (x, v) = oscillator.exact_solution(1.0, 0.5, 3.0).unwrap();
+                let (_, q, qd) = sol.last().unwrap();
+                assert!(
+                    (q[0] - x).abs() < 1e-9 && (qd[0] - v).abs() < 1e-9,
+                    "run {i}"
+                );
+            }
+            Err(failed) => {
+                assert_eq!(masses[i], 0.0, "run {i}: {}", failed.error);
+                assert!(
+                    matches!(failed.error, Error::SingularMassMatrix { t, .. } if t == 0.0),
+                    "{}",
+                    failed.error
+                );
+                let partial = failed.partial.as_ref().unwrap();
+                assert_eq!(
+                    (partial.t.as_slice(), partial.q.as_slice()),
+                    (&[0.0][..], &[1.0][..])
+                );
+            }
+        }
+    }
+    assert_eq!(runs.iter().filter(|r| r.is_err()).count(), 6);
+}
+
+/// A build that fails fails its run only, with its error and nothing computed.
+#[test]
+fn a_failed_build_fails_its_run() {
+    let states = amplitudes(5);
+    let initial = slices(&states);
+    let build = |i: usize| -> Result<_> {
+        if i == 2 {
+            return Err(Error::InvalidInput {
+                what: "length",
+                why: "run 2".into(),
+            });
+        }
+        Ok(SimplePendulum::new(1.0, 1.0, G).system())
+    };
+    let options = Options::default();
+    let runs = solve_many(
+        Systems::Each(&build),
+        &initial,
+        (0.0, 1.0),
+        Method::Dop853,
+        &options,
+        2,
+        None,
+    )
+    .unwrap();
+    let failed = runs[2].as_ref().unwrap_err();
+    assert!(matches!(
+        failed.error,
+        Error::InvalidInput { what: "length", .. }
+    ));
+    assert!(failed.partial.is_none() && failed.last.is_none());
+    assert!(runs.iter().enumerate().all(|(i, r)| i == 2 || r.is_ok()));
+}
+
+/// [`Output::Final`]: the last row of the every-step run, alone; a failure keeps the last
+/// accepted state.
+#[test]
+fn final_only_is_the_last_row() {
+    let pendulum = SimplePendulum::new(1.0, 1.0, G).system();
+    let run = |output: Output, max_steps: usize| {
+        let options = Options::adaptive(1e-9, 1e-11)
+            .with_output(output)
+            .with_max_steps(max_steps);
+        solve_partial(
+            &pendulum,
+            &[2.0],
+            &[0.0],
+            (0.0, 10.0),
+            Method::Dop853,
+            &options,
+            None,
+        )
+    };
+    let steps = run(Output::Steps, 100_000).unwrap();
+    let last = run(Output::Final, 100_000).unwrap();
+    let (t, q, qd) = steps.last().unwrap();
+    assert_eq!(
+        (last.t.as_slice(), last.q.as_slice(), last.qd.as_slice()),
+        (&[t][..], q, qd)
+    );
+    assert_eq!(last.stats, steps.stats);
+    let failed = run(Output::Final, 20).unwrap_err();
+    let partial = failed.partial.unwrap();
+    let (t, q, qd) = failed.last.unwrap();
+    assert_eq!(
+        (partial.t, partial.q, partial.qd),
+        (vec![t], q.clone(), qd.clone())
+    );
+    assert!(t > 0.0 && t < 10.0);
+}
+
+/// An interrupt stops every run, started or not.
+#[test]
+fn interrupt_stops_every_run() {
+    let pendulum = SimplePendulum::new(1.0, 1.0, G).system();
+    let states = amplitudes(50);
+    let stop = |_t: f64| true;
+    let runs = solve_many(
+        Systems::One(&pendulum),
+        &slices(&states),
+        (0.0, 10.0),
+        Method::Dop853,
+        &Options::default(),
+        2,
+        Some(&stop),
+    )
+    .unwrap();
+    assert!(
+        runs.iter()
+            .all(|r| matches!(r, Err(f) if matches!(f.error, Error::Interrupted { .. })))
+    );
+}

@@ -1,0 +1,338 @@
+"""Ensembles (``Model.simulate_many``): pendulum periods against the elliptic integral, every
+run bit for bit ``simulate``'s (1 and 2 threads, a thread pool, a process pool, a Dask
+LocalCluster), a forced oscillator's resonance curve against the closed form, failed runs
+marked with their typed error and nothing but what they computed, and the checks."""
+
+import math
+import os
+import signal
+import threading
+import time
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
+import multiprocessing
+
+import numpy as np
+import pytest
+from scipy.special import ellipk
+
+import lagrangian as lg
+from conftest import double_pendulum_dsl
+
+G = 9.81
+
+
+def pendulum(l=1.0):
+    th, = lg.coordinates("th")
+    m, pl, g = lg.parameters("m l g")
+    return lg.Model(coordinates=[th], kinetic=0.5 * m * pl**2 * th.d**2,
+                    potential=-m * g * pl * lg.cos(th),
+                    parameters={"m": 1.0, "l": l, "g": G})
+
+
+def forced_oscillator():
+    """m ẍ + c ẋ + k x = F cos(w t)."""
+    x, = lg.coordinates("x")
+    m, k, c, f, w = lg.parameters("m k c F w")
+    return lg.Model(coordinates=[x], kinetic=0.5 * m * x.d**2, potential=0.5 * k * x**2,
+                    dissipation=0.5 * c * x.d**2, forces=[f * lg.cos(w * lg.t)],
+                    parameters={"m": 1.0, "k": 4.0, "c": 0.4, "F": 1.0, "w": 1.0})
+
+
+def crossings(t, q, qd):
+    """The times where q changes sign, each the root of the cubic Hermite interpolant of
+    (q, q̇) on its sampling interval (Newton from the linear estimate)."""
+    i = np.flatnonzero(np.sign(q[:-1]) * np.sign(q[1:]) < 0)
+    h = t[i + 1] - t[i]
+    s = q[i] / (q[i] - q[i + 1])  # linear estimate, as a fraction of the interval
+    for _ in range(8):
+        h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
+        h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
+        p = h00 * q[i] + h10 * h * qd[i] + h01 * q[i + 1] + h11 * h * qd[i + 1]
+        dp = ((6 * s**2 - 6 * s) * q[i] + (3 * s**2 - 4 * s + 1) * h * qd[i]
+              + (-6 * s**2 + 6 * s) * q[i + 1] + (3 * s**2 - 2 * s) * h * qd[i + 1])
+        s = s - p / dp
+    return t[i] + s * h
+
+
+def test_pendulum_periods_match_the_elliptic_integral():
+    # 1000 pendulums released at rest from amplitudes over (0.1, 3.0): T = 4 √(l/g) K(sin²(θ₀/2)).
+    l = 1.3
+    model = pendulum(l)
+    theta0 = np.linspace(0.1, 3.0, 1002)[1:-1]
+    t = np.linspace(0.0, 12.0, 1201)
+    ens = model.simulate_many(theta0[:, None], [0.0], 12.0, t_eval=t, method="dop853",
+                              rtol=1e-11, atol=1e-12)
+    assert ens.ok.all() and ens.q.shape == (1000, 1201, 1)
+    exact = 4 * math.sqrt(l / G) * ellipk(np.sin(theta0 / 2) ** 2)
+    assert exact.max() / exact.min() > 2.4  # the amplitudes reach far into the nonlinear range
+    for i in range(1000):
+        z = crossings(t, ens.q[i, :, 0], ens.qd[i, :, 0])
+        assert len(z) >= 4, i
+        period = 2 * (z[-1] - z[0]) / (len(z) - 1)
+        assert abs(period - exact[i]) < 1e-8 * exact[i], (i, period, exact[i])
+        assert abs(z[0] - exact[i] / 4) < 1e-8 * exact[i], i
+
+
+def assert_same(ens, i, sol):
+    """Run i of the ensemble is `sol`, bit for bit."""
+    s = ens.solution(i)
+    assert np.array_equal(s.t, sol.t) and np.array_equal(s.q, sol.q), i
+    assert np.array_equal(s.qd, sol.qd), i
+    assert np.array_equal(s.energy, sol.energy), i
+    assert s.stats == sol.stats, i
+
+
+@pytest.fixture(scope="module")
+def hundred():
+    """A double pendulum and 100 initial states, some chaotic."""
+    rng = np.random.default_rng(15)
+    q0 = rng.uniform(-2.5, 2.5, (100, 2))
+    qd0 = rng.uniform(-1.0, 1.0, (100, 2))
+    return double_pendulum_dsl(), q0, qd0
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_every_run_is_simulate_bit_for_bit(hundred, workers):
+    model, q0, qd0 = hundred
+    t = np.linspace(0.0, 5.0, 51)
+    steps = model.simulate_many(q0, qd0, 5.0, method="dop853", rtol=1e-8, atol=1e-10,
+                                workers=workers)
+    dense = model.simulate_many(q0, qd0, 5.0, t_eval=t, rtol=1e-8, atol=1e-10,
+                                workers=workers)
+    final = model.simulate_many(q0, qd0, 5.0, method="gauss4", dt=0.01, final_only=True,
+                                workers=workers)
+    assert steps.output == "steps" and dense.output == "t_eval" and final.output == "final"
+    for i in range(100):
+        assert_same(steps, i, model.simulate(q0[i], qd0[i], 5.0, method="dop853", rtol=1e-8,
+                                             atol=1e-10))
+        assert_same(dense, i, model.simulate(q0[i], qd0[i], 5.0, t_eval=t, rtol=1e-8,
+                                             atol=1e-10))
+        sol = model.simulate(q0[i], qd0[i], 5.0, method="gauss4", dt=0.01)
+        assert final.t[i] == sol.t[-1] == 5.0
+        assert np.array_equal(final.q[i], sol.q[-1]) and np.array_equal(final.qd[i], sol.qd[-1])
+        assert final.run_stats(i) == sol.stats
+    assert dense.stats["method"].tolist() == ["dop853"] * 100  # auto chose it for each
+    assert dense.stats["choice"][0] is not None
+
+
+def test_parameter_sweeps_bind_each_run(hundred):
+    # A compiled model rebound per run and a scene built per run: each run as with_parameters
+    # would make it, bit for bit.
+    model, q0, qd0 = hundred
+    g = np.linspace(1.0, 20.0, 100)
+    ens = model.simulate_many(q0, qd0, 3.0, parameters={"g": g, "m2": 0.5}, rtol=1e-9,
+                              workers=2)
+    scene = lg.scenes.double_pendulum(1.3, 0.7, 1.1, 0.8, 9.81)
+    by_scene = scene.simulate_many(q0, qd0, 3.0, parameters={"g": g, "m2": 0.5}, rtol=1e-9,
+                                   final_only=True)
+    for i in range(0, 100, 9):
+        assert_same(ens, i, model.with_parameters(g=g[i], m2=0.5).simulate(q0[i], qd0[i], 3.0,
+                                                                              rtol=1e-9))
+        sol = scene.with_parameters(g=g[i], m2=0.5).simulate(q0[i], qd0[i], 3.0, rtol=1e-9)
+        assert np.array_equal(by_scene.q[i], sol.q[-1])
+        # The two models of the same pendulum agree to the tolerance.
+        assert np.allclose(by_scene.q[i], ens.q[i][-1], rtol=0, atol=1e-5)
+
+
+def test_forced_oscillator_resonance_curve():
+    # m ẍ + c ẋ + k x = F cos ωt from rest: after the transient (decay rate c/2m = 0.2, e^{-16}
+    # by t = 80) x = a cos ωt + b sin ωt with √(a² + b²) = F / √((k − mω²)² + (cω)²).
+    model = forced_oscillator()
+    w = np.linspace(0.5, 4.0, 351)
+    t = np.linspace(80.0, 100.0, 401)
+    ens = model.simulate_many([0.0], [0.0], 100.0, parameters={"w": w}, t_eval=t,
+                              method="dop853", rtol=1e-11, atol=1e-13)
+    assert ens.ok.all()
+    amplitude = np.empty(len(w))
+    for i, wi in enumerate(w):
+        basis = np.column_stack([np.cos(wi * t), np.sin(wi * t)])
+        (a, b), *_ = np.linalg.lstsq(basis, ens.q[i, :, 0], rcond=None)
+        amplitude[i] = math.hypot(a, b)
+    exact = 1.0 / np.sqrt((4.0 - w**2) ** 2 + (0.4 * w) ** 2)
+    assert np.allclose(amplitude, exact, rtol=1e-6, atol=0)
+    # The peak sits at √(ω₀² − c²/2m²), not at ω₀ = 2.
+    assert abs(w[np.argmax(amplitude)] - math.sqrt(4.0 - 0.08)) <= 0.5 * (w[1] - w[0])
+
+
+def test_singular_runs_are_marked_and_the_rest_are_right():
+    # Zero masses make M singular: those runs fail as simulate fails for them, at their first
+    # evaluation with SingularMassMatrixError, keeping the initial state and nothing else; the
+    # others follow the closed form. A compiled model rebound per run, and a scene built per run.
+    osc = lg.scenes.damped_oscillator(m=1.0, k=4.0, c=0.4)
+    x, = lg.coordinates("x")
+    m, k, c = lg.parameters("m k c")
+    model = lg.Model(coordinates=[x], kinetic=0.5 * m * x.d**2, potential=0.5 * k * x**2,
+                     dissipation=0.5 * c * x.d**2, parameters={"m": 1.0, "k": 4.0, "c": 0.4})
+    masses = np.array([0.5, 0.0, 1.0, 2.0, 0.0, 3.0])
+    t = np.linspace(0.0, 3.0, 7)
+    for subject in (model, osc):
+        ens = subject.simulate_many([1.0], [0.5], 3.0, parameters={"m": masses}, t_eval=t,
+                                    rtol=1e-11, atol=1e-12)
+        assert ens.status.tolist() == [0, 1, 0, 0, 1, 0]
+        assert sorted(ens.failures) == [1, 4]
+        for i in (1, 4):
+            failure = ens.failures[i]
+            expected = lg.SingularMassMatrixError
+            assert type(ens.error(i)) is expected and failure.error == expected.__name__
+            with pytest.raises(expected) as raised:
+                subject.with_parameters(m=0.0).simulate([1.0], [0.5], 3.0, t_eval=t)
+            err = raised.value
+            assert str(err) == failure.message == str(ens.error(i))
+            assert failure.t == err.t == 0.0 and ens.reached[i] == 1
+            assert_same(ens, i, err.solution)
+        assert isinstance(ens.q, np.ma.MaskedArray) and ens.q.mask[1, 1:].all()
+        assert np.isfinite(np.ma.getdata(ens.q)).all() and np.isfinite(np.ma.getdata(ens.qd)).all()
+        for i in (0, 2, 3, 5):
+            assert not ens.q.mask[i].any() and ens.reached[i] == len(t)
+            exact = lg.scenes.damped_oscillator(m=masses[i], k=4.0, c=0.4)
+            for j, tj in enumerate(t):
+                xq, xqd = exact.exact(tj, [1.0], [0.5])
+                assert abs(ens.q[i, j, 0] - xq[0]) < 1e-9 and abs(ens.qd[i, j, 0] - xqd[0]) < 1e-9
+
+
+def test_runs_that_fail_midway_keep_what_they_computed():
+    # A step budget that the wide swings exhaust: those runs stop with TooManyStepsError and
+    # keep exactly what simulate's err.solution keeps.
+    model = pendulum()
+    theta0 = np.array([0.2, 2.0, 0.15, 1.0])
+    t = np.linspace(0.0, 20.0, 201)
+    kwargs = dict(t_eval=t, rtol=1e-12, atol=1e-12, max_steps=350)
+    ens = model.simulate_many(theta0[:, None], [0.0], 20.0, **kwargs)
+    assert ens.status.tolist() == [0, 1, 0, 1]
+    for i in (1, 3):
+        assert ens.failures[i].error == "TooManyStepsError"
+        with pytest.raises(lg.TooManyStepsError) as err:
+            model.simulate([theta0[i]], [0.0], 20.0, **kwargs)
+        partial = err.value.solution
+        assert ens.failures[i].t == err.value.t
+        assert 0 < ens.reached[i] == len(partial) < len(t)
+        assert_same(ens, i, partial)
+        assert ens.q.mask[i, ens.reached[i]:].all() and not ens.q.mask[i, :ens.reached[i]].any()
+    final = model.simulate_many(theta0[:, None], [0.0], 20.0, rtol=1e-12, atol=1e-12,
+                                max_steps=350, final_only=True)
+    steps = model.simulate_many(theta0[:, None], [0.0], 20.0, rtol=1e-12, atol=1e-12,
+                                max_steps=350)
+    for i in range(4):
+        # The last accepted state, at its own time: never filled, never NaN.
+        assert final.t[i] == steps.t[i][-1] and np.array_equal(final.q[i], steps.q[i][-1])
+    assert final.t[1] < 20.0 and final.failures[1].t == final.t[1]
+
+
+def thirty():
+    rng = np.random.default_rng(7)
+    return rng.uniform(-2.0, 2.0, (30, 2)), rng.uniform(-1.0, 1.0, (30, 2))
+
+
+def test_executors_give_the_local_result():
+    model = double_pendulum_dsl()
+    q0, qd0 = thirty()
+    t = np.linspace(0.0, 4.0, 41)
+    m2 = np.linspace(0.0, 1.0, 30)  # m2 = 0 makes M singular for the first run
+    local = model.simulate_many(q0, qd0, 4.0, parameters={"m2": m2}, t_eval=t, rtol=1e-9)
+    assert local.status[0] == 1 and local.ok[1:].all()
+    with ThreadPoolExecutor(2) as pool:
+        threaded = model.simulate_many(q0, qd0, 4.0, parameters={"m2": m2}, t_eval=t,
+                                       rtol=1e-9, executor=pool, chunks=7, timeout=120)
+    spawn = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(2, mp_context=spawn) as pool:
+        processes = model.simulate_many(q0, qd0, 4.0, parameters={"m2": m2}, t_eval=t,
+                                        rtol=1e-9, executor=pool, timeout=300)
+    for other in (threaded, processes):
+        assert_ensembles_equal(local, other)
+
+
+def assert_ensembles_equal(a, b):
+    assert a.output == b.output and len(a) == len(b)
+    assert a.failures == b.failures
+    assert np.array_equal(a.reached, b.reached) and np.array_equal(a.status, b.status)
+    for key in a.stats:
+        assert a.stats[key].tolist() == b.stats[key].tolist(), key
+    if a.output == "steps":
+        for x, y in ((a.t, b.t), (a.q, b.q), (a.qd, b.qd)):
+            assert all(np.array_equal(u, v) for u, v in zip(x, y))
+    else:
+        for x, y in ((a.t, b.t), (a.q, b.q), (a.qd, b.qd)):
+            assert np.array_equal(np.ma.getdata(x), np.ma.getdata(y))
+            assert np.array_equal(np.ma.getmaskarray(x), np.ma.getmaskarray(y))
+
+
+def test_dask_local_cluster_gives_the_local_result(hundred):
+    distributed = pytest.importorskip("distributed", reason="pip install '.[dask]'")
+    model, q0, qd0 = hundred
+    t = np.linspace(0.0, 5.0, 51)
+    scene = lg.scenes.double_pendulum(1.3, 0.7, 1.1, 0.8, 9.81)
+    g = np.linspace(1.0, 20.0, 100)
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                       host="127.0.0.1", dashboard_address=None, timeout=120)
+    try:
+        client = distributed.Client(cluster, timeout=120)
+        try:
+            for run in (
+                lambda **kw: model.simulate_many(q0, qd0, 5.0, t_eval=t, rtol=1e-8, **kw),
+                lambda **kw: model.simulate_many(q0, qd0, 5.0, method="dop853", rtol=1e-8, **kw),
+                lambda **kw: scene.simulate_many(q0, qd0, 2.0, parameters={"g": g},
+                                                 final_only=True, **kw),
+            ):
+                local = run()
+                assert_ensembles_equal(local, run(executor=client, timeout=300))
+            # Every run equals simulate through Dask too.
+            ens = model.simulate_many(q0, qd0, 5.0, t_eval=t, rtol=1e-8, executor=client,
+                                      chunks=3, timeout=300)
+            for i in range(100):
+                assert_same(ens, i, model.simulate(q0[i], qd0[i], 5.0, t_eval=t, rtol=1e-8))
+        finally:
+            client.close(timeout=60)
+    finally:
+        cluster.close(timeout=60)
+
+
+def test_broadcast_and_input_checks():
+    model = pendulum()
+    ens = model.simulate_many([0.5], [[0.0], [0.1], [0.2]], 1.0, final_only=True)
+    assert len(ens) == 3 and ens.q.shape == (3, 1)
+    ens = model.simulate_many([0.5], [0.0], 1.0, parameters={"l": [1.0, 2.0]}, final_only=True)
+    assert len(ens) == 2 and ens.q[0, 0] != ens.q[1, 0]
+    with pytest.raises(ValueError, match="do not agree in number"):
+        model.simulate_many([[0.5], [0.6]], [0.0], 1.0, parameters={"l": [1.0, 2.0, 3.0]})
+    with pytest.raises(ValueError, match="unknown parameter 'L'"):
+        model.simulate_many([0.5], [0.0], 1.0, parameters={"L": [1.0]})
+    with pytest.raises(ValueError, match=r"parameter 'l'\[1\] = nan is not finite"):
+        model.simulate_many([0.5], [0.0], 1.0, parameters={"l": [1.0, float("nan")]})
+    with pytest.raises(ValueError, match=r"q0\[1, 0\] = inf is not finite"):
+        model.simulate_many([[0.5], [math.inf]], [0.0], 1.0)
+    with pytest.raises(ValueError, match="t_eval or final_only"):
+        model.simulate_many([0.5], [0.0], 1.0, t_eval=[0.5], final_only=True)
+    with pytest.raises(ValueError, match="workers = 0"):
+        model.simulate_many([0.5], [0.0], 1.0, workers=0)
+    with pytest.raises(TypeError, match="executor must be"):
+        model.simulate_many([0.5], [0.0], 1.0, executor=object())
+    # The options are simulate's, with its messages.
+    for bad in (dict(rtol=-1.0), dict(method="rk4"), dict(method="nope"), dict(dt=-0.1)):
+        with pytest.raises(ValueError) as many:
+            model.simulate_many([0.5], [0.0], 1.0, **bad)
+        with pytest.raises(ValueError) as one:
+            model.simulate([0.5], [0.0], 1.0, **bad)
+        assert str(many.value) == str(one.value)
+
+
+def test_keyboard_interrupt_stops_the_ensemble():
+    # As for simulate (test_errors.py): a helper thread sends SIGINT; the bounded ensemble
+    # (seconds of work) must end with KeyboardInterrupt instead of finishing.
+    model = lg.scenes.double_pendulum(1.0, 1.0, 1.0, 1.0, 9.81)
+    sent = threading.Event()
+
+    def interrupt():
+        time.sleep(0.3)
+        sent.set()
+        os.kill(os.getpid(), signal.SIGINT)
+
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        threading.Thread(target=interrupt, daemon=True).start()
+        with pytest.raises(KeyboardInterrupt):
+            model.simulate_many([1.0, 0.5], [0.0, 0.0], 4e3, method="rk4", dt=1e-3,
+                                parameters={"g": np.linspace(9.0, 10.0, 20)}, final_only=True,
+                                max_steps=10**8, workers=2)
+        assert sent.is_set()
+    finally:
+        signal.signal(signal.SIGINT, previous)
