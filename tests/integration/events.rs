@@ -506,7 +506,7 @@ fn solver_steps_are_the_runs_steps() {
 /// first sample interval after a reset.
 #[test]
 fn every_bounce_found_once() {
-    let mut rng = common::Rng(14);
+    let mut rng = crate::common::Rng(14);
     let g = 9.81;
     let system = System::new(1, UnitMass).with_potential(Gravity(g));
     for run in 0..120 {

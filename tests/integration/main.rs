@@ -12,6 +12,8 @@
 mod ad;
 mod common;
 mod compiled;
+#[cfg(feature = "parallel")]
+mod ensemble;
 mod events;
 mod graph_derivatives;
 mod implicit;

@@ -2,7 +2,6 @@
 //! [`solve_partial`] of the same problem with 1 and 2 threads, in input order; parameter sweeps
 //! against closed forms; failed runs keep their typed error and do not disturb the others;
 //! [`Output::Final`] keeps the last state only.
-#![cfg(feature = "parallel")]
 // `Failed` is returned once per run, as in the library.
 #![allow(clippy::result_large_err)]
 
