@@ -21,6 +21,9 @@ PathLike = Union[str, "os.PathLike[str]"]
 class Solution:
     """A trajectory from :meth:`Model.simulate`.
 
+    With ``simulate(..., dense=True)`` the solution is callable: ``sol(t)`` gives (q, q̇)
+    anywhere in the span from the method's own interpolant (see :meth:`__call__`).
+
     Attributes
     ----------
     t : numpy.ndarray, shape (n,)
@@ -51,9 +54,6 @@ class Solution:
         partial solution carried by an exception).
     message : str
         ``"reached t_end"``, ``"terminal event <name> at t = …"``, or the failure.
-
-    With ``simulate(..., dense=True)`` the solution is callable: ``sol(t)`` gives (q, q̇)
-    anywhere in the span from the method's own interpolant (see :meth:`__call__`).
     """
 
     __slots__ = (
