@@ -3,6 +3,7 @@ threads and on a Dask LocalCluster (two worker processes, one thread each), for
 
 - 10⁴ double-pendulum runs (the model stated in Python, compiled), t_end = 10, DOP853,
   rtol = atol = 1e-8, initial angles uniform in (−2, 2), at rest; final states only;
+- the same with an event (θ₂ falling through zero, every occurrence recorded);
 - 10³ runs of a resonance sweep of a forced, damped oscillator m ẍ + c ẋ + k x = F cos ωt,
   ω over (0.5, 4), t_end = 100, DOP853, rtol = 1e-8, atol = 1e-10, 201 output times over
   (80, 100).
@@ -60,8 +61,14 @@ def cases():
     k = 10_000
     q0 = rng.uniform(-2.0, 2.0, (k, 2))
     dp = dict(method="dop853", rtol=1e-8, atol=1e-8)
-    yield ("double pendulum, 10⁴ runs", double_pendulum(), q0, np.zeros((k, 2)), 10.0, {},
+    model = double_pendulum()
+    yield ("double pendulum, 10⁴ runs", model, q0, np.zeros((k, 2)), 10.0, {},
            dict(dp, final_only=True), dict(dp, output_every=10**9), 1e-6)
+    th1, th2 = model.coordinates
+    event = [lg.Event(th2, direction=-1, name="th2 falls through 0")]
+    yield ("the same with an event", model, q0, np.zeros((k, 2)), 10.0, {},
+           dict(dp, final_only=True, events=event), dict(dp, output_every=10**9, events=event),
+           1e-6)
     w = np.linspace(0.5, 4.0, 1000)
     t = np.linspace(80.0, 100.0, 201)
     fo = dict(method="dop853", rtol=1e-8, atol=1e-10)

@@ -28,6 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _lagrangian
+from ._events import Event, event_specs
 from ._solution import Solution
 from ._validate import integer, number, real, states
 
@@ -41,8 +42,10 @@ IntArray = npt.NDArray[np.int64]
 ArrayLike = Union[Sequence[float], Sequence[Sequence[float]], FloatArray]
 
 # What the native `simulate_many` returns: (t, q, qd, reached, counters, method, choice,
-# choices, failures); see src/python/ensemble.rs.
-Raw = Tuple[Any, Any, Any, IntArray, IntArray, IntArray, IntArray, List[str], List[Any]]
+# choices, failures, status, events); see src/python/ensemble.rs.
+Raw = Tuple[
+    Any, Any, Any, IntArray, IntArray, IntArray, IntArray, List[str], List[Any], Any, List[Any]
+]
 
 COUNTERS = (
     "accepted_steps",
@@ -81,7 +84,8 @@ class Ensemble:
     reached : numpy.ndarray of int, shape (k,)
         How many output points each run filled: all of them for a run that finished.
     status : numpy.ndarray of int8, shape (k,)
-        0 for a run that finished, 1 for one that failed (see :attr:`failures`).
+        As :attr:`Solution.status`: 0 for a run that reached ``t_end``, 1 for one a terminal
+        event stopped, −1 for one that failed (see :attr:`failures`).
     failures : dict of int to Failure
         Why each failed run failed, by run index.
     stats : dict of str to numpy.ndarray
@@ -90,6 +94,15 @@ class Ensemble:
         ``"auto"`` chose it, else ``None``), ``accepted_steps``, ``rejected_steps``,
         ``rhs_evaluations``, ``jacobian_evaluations``, ``factorizations``,
         ``newton_failures``. :meth:`run_stats` gives one run's as ``Solution.stats`` does.
+    t_events : list of list of numpy.ndarray
+        With ``events``: ``t_events[j][i]`` the times of event j's occurrences in run i
+        (:attr:`Solution.t_events` of run i is ``[t_events[j][i] for j ...]``).
+    q_events, qd_events : list of list of numpy.ndarray
+        The states there, each of shape (occurrences, dof).
+    event_counts : numpy.ndarray of int, shape (k, number of events)
+        How many times each event occurred in each run.
+    event_names : tuple of str
+        The events' names, in the order given.
     parameters : dict of str to numpy.ndarray
         The swept parameters' values, one per run.
     names : tuple of str
@@ -112,10 +125,17 @@ class Ensemble:
         "status",
         "failures",
         "stats",
+        "t_events",
+        "q_events",
+        "qd_events",
+        "event_counts",
+        "event_names",
         "parameters",
         "names",
         "output",
         "_model",
+        "_events",
+        "_terminal",
     )
 
     t: Any
@@ -125,6 +145,11 @@ class Ensemble:
     status: npt.NDArray[np.int8]
     failures: Dict[int, Failure]
     stats: Dict[str, Any]
+    t_events: List[List[FloatArray]]
+    q_events: List[List[FloatArray]]
+    qd_events: List[List[FloatArray]]
+    event_counts: IntArray
+    event_names: Tuple[str, ...]
     parameters: Dict[str, FloatArray]
     names: Tuple[str, ...]
     output: str
@@ -135,16 +160,26 @@ class Ensemble:
         model: Optional["Model"],
         mode: str,
         parameters: Optional[Mapping[str, FloatArray]] = None,
+        events: Sequence[Event] = (),
     ) -> None:
-        t, q, qd, reached, counters, method, choice, choices, failures = raw
+        t, q, qd, reached, counters, method, choice, choices, failures, status, found = raw
         k = len(reached)
         self.reached = np.asarray(reached, dtype=np.int64)
         self.failures = {
             int(i): Failure(str(name), str(msg), None if ti is None else float(ti))
             for i, name, msg, ti in failures
         }
-        self.status = np.zeros(k, dtype=np.int8)
-        self.status[list(self.failures)] = 1
+        self.status = np.asarray(status, dtype=np.int8)
+        self._events = list(events)
+        self.event_names = tuple(e.name for e in self._events)
+        m = len(self.event_names)
+        self.t_events = [[np.asarray(run[j][0]) for run, _ in found] for j in range(m)]
+        self.q_events = [[np.asarray(run[j][1]) for run, _ in found] for j in range(m)]
+        self.qd_events = [[np.asarray(run[j][2]) for run, _ in found] for j in range(m)]
+        self._terminal = {i: str(why) for i, (_, why) in enumerate(found) if why is not None}
+        self.event_counts = np.array(
+            [[len(times[i]) for times in self.t_events] for i in range(k)], dtype=np.int64
+        ).reshape(k, m)
         names = np.array(list(_lagrangian.methods()) + [""])
         self.stats = {
             "method": names[np.asarray(method, dtype=np.int64)],
@@ -155,7 +190,7 @@ class Ensemble:
         counters = np.asarray(counters, dtype=np.int64).reshape(k, len(COUNTERS))
         for j, key in enumerate(COUNTERS):
             self.stats[key] = counters[:, j].copy()
-        if mode == "t_eval" and self.status.any():
+        if mode == "t_eval" and self.failures:
             rows = np.arange(len(t))[None, :] >= self.reached[:, None]
             mask = np.broadcast_to(rows[:, :, None], q.shape).copy()
             q, qd = np.ma.masked_array(q, mask), np.ma.masked_array(qd, mask)
@@ -172,8 +207,8 @@ class Ensemble:
 
     @property
     def ok(self) -> npt.NDArray[np.bool_]:
-        """Whether each run finished, shape (k,)."""
-        ok: npt.NDArray[np.bool_] = self.status == 0
+        """Whether each run finished (reached ``t_end`` or a terminal event), shape (k,)."""
+        ok: npt.NDArray[np.bool_] = self.status >= 0
         return ok
 
     def __len__(self) -> int:
@@ -189,7 +224,7 @@ class Ensemble:
         for key in COUNTERS:
             out[key] = int(self.stats[key][i])
         if self._model is not None:
-            out["conserved"] = self._model._conserved(None)
+            out["conserved"] = self._model._conserved(self._events)
         return out
 
     def error(self, i: int) -> Optional[Exception]:
@@ -228,6 +263,12 @@ class Ensemble:
         energy = np.array(
             [model.energy(float(t[j]), q[j], qd[j]) for j in range(rows)], dtype=np.float64
         )
+        failure = self.failures.get(i)
+        status = int(self.status[i])
+        if failure is not None:
+            message = failure.message
+        else:
+            message = self._terminal.get(i, "reached t_end")
         return Solution(
             np.ascontiguousarray(t, dtype=np.float64),
             np.ascontiguousarray(q, dtype=np.float64),
@@ -235,6 +276,13 @@ class Ensemble:
             energy,
             self.run_stats(i),
             names=self.names,
+            events=[
+                (self.t_events[j][i], self.q_events[j][i], self.qd_events[j][i])
+                for j in range(len(self.event_names))
+            ],
+            event_names=self.event_names,
+            status=status,
+            message=message,
         )
 
 
@@ -253,6 +301,7 @@ def simulate_many(
     atol: float = 1e-9,
     max_steps: Optional[int] = None,
     final_only: bool = False,
+    events: Optional[Sequence[Event]] = None,
     workers: Optional[int] = None,
     executor: Any = None,
     chunks: Optional[int] = None,
@@ -298,15 +347,21 @@ def simulate_many(
     qd = np.ascontiguousarray(np.broadcast_to(qd, (k, n)))
     base = model.with_parameters(**fixed) if fixed else model
     options = _options(t0, method, dt, rtol, atol, t_eval, max_steps, final_only)
+    if isinstance(events, Event):
+        raise TypeError("events must be a sequence of lagrangian.Event: pass events=[event]")
+    events = list(events or ())
+    event_specs(events, base._coordinates, base._parameters)  # checked before any run
     t_end = real("t_end", t_end)
     if workers is not None and integer("workers", workers) < 1:
         raise ValueError(f"workers = {workers}: give at least one thread")
     mode = "final" if final_only else "steps" if t_eval is None else "t_eval"
     if executor is None or k == 0:
-        raw = _run(base, q, qd, t_end, sweep, options, workers or 0)
+        raw = _run(base, q, qd, t_end, sweep, options, events, workers or 0)
     else:
-        raw = _run_on(executor, base, q, qd, t_end, sweep, options, workers, chunks, timeout)
-    return Ensemble(raw, base, mode, sweep)
+        raw = _run_on(
+            executor, base, q, qd, t_end, sweep, options, events, workers, chunks, timeout
+        )
+    return Ensemble(raw, base, mode, sweep, events)
 
 
 def _options(
@@ -351,6 +406,7 @@ def _run(
     t_end: float,
     sweep: Mapping[str, FloatArray],
     options: Mapping[str, Any],
+    events: Sequence[Event],
     workers: int,
 ) -> Raw:
     """The runs on this machine, on ``workers`` threads (0: every core)."""
@@ -358,6 +414,16 @@ def _run(
 
     k = len(q)
     per_run: Dict[str, Any] = {}
+    if events:
+        specs, reads = event_specs(events, model._coordinates, model._parameters)
+        values = model.parameters
+        per_run["events"] = specs
+        per_run["backend"] = model._backend
+        # An event that reads a swept parameter is bound to each run's value.
+        per_run["event_params"] = [
+            _columns(names, sweep, values, k) if set(names) & set(sweep) else None
+            for names in reads
+        ]
     if sweep:
         values = model.parameters
         if isinstance(model, SceneModel):
@@ -365,16 +431,26 @@ def _run(
             each = [{**values, **{c: v[i] for c, v in columns.items()}} for i in range(k)]
             per_run["scenes"] = (model.scene, each)
         else:
-            per_run["params"] = np.ascontiguousarray(
-                np.column_stack(
-                    [sweep[name] if name in sweep else np.full(k, v) for name, v in values.items()]
-                ),
-                dtype=np.float64,
-            )
+            per_run["params"] = _columns(list(values), sweep, values, k)
     raw: Raw = _lagrangian.simulate_many(
         model._native, q, qd, t_end, **per_run, **options, workers=workers
     )
     return raw
+
+
+def _columns(
+    names: Sequence[str], sweep: Mapping[str, FloatArray], values: Mapping[str, Any], k: int
+) -> FloatArray:
+    """The values of the parameters ``names`` in each of k runs, shape (k, len(names)): the
+    swept ones from ``sweep``, the others fixed at ``values``."""
+    if not names:
+        return np.zeros((k, 0), dtype=np.float64)
+    return np.ascontiguousarray(
+        np.column_stack(
+            [sweep[name] if name in sweep else np.full(k, values[name]) for name in names]
+        ),
+        dtype=np.float64,
+    )
 
 
 # Models unpickled by the chunks run in this process, by the hash of their pickle: a worker
@@ -391,9 +467,11 @@ def _run_chunk(
     t_end: float,
     sweep: Mapping[str, FloatArray],
     options: Mapping[str, Any],
+    events: Sequence[Event],
     workers: int,
-) -> Raw:
-    """One chunk of runs, on an executor's worker."""
+    packed: bool,
+) -> Union[Raw, bytes]:
+    """One chunk of runs, on an executor's worker; pickled when ``packed``."""
     with _MODELS_LOCK:
         model = _MODELS.get(key)
         if model is None:
@@ -401,7 +479,10 @@ def _run_chunk(
             _MODELS[key] = model
             while len(_MODELS) > 8:
                 _MODELS.popitem(last=False)
-    return _run(model, q, qd, t_end, sweep, options, workers)
+    raw = _run(model, q, qd, t_end, sweep, options, events, workers)
+    # One pickle of the whole chunk: Dask would serialize each run's small event arrays one by
+    # one, measured 7x slower than pickle (benches/ensemble.py, a run with an event).
+    return pickle.dumps(raw, protocol=5) if packed else raw
 
 
 def _run_on(
@@ -412,6 +493,7 @@ def _run_on(
     t_end: float,
     sweep: Mapping[str, FloatArray],
     options: Mapping[str, Any],
+    events: Sequence[Event],
     workers: Optional[int],
     chunks: Optional[int],
     timeout: Optional[float],
@@ -437,9 +519,12 @@ def _run_on(
     blob = pickle.dumps(model)
     key = hashlib.sha256(blob).hexdigest()
     # Dask sends the pickled model to every worker once; other executors send its bytes with
-    # each chunk (the worker still compiles it once, see `_MODELS`).
-    shipped: Any = executor.scatter(blob, broadcast=True) if dask else blob
+    # each chunk (the worker still compiles it once, see `_MODELS`). `hash=False`: a key of its
+    # own for each ensemble, since the same model's key from the last ensemble may be in the
+    # middle of being released (its chunks then fail with "lost dependencies").
+    shipped: Any = executor.scatter(blob, broadcast=True, hash=False) if dask else blob
     submit_options = {"pure": False} if dask else {}
+    packed = not isinstance(executor, concurrent.futures.ThreadPoolExecutor)
     futures = [
         executor.submit(
             _run_chunk,
@@ -450,13 +535,16 @@ def _run_on(
             t_end,
             {name: v[a:b] for name, v in sweep.items()},
             options,
+            events,
             workers or 1,
+            packed,
             **submit_options,
         )
         for a, b in zip(bounds[:-1], bounds[1:])
     ]
     try:
-        parts: List[Raw] = [f.result(timeout=timeout) for f in futures]
+        results = [f.result(timeout=timeout) for f in futures]
+        parts: List[Raw] = [pickle.loads(r) if packed else r for r in results]
     except BaseException:
         for f in futures:
             f.cancel()
@@ -475,8 +563,13 @@ def _concat(parts: List[Raw], shared_t: bool) -> Raw:
     choice: List[IntArray] = []
     choices: List[str] = []
     failures: List[Any] = []
+    status: List[Any] = []
+    found: List[Any] = []
     offset = 0
-    for pt, pq, pqd, preached, pcounters, pmethod, pchoice, pchoices, pfailures in parts:
+    for part in parts:
+        pt, pq, pqd, preached, pcounters, pmethod, pchoice, pchoices, pfailures = part[:9]
+        status.append(part[9])
+        found.extend(part[10])
         index = {c: j for j, c in enumerate(choices)}
         remap = np.array([index.setdefault(c, len(index)) for c in pchoices] + [-1])
         choices = list(index)
@@ -495,7 +588,10 @@ def _concat(parts: List[Raw], shared_t: bool) -> Raw:
         failures.extend((i + offset, *rest) for i, *rest in pfailures)
         offset += len(preached)
     if isinstance(parts[0][0], list):
-        return (t, q, qd, *_stack(reached, counters, method, choice), choices, failures)
+        return (
+            t, q, qd, *_stack(reached, counters, method, choice), choices, failures,
+            np.concatenate(status), found,
+        )
     return (
         parts[0][0] if shared_t else np.concatenate(t),
         np.concatenate(q),
@@ -503,6 +599,8 @@ def _concat(parts: List[Raw], shared_t: bool) -> Raw:
         *_stack(reached, counters, method, choice),
         choices,
         failures,
+        np.concatenate(status),
+        found,
     )
 
 

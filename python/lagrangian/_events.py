@@ -145,8 +145,9 @@ def event_specs(
     events: Sequence[Event],
     coordinates: Sequence[Coordinate],
     parameters: Mapping[str, Any],
-) -> List[Tuple[Any, ...]]:
-    """The events as the native ``simulate`` reads them, each checked against the model."""
+) -> Tuple[List[Tuple[Any, ...]], List[List[str]]]:
+    """The events as the native ``simulate`` reads them, each checked against the model, and
+    the names of the parameters each one reads, in the order of its spec's values."""
     from ._model import _to_raw  # the one map of symbol names to indices (imports this module)
 
     if isinstance(events, Event):
@@ -154,6 +155,7 @@ def event_specs(
     index = {c.name: i for i, c in enumerate(coordinates)}
     numeric = {k: v for k, v in parameters.items() if isinstance(v, numbers.Real)}
     specs: List[Tuple[Any, ...]] = []
+    reads: List[List[str]] = []
     for event in events:
         if not isinstance(event, Event):
             raise TypeError(f"events must hold lagrangian.Event objects, got {event!r}")
@@ -177,4 +179,5 @@ def event_specs(
                 event.samples,
             )
         )
-    return specs
+        reads.append(order)
+    return specs, reads

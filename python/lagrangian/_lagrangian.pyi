@@ -137,9 +137,12 @@ def simulate_many(
     max_steps: Optional[int] = None,
     final_only: bool = False,
     workers: int = 0,
+    events: Sequence[_EventSpec] = ...,
+    event_params: Sequence[Optional[_FloatArray]] = ...,
+    backend: str = "native",
 ) -> Any:
     """An ensemble of runs in Rust on ``workers`` threads (0: every core): (t, q, qd, reached,
-    counters, method, choice, choices, failures); see ``_ensemble.py``."""
+    counters, method, choice, choices, failures, status, events); see ``_ensemble.py``."""
 
 def method_info(name: str) -> Tuple[str, Optional[bool], Optional[int]]:
     """(canonical name, adaptive, order) of a method name; raises ValueError if unknown."""

@@ -770,7 +770,7 @@ class Model:
         if events is not None and not isinstance(events, Event):
             events = list(events)  # read three times below: a generator would be spent
         if events is not None:
-            kwargs["events"] = event_specs(events, self._coordinates, self._parameters)
+            kwargs["events"] = event_specs(events, self._coordinates, self._parameters)[0]
             kwargs["backend"] = self._backend
             event_names = [e.name for e in events]
         if not isinstance(dense, bool):
@@ -819,6 +819,7 @@ class Model:
         atol: float = 1e-9,
         max_steps: Optional[int] = None,
         final_only: bool = False,
+        events: Optional[Sequence[Event]] = None,
         workers: Optional[int] = None,
         executor: Any = None,
         chunks: Optional[int] = None,
@@ -858,6 +859,12 @@ class Model:
         final_only : bool
             Keep only each run's final state: ``t`` of shape (k,), ``q`` and ``qd`` of shape
             (k, dof), so that millions of runs fit in memory. Not with ``t_eval``.
+        events : sequence of Event, optional
+            As in :meth:`simulate`, in every run: the occurrences are in the ensemble's
+            ``t_events``, ``q_events`` and ``qd_events`` (``[j][i]``: event j in run i) and
+            ``event_counts``; a run a terminal event stopped has status 1. An event that reads a
+            swept parameter takes each run's value (compiled once). With ``final_only``, the
+            events are the sweep's whole output: a period, a first passage, an escape time.
         workers : int, optional
             Threads of this machine (default: every core); with ``executor``, threads per chunk
             on its worker (default 1: the executor's own workers give the parallelism).
@@ -889,7 +896,7 @@ class Model:
         return simulate_many(
             self, q0, qd0, t_end, t0=t0, parameters=parameters, t_eval=t_eval, method=method,
             dt=dt, rtol=rtol, atol=atol, max_steps=max_steps, final_only=final_only,
-            workers=workers, executor=executor, chunks=chunks, timeout=timeout,
+            events=events, workers=workers, executor=executor, chunks=chunks, timeout=timeout,
         )
 
     def equilibrium(

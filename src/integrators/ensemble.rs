@@ -6,7 +6,7 @@
 //! the number of threads — and the results come back in input order. A run that fails keeps its
 //! [`Failed`] (with what it had computed) and does not stop the others.
 
-use super::{Failed, Method, Options, Solution, solve_partial};
+use super::{Event, Failed, Method, Options, Solution, solve_partial};
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
 use rayon::prelude::*;
@@ -18,6 +18,10 @@ pub enum Systems<'a, S> {
     /// Run `i` integrates `build(i)`, built on the thread that runs it (a parameter sweep). A
     /// build that fails fails run `i` only, with that error and nothing computed.
     Each(&'a (dyn Fn(usize) -> Result<S> + Sync)),
+    /// Run `i` integrates the system `build(i)` gives, with the events it gives after those of
+    /// the options: for events whose conditions depend on the run (a swept threshold, an event
+    /// in a swept parameter). A build that fails fails run `i` only.
+    EachWithEvents(&'a (dyn Fn(usize) -> Result<(S, Vec<Event>)> + Sync)),
 }
 
 // By hand: a derive would ask for `S: Copy`, but only references are copied.
@@ -88,6 +92,12 @@ pub fn solve_many<S: Dynamics + Sync>(
             Systems::Each(build) => {
                 let system = build(i)?;
                 solve_partial(&system, q0, qd0, span, method, options, stop)
+            }
+            Systems::EachWithEvents(build) => {
+                let (system, events) = build(i)?;
+                let mut own = options.clone();
+                own.events.extend(events);
+                solve_partial(&system, q0, qd0, span, method, &own, stop)
             }
         }
     };

@@ -8,9 +8,12 @@
 //! builds the scene from each run's arguments, on the thread that runs it. Ctrl-C is polled
 //! from one place, the calling thread, every 20 ms; the runs only read an atomic flag.
 
-use super::model::AnyModel;
+use super::events::{CompiledEvent, EventSpec};
+use super::model::{AnyModel, Backend};
 use super::{PyModel, Step, check_finite, run_options, scenes};
-use crate::integrators::{Failed, Method, Output, RunResult, Solution, Systems, solve_many};
+use crate::integrators::{
+    Failed, Method, Occurrences, Output, RunResult, Solution, Status, Systems, solve_many,
+};
 use crate::scenes::registry::Arguments;
 use crate::{Dynamics, Error, Result};
 use numpy::ndarray::{Array1, Array2, Array3, ArrayView2};
@@ -37,8 +40,11 @@ const COUNTERS: [&str; 6] = [
 
 /// Integrate the model from each row of `q0`, `qd0` (shape (k, n)) over (t0, t_end), on
 /// `workers` threads (0: one per core). `params` (shape (k, p)) binds a compiled model to each
-/// run's parameter values; `scenes` gives a scene's arguments for each run. Returns
-/// `(t, q, qd, reached, counters, method, choice, choices, failures)`, where by output mode:
+/// run's parameter values; `scenes` gives a scene's arguments for each run. `events` are
+/// compiled once (with `backend`); an event whose `event_params` entry is an array (shape
+/// (k, its parameters)) is bound to row i in run i, the others to their spec's values. Returns
+/// `(t, q, qd, reached, counters, method, choice, choices, failures, status, events)`, where
+/// by output mode:
 ///
 /// - `t_eval`: `t` the times, `q` and `qd` of shape (k, len(t), n);
 /// - `final_only`: `t` of shape (k,), `q` and `qd` of shape (k, n);
@@ -48,11 +54,15 @@ const COUNTERS: [&str; 6] = [
 /// filled. `counters` (k, 6) are the statistics in [`COUNTERS`]' order, `method` (k,) the index
 /// of the method that ran in `methods()` (−1: none ran), `choice` (k,) the index of Auto's reason
 /// in `choices` (−1: none), and `failures` a list of `(run, error class name, message, t)`
-/// with `t` the last accepted time (`None` when the run failed before its first step).
+/// with `t` the last accepted time (`None` when the run failed before its first step);
+/// `status` (k,) is as `simulate`'s (0 reached t_end, 1 a terminal event, −1 failed) and
+/// `events` per run a pair: one (t, q, qd) per event, as `simulate`'s, and the message of the
+/// terminal event that stopped it (else `None`).
 #[pyfunction]
 #[pyo3(signature = (model, q0, qd0, t_end, t0=0.0, params=None, scenes=None, method="auto",
                     dt=None, rtol=1e-6, atol=1e-9, t_eval=None, max_steps=None,
-                    final_only=false, workers=0))]
+                    final_only=false, workers=0, events=Vec::new(), event_params=Vec::new(),
+                    backend="native"))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn simulate_many<'py>(
     py: Python<'py>,
@@ -71,6 +81,9 @@ pub(crate) fn simulate_many<'py>(
     max_steps: Option<i64>,
     final_only: bool,
     workers: usize,
+    events: Vec<EventSpec>,
+    event_params: Vec<Option<PyReadonlyArray2<'py, f64>>>,
+    backend: &str,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let n = model.model.dof();
     let k = q0.shape()[0];
@@ -126,7 +139,34 @@ pub(crate) fn simulate_many<'py>(
             )));
         }
     }
-    let systems = if params.is_some() || scenes.is_some() {
+    let events = ensemble_events(events, event_params, k, n, backend)?;
+    let per_run = events.iter().any(|(_, p)| p.is_some());
+    if !per_run {
+        options.events = events
+            .iter()
+            .map(|(e, _)| e.bind(None))
+            .collect::<Result<_>>()?;
+    } else if params.is_none() && scenes.is_none() {
+        return Err(PyValueError::new_err(
+            "event parameters per run need a parameter sweep",
+        ));
+    }
+    // Every event bound for run i, in the order given (only with parameters per run).
+    let bind_events = |i: usize| -> Result<Vec<crate::integrators::Event>> {
+        events
+            .iter()
+            .map(|(e, p)| {
+                let w = e.parameters();
+                e.bind(p.as_ref().map(|p| &p[i * w..(i + 1) * w]))
+            })
+            .collect()
+    };
+    let with_events = |i: usize| -> Result<(AnyModel, Vec<crate::integrators::Event>)> {
+        Ok((bind(i)?, bind_events(i)?))
+    };
+    let systems = if per_run {
+        Systems::EachWithEvents(&with_events)
+    } else if params.is_some() || scenes.is_some() {
         Systems::Each(&bind)
     } else {
         Systems::One(&*model.model)
@@ -185,7 +225,47 @@ pub(crate) fn simulate_many<'py>(
         (_, Some(times)) => Mode::Times(times),
         _ => Mode::Steps,
     };
-    ensemble_tuple(py, runs, mode, n)
+    ensemble_tuple(py, runs, mode, n, events.len())
+}
+
+/// Each event compiled once, with the values for each run (row-major, k rows) where given.
+fn ensemble_events(
+    specs: Vec<EventSpec>,
+    params: Vec<Option<PyReadonlyArray2<'_, f64>>>,
+    k: usize,
+    n: usize,
+    backend: &str,
+) -> PyResult<Vec<(CompiledEvent, Option<Vec<f64>>)>> {
+    if params.len() > specs.len() {
+        return Err(PyValueError::new_err(format!(
+            "{} event parameter arrays for {} events",
+            params.len(),
+            specs.len()
+        )));
+    }
+    let backend = Backend::named(backend)?;
+    let mut params = params.into_iter();
+    specs
+        .into_iter()
+        .map(|spec| {
+            let event = CompiledEvent::new(spec, n, backend)?;
+            let values = match params.next().flatten() {
+                None => None,
+                Some(p) => {
+                    let w = event.parameters();
+                    if p.shape() != [k, w] {
+                        return Err(PyValueError::new_err(format!(
+                            "event parameters of shape {:?}: {k} runs of an event in {w} \
+                             parameters need ({k}, {w})",
+                            p.shape()
+                        )));
+                    }
+                    Some(rows(p.as_array()))
+                }
+            };
+            Ok((event, values))
+        })
+        .collect()
 }
 
 /// The entries of a 2-D array, row after row.
@@ -206,8 +286,11 @@ fn ensemble_tuple<'py>(
     runs: Vec<RunResult>,
     mode: Mode,
     n: usize,
+    events: usize,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let k = runs.len();
+    let mut status = Array1::<i8>::from_elem(k, -1);
+    let found = PyList::empty(py);
     let mut reached = Array1::<i64>::zeros(k);
     let mut counters = Array2::<i64>::zeros((k, COUNTERS.len()));
     let mut method = Array1::<i64>::from_elem(k, -1);
@@ -216,8 +299,11 @@ fn ensemble_tuple<'py>(
     let failures = PyList::empty(py);
     let mut solutions: Vec<Option<Solution>> = Vec::with_capacity(k);
     for (i, run) in runs.into_iter().enumerate() {
-        let sol = match run {
-            Ok(sol) => Some(sol),
+        let mut sol = match run {
+            Ok(sol) => {
+                status[i] = super::status_code(&sol.status);
+                Some(sol)
+            }
             Err(Failed {
                 error,
                 partial,
@@ -227,6 +313,17 @@ fn ensemble_tuple<'py>(
                 partial
             }
         };
+        let occurrences = match &mut sol {
+            Some(sol) => std::mem::take(&mut sol.events),
+            None => vec![Occurrences::default(); events],
+        };
+        // The message of a terminal event, as `simulate` gives it; the others follow from the
+        // status (or the failure).
+        let terminal = sol
+            .as_ref()
+            .filter(|s| matches!(s.status, Status::Terminated { .. }))
+            .map(|s| s.status.to_string());
+        found.append((super::events::occurrences(py, occurrences, n)?, terminal))?;
         if let Some(sol) = &sol {
             let s = &sol.stats;
             reached[i] = sol.len() as i64;
@@ -321,6 +418,8 @@ fn ensemble_tuple<'py>(
         choice.into_pyarray(py),
         choices,
         failures,
+        status.into_pyarray(py),
+        found,
     )
         .into_pyobject(py)
 }

@@ -696,6 +696,15 @@ fn with_energy(model: &AnyModel, mut sol: Solution) -> (Solution, Vec<f64>, Opti
     (sol, h, None)
 }
 
+/// SciPy's status of a run: 0 it reached t_end, 1 a terminal event stopped it, −1 it failed.
+pub(crate) fn status_code(status: &Status) -> i8 {
+    match status {
+        Status::Finished => 0,
+        Status::Terminated { .. } => 1,
+        Status::Failed | Status::Unfinished { .. } => -1,
+    }
+}
+
 /// (t, q, qd, energy, stats, events, status, message, dense) of a solution, as `simulate`
 /// returns it and a failure carries it: `events` one (t, q, qd) per event, `status` 0 when the
 /// run reached t_end and 1 when a terminal event stopped it, `dense` the continuous solution or
@@ -721,11 +730,7 @@ pub(crate) fn solution_tuple<'py>(
     stats.set_item("jacobian_evaluations", s.jacobian_evaluations)?;
     stats.set_item("factorizations", s.factorizations)?;
     stats.set_item("newton_failures", s.newton_failures)?;
-    let status = match sol.status {
-        Status::Finished => 0,
-        Status::Terminated { .. } => 1,
-        Status::Failed | Status::Unfinished { .. } => -1,
-    };
+    let status = status_code(&sol.status);
     let message = sol.status.to_string();
     let dense = sol
         .dense

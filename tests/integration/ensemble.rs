@@ -1,12 +1,12 @@
 //! Ensembles ([`solve_many`], feature `parallel`): every run bit for bit the serial
 //! [`solve_partial`] of the same problem with 1 and 2 threads, in input order; parameter sweeps
 //! against closed forms; failed runs keep their typed error and do not disturb the others;
-//! [`Output::Final`] keeps the last state only.
+//! [`Output::Final`] keeps the last state only; events of each run's own.
 // `Failed` is returned once per run, as in the library.
 #![allow(clippy::result_large_err)]
 
 use lagrangian::integrators::{
-    Method, Options, Output, RunResult, Systems, solve_many, solve_partial,
+    Event, Method, Options, Output, RunResult, Status, Systems, solve_many, solve_partial,
 };
 use lagrangian::scenes::{DampedOscillator, SimplePendulum, elliptic_k};
 use lagrangian::{Error, Result};
@@ -61,6 +61,79 @@ fn every_run_is_the_serial_run_bit_for_bit() {
             .unwrap();
             assert_eq!(runs, serial, "{method} on {workers} threads");
         }
+    }
+}
+
+/// Events that depend on the run ([`Systems::EachWithEvents`]): pendulums of lengths lᵢ
+/// released at rest from θ₀ = 1 stop where θ falls through 0.5/√lᵢ (terminal), before the
+/// bottom, which every run also watches for (an event shared through the options). By energy
+/// the speed there is √(2 g (cos θ − cos θ₀) / l); each run is the serial run with the same
+/// events, bit for bit.
+#[test]
+fn events_of_each_run_stop_it_where_its_own_condition_holds() {
+    let lengths: [f64; 4] = [0.5, 1.0, 2.0, 4.0];
+    let states: Vec<_> = lengths.iter().map(|_| (vec![1.0], vec![0.0])).collect();
+    let initial = slices(&states);
+    let bottom = Event::new("bottom", |_, q, _| q[0]).falling();
+    // Run i stops at θ = 0.5/√lᵢ: a threshold of its own.
+    let threshold = |i: usize| {
+        let at = 0.5 / lengths[i].sqrt();
+        Event::new("threshold", move |_, q, _| q[0] - at)
+            .falling()
+            .terminal(1)
+    };
+    let build = |i: usize| {
+        Ok((
+            SimplePendulum::new(1.0, lengths[i], G).system(),
+            vec![threshold(i)],
+        ))
+    };
+    let options = Options::adaptive(1e-12, 1e-12)
+        .with_output(Output::Final)
+        .with_event(bottom.clone());
+    let runs = solve_many(
+        Systems::EachWithEvents(&build),
+        &initial,
+        (0.0, 10.0),
+        Method::Dop853,
+        &options,
+        2,
+        None,
+    )
+    .unwrap();
+    for (i, run) in runs.iter().enumerate() {
+        let sol = run.as_ref().unwrap();
+        let at = 0.5 / lengths[i].sqrt();
+        assert!(
+            matches!(sol.status, Status::Terminated { event: 1, .. }),
+            "run {i}: {:?}",
+            sol.status
+        );
+        assert_eq!(sol.events.len(), 2);
+        assert!(
+            sol.events[0].t.is_empty(),
+            "the threshold before the bottom"
+        );
+        let (t, q, qd) = sol.last().unwrap();
+        assert!((q[0] - at).abs() < 1e-12, "run {i}: θ = {}", q[0]);
+        let speed = (2.0 * G * (at.cos() - 1f64.cos()) / lengths[i]).sqrt();
+        assert!(
+            (qd[0] + speed).abs() < 1e-10 * speed,
+            "run {i}: θ̇ = {}",
+            qd[0]
+        );
+        assert_eq!(sol.events[1].t, vec![t]);
+        // The same run alone, with the options' events then its own.
+        let alone = solve_partial(
+            &SimplePendulum::new(1.0, lengths[i], G).system(),
+            &[1.0],
+            &[0.0],
+            (0.0, 10.0),
+            Method::Dop853,
+            &options.clone().with_event(threshold(i)),
+            None,
+        );
+        assert_eq!(run, &alone, "run {i}");
     }
 }
 

@@ -1,7 +1,9 @@
-"""Ensembles (``Model.simulate_many``): pendulum periods against the elliptic integral, every
-run bit for bit ``simulate``'s (1 and 2 threads, a thread pool, a process pool, a Dask
-LocalCluster), a forced oscillator's resonance curve against the closed form, failed runs
-marked with their typed error and nothing but what they computed, and the checks."""
+"""Ensembles (``Model.simulate_many``): pendulum periods against the elliptic integral (from
+``t_eval`` output and from events), every run bit for bit ``simulate``'s (1 and 2 threads, a
+thread pool, a process pool, a Dask LocalCluster; with events and resets), events that read a
+swept parameter against closed forms, a forced oscillator's resonance curve against the closed
+form, failed runs marked with their typed error and nothing but what they computed, and the
+checks."""
 
 import math
 import os
@@ -73,6 +75,116 @@ def test_pendulum_periods_match_the_elliptic_integral():
         assert abs(z[0] - exact[i] / 4) < 1e-8 * exact[i], i
 
 
+def test_pendulum_periods_from_events_with_final_states_only():
+    # The same sweep with an event where θ falls through zero and only the final states kept:
+    # the crossings are at T/4 + jT.
+    l = 0.9
+    model = pendulum(l)
+    th = model.coordinates[0]
+    theta0 = np.linspace(0.1, 3.0, 1002)[1:-1]
+    down = lg.Event(th, direction=-1, name="down")
+    ens = model.simulate_many(theta0[:, None], [0.0], 12.0, events=[down], final_only=True,
+                              method="dop853", rtol=1e-12, atol=1e-12)
+    assert ens.ok.all() and ens.event_names == ("down",) and ens.q.shape == (1000, 1)
+    exact = 4 * math.sqrt(l / G) * ellipk(np.sin(theta0 / 2) ** 2)
+    counts = np.floor((12.0 - exact / 4) / exact).astype(int) + 1
+    assert np.array_equal(ens.event_counts[:, 0], counts)
+    for i in range(1000):
+        t = ens.t_events[0][i]
+        expected = exact[i] / 4 + exact[i] * np.arange(counts[i])
+        assert np.max(np.abs(t - expected)) < 1e-9 * exact[i], i
+        assert np.max(np.abs(ens.q_events[0][i])) < 1e-12 and (ens.qd_events[0][i] < 0).all()
+
+
+def test_events_that_read_a_swept_parameter():
+    # A ball dropped from h = 1 onto a floor that sends it back up at √(2 g h), with g swept:
+    # the reset reads g, so each run binds its own value. It lands at √(2h/g) (1 + 2j).
+    y, = lg.coordinates("y")
+    g, = lg.parameters("g")
+    ball = lg.Model(coordinates=[y], kinetic=0.5 * y.d**2, potential=g * y,
+                    parameters={"g": G})
+    floor = lg.Event(y, direction=-1, reset={y.d: lg.sqrt(2 * g * 1.0)}, name="floor")
+    gravity = np.linspace(1.0, 20.0, 7)
+    ens = ball.simulate_many([1.0], [0.0], 6.0, parameters={"g": gravity}, events=[floor],
+                             final_only=True, rtol=1e-12, atol=1e-12)
+    assert ens.ok.all()
+    for i, gi in enumerate(gravity):
+        t = ens.t_events[0][i]
+        j = np.arange(len(t))
+        exact = math.sqrt(2.0 / gi) * (1 + 2 * j)
+        assert len(t) == np.floor((6.0 / math.sqrt(2.0 / gi) - 1) / 2) + 1
+        assert np.max(np.abs(t - exact)) < 1e-9, (gi, t, exact)
+        assert np.allclose(ens.qd_events[0][i][:, 0], -math.sqrt(2 * gi), rtol=1e-10)
+        alone = ball.with_parameters(g=gi).simulate([1.0], [0.0], 6.0, events=[floor],
+                                                     rtol=1e-12, atol=1e-12)
+        assert np.array_equal(alone.t_events[0], t)
+    # A terminal threshold in a scene's swept length: θ = θ₀ l₀ / l stops each run (status 1).
+    scene = lg.scenes.simple_pendulum(m=1.0, l=1.0, g=G)
+    th, = scene.coordinates
+    length, = lg.parameters("l")
+    stop = lg.Event(th - 0.5 / length, direction=-1, terminal=True, name="stop")
+    lengths = np.array([1.0, 2.0, 4.0])
+    ens = scene.simulate_many([1.0], [0.0], 10.0, parameters={"l": lengths}, events=[stop],
+                              t_eval=np.linspace(0.0, 10.0, 11), rtol=1e-12, atol=1e-12)
+    assert ens.status.tolist() == [1, 1, 1] and ens.ok.all()
+    for i, li in enumerate(lengths):
+        assert abs(ens.q_events[0][i][0, 0] - 0.5 / li) < 1e-12
+        sol = scene.with_parameters(l=li).simulate([1.0], [0.0], 10.0, events=[stop],
+                                                   t_eval=np.linspace(0.0, 10.0, 11),
+                                                   rtol=1e-12, atol=1e-12)
+        assert sol.status == 1 and ens.solution(i).message == sol.message
+        assert np.array_equal(sol.t_events[0], ens.t_events[0][i])
+        assert ens.reached[i] == len(sol.t) < 11
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_runs_with_events_are_simulate_bit_for_bit(hundred, workers):
+    # A recorded event, a terminal one at its second occurrence and a reset: every run as
+    # simulate gives it, with a parameter swept and without.
+    model, q0, qd0 = hundred
+    th1, th2 = model.coordinates
+    l2, = lg.parameters("l2")
+    events = [
+        lg.Event(th1 - th2, name="cross"),
+        lg.Event(th2.d, direction=1, terminal=2, name="turn"),
+        lg.Event(th1 - 2.0, direction=1, reset={th1.d: -th1.d}, name="wall"),
+    ]
+    ens = model.simulate_many(q0, qd0, 5.0, events=events, rtol=1e-9, atol=1e-11,
+                              workers=workers)
+    lengths = np.linspace(0.5, 1.5, 100)
+    swept = model.simulate_many(q0, qd0, 5.0, events=events + [lg.Event(th2 - l2, name="l2")],
+                                parameters={"l2": lengths}, rtol=1e-9, atol=1e-11,
+                                workers=workers)
+    assert (ens.status == 1).sum() > 10 and (ens.status == 0).sum() > 10
+    assert ens.event_counts[:, 2].sum() > 0 and swept.event_counts[:, 3].sum() > 0
+    for i in range(100):
+        assert_same(ens, i, model.simulate(q0[i], qd0[i], 5.0, events=events, rtol=1e-9,
+                                           atol=1e-11))
+        assert_same(swept, i, model.with_parameters(l2=lengths[i]).simulate(
+            q0[i], qd0[i], 5.0, events=events + [lg.Event(th2 - l2, name="l2")], rtol=1e-9,
+            atol=1e-11))
+
+
+def test_failed_runs_have_no_events_and_the_rest_do():
+    model = pendulum()
+    th = model.coordinates[0]
+    m = lg.parameters("m")[0]
+    up = lg.Event(th.d * m, direction=1, name="up")  # reads the swept mass
+    ens = model.simulate_many([1.0], [0.0], 3.0, parameters={"m": [1.0, 0.0, 2.0]},
+                              events=[up], final_only=True, rtol=1e-10, atol=1e-12)
+    assert ens.status.tolist() == [0, -1, 0]
+    assert ens.failures[1].error == "SingularMassMatrixError"
+    assert ens.event_counts[:, 0].tolist() == [1, 0, 1]
+    assert ens.t_events[0][1].shape == (0,) and ens.q_events[0][1].shape == (0, 1)
+    # θ̇ rises through zero at T/2, whatever the mass.
+    half = 2 * math.sqrt(1.0 / G) * ellipk(math.sin(0.5) ** 2)
+    assert abs(ens.t_events[0][0][0] - half) < 1e-9 and abs(ens.t_events[0][2][0] - half) < 1e-9
+    with pytest.raises(TypeError, match="sequence of lagrangian.Event"):
+        model.simulate_many([1.0], [0.0], 1.0, events=up)
+    with pytest.raises(ValueError, match="parameter 'L' in the event 'th - L' has no value"):
+        model.simulate_many([1.0], [0.0], 1.0, events=[lg.Event(th - lg.parameters("L")[0])])
+
+
 def assert_same(ens, i, sol):
     """Run i of the ensemble is `sol`, bit for bit."""
     s = ens.solution(i)
@@ -80,6 +192,11 @@ def assert_same(ens, i, sol):
     assert np.array_equal(s.qd, sol.qd), i
     assert np.array_equal(s.energy, sol.energy), i
     assert s.stats == sol.stats, i
+    assert s.event_names == sol.event_names, i
+    for mine, theirs in ((s.t_events, sol.t_events), (s.q_events, sol.q_events),
+                         (s.qd_events, sol.qd_events)):
+        assert len(mine) == len(theirs) and all(map(np.array_equal, mine, theirs)), i
+    assert (s.status, s.message) == (sol.status, sol.message), i
 
 
 @pytest.fixture(scope="module")
@@ -168,7 +285,7 @@ def test_singular_runs_are_marked_and_the_rest_are_right():
     for subject in (model, osc):
         ens = subject.simulate_many([1.0], [0.5], 3.0, parameters={"m": masses}, t_eval=t,
                                     rtol=1e-11, atol=1e-12)
-        assert ens.status.tolist() == [0, 1, 0, 0, 1, 0]
+        assert ens.status.tolist() == [0, -1, 0, 0, -1, 0]
         assert sorted(ens.failures) == [1, 4]
         for i in (1, 4):
             failure = ens.failures[i]
@@ -198,7 +315,7 @@ def test_runs_that_fail_midway_keep_what_they_computed():
     t = np.linspace(0.0, 20.0, 201)
     kwargs = dict(t_eval=t, rtol=1e-12, atol=1e-12, max_steps=350)
     ens = model.simulate_many(theta0[:, None], [0.0], 20.0, **kwargs)
-    assert ens.status.tolist() == [0, 1, 0, 1]
+    assert ens.status.tolist() == [0, -1, 0, -1]
     for i in (1, 3):
         assert ens.failures[i].error == "TooManyStepsError"
         with pytest.raises(lg.TooManyStepsError) as err:
@@ -229,7 +346,7 @@ def test_executors_give_the_local_result():
     t = np.linspace(0.0, 4.0, 41)
     m2 = np.linspace(0.0, 1.0, 30)  # m2 = 0 makes M singular for the first run
     local = model.simulate_many(q0, qd0, 4.0, parameters={"m2": m2}, t_eval=t, rtol=1e-9)
-    assert local.status[0] == 1 and local.ok[1:].all()
+    assert local.status[0] == -1 and local.ok[1:].all()
     with ThreadPoolExecutor(2) as pool:
         threaded = model.simulate_many(q0, qd0, 4.0, parameters={"m2": m2}, t_eval=t,
                                        rtol=1e-9, executor=pool, chunks=7, timeout=120)
@@ -247,6 +364,11 @@ def assert_ensembles_equal(a, b):
     assert np.array_equal(a.reached, b.reached) and np.array_equal(a.status, b.status)
     for key in a.stats:
         assert a.stats[key].tolist() == b.stats[key].tolist(), key
+    assert a.event_names == b.event_names
+    assert np.array_equal(a.event_counts, b.event_counts)
+    for x, y in ((a.t_events, b.t_events), (a.q_events, b.q_events),
+                 (a.qd_events, b.qd_events)):
+        assert all(np.array_equal(u, v) for xs, ys in zip(x, y) for u, v in zip(xs, ys))
     if a.output == "steps":
         for x, y in ((a.t, b.t), (a.q, b.q), (a.qd, b.qd)):
             assert all(np.array_equal(u, v) for u, v in zip(x, y))
@@ -262,6 +384,9 @@ def test_dask_local_cluster_gives_the_local_result(hundred):
     t = np.linspace(0.0, 5.0, 51)
     scene = lg.scenes.double_pendulum(1.3, 0.7, 1.1, 0.8, 9.81)
     g = np.linspace(1.0, 20.0, 100)
+    th1 = model.coordinates[0]
+    m2, = lg.parameters("m2")
+    terminal = lg.Event(th1 - m2, direction=1, terminal=True, name="over")  # a swept threshold
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                        host="127.0.0.1", dashboard_address=None, timeout=120)
     try:
@@ -272,6 +397,8 @@ def test_dask_local_cluster_gives_the_local_result(hundred):
                 lambda **kw: model.simulate_many(q0, qd0, 5.0, method="dop853", rtol=1e-8, **kw),
                 lambda **kw: scene.simulate_many(q0, qd0, 2.0, parameters={"g": g},
                                                  final_only=True, **kw),
+                lambda **kw: model.simulate_many(q0, qd0, 5.0, parameters={"m2": g / 10},
+                                                 events=[terminal], final_only=True, **kw),
             ):
                 local = run()
                 assert_ensembles_equal(local, run(executor=client, timeout=300))
