@@ -111,9 +111,9 @@ class Ensemble:
         ``"t_eval"``, ``"final"`` or ``"steps"``: which of the layouts above.
 
     A failed run keeps what it computed up to its last accepted step, and only that: with
-    ``t_eval`` its rows past the failure are masked (``q`` and ``qd`` are then
-    :class:`numpy.ma.MaskedArray`, only when some run failed; the hidden entries are zeros,
-    never NaN), with ``final_only`` its row is its last accepted state at ``t[i]`` (masked
+    ``t_eval`` its rows past the failure are masked, as are the rows past a terminal event
+    (``q`` and ``qd`` are then :class:`numpy.ma.MaskedArray`, only when some run failed or
+    stopped early; the hidden entries are zeros, never NaN), with ``final_only`` its row is its last accepted state at ``t[i]`` (masked
     if it failed before its first step), and otherwise its arrays are just shorter.
     """
 
@@ -190,7 +190,7 @@ class Ensemble:
         counters = np.asarray(counters, dtype=np.int64).reshape(k, len(COUNTERS))
         for j, key in enumerate(COUNTERS):
             self.stats[key] = counters[:, j].copy()
-        if mode == "t_eval" and self.failures:
+        if mode == "t_eval" and (self.reached < len(t)).any():  # failed or stopped early
             rows = np.arange(len(t))[None, :] >= self.reached[:, None]
             mask = np.broadcast_to(rows[:, :, None], q.shape).copy()
             q, qd = np.ma.masked_array(q, mask), np.ma.masked_array(qd, mask)

@@ -135,6 +135,9 @@ def test_events_that_read_a_swept_parameter():
         assert sol.status == 1 and ens.solution(i).message == sol.message
         assert np.array_equal(sol.t_events[0], ens.t_events[0][i])
         assert ens.reached[i] == len(sol.t) < 11
+        # The rows past the stop are masked, not zeros posing as states.
+        assert ens.q.mask[i, ens.reached[i]:].all() and not ens.q.mask[i, :ens.reached[i]].any()
+        assert np.array_equal(ens.q[i, :ens.reached[i]], sol.q)
 
 
 @pytest.mark.parametrize("workers", [1, 2])
