@@ -177,9 +177,9 @@ class Ensemble:
         self.q_events = [[np.asarray(run[j][1]) for run, _ in found] for j in range(m)]
         self.qd_events = [[np.asarray(run[j][2]) for run, _ in found] for j in range(m)]
         self._terminal = {i: str(why) for i, (_, why) in enumerate(found) if why is not None}
-        self.event_counts = np.array(
-            [[len(times[i]) for times in self.t_events] for i in range(k)], dtype=np.int64
-        ).reshape(k, m)
+        self.event_counts = np.zeros((k, m), dtype=np.int64)
+        for j, times in enumerate(self.t_events):
+            self.event_counts[:, j] = [len(x) for x in times]
         names = np.array(list(_lagrangian.methods()) + [""])
         self.stats = {
             "method": names[np.asarray(method, dtype=np.int64)],

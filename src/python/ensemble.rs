@@ -57,7 +57,7 @@ const COUNTERS: [&str; 6] = [
 /// with `t` the last accepted time (`None` when the run failed before its first step);
 /// `status` (k,) is as `simulate`'s (0 reached t_end, 1 a terminal event, −1 failed) and
 /// `events` per run a pair: one (t, q, qd) per event, as `simulate`'s, and the message of the
-/// terminal event that stopped it (else `None`).
+/// terminal event that stopped it (else `None`) — an empty list when there are no events.
 #[pyfunction]
 #[pyo3(signature = (model, q0, qd0, t_end, t0=0.0, params=None, scenes=None, method="auto",
                     dt=None, rtol=1e-6, atol=1e-9, t_eval=None, max_steps=None,
@@ -313,17 +313,21 @@ fn ensemble_tuple<'py>(
                 partial
             }
         };
-        let occurrences = match &mut sol {
-            Some(sol) => std::mem::take(&mut sol.events),
-            None => vec![Occurrences::default(); events],
-        };
-        // The message of a terminal event, as `simulate` gives it; the others follow from the
-        // status (or the failure).
-        let terminal = sol
-            .as_ref()
-            .filter(|s| matches!(s.status, Status::Terminated { .. }))
-            .map(|s| s.status.to_string());
-        found.append((super::events::occurrences(py, occurrences, n)?, terminal))?;
+        // Without events nothing per run: a sweep of 10⁶ runs would otherwise build 10⁶ empty
+        // Python lists.
+        if events > 0 {
+            let occurrences = match &mut sol {
+                Some(sol) => std::mem::take(&mut sol.events),
+                None => vec![Occurrences::default(); events],
+            };
+            // The message of a terminal event, as `simulate` gives it; the others follow from
+            // the status (or the failure).
+            let terminal = sol
+                .as_ref()
+                .filter(|s| matches!(s.status, Status::Terminated { .. }))
+                .map(|s| s.status.to_string());
+            found.append((super::events::occurrences(py, occurrences, n)?, terminal))?;
+        }
         if let Some(sol) = &sol {
             let s = &sol.stats;
             reached[i] = sol.len() as i64;
