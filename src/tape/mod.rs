@@ -85,6 +85,7 @@ pub mod models;
 mod native;
 mod particles;
 mod sensitivity;
+mod taylor;
 
 use compile::Input;
 pub use compile::{Inputs, Tape};
@@ -97,3 +98,4 @@ pub use graph::{Binary, Graph, Node, Unary};
 pub use native::{NativeFunction, NativeTape};
 pub use particles::TapeParticles;
 pub use sensitivity::input_matrix;
+pub use taylor::{Expansion, TaylorProgram};
