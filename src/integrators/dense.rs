@@ -10,6 +10,7 @@
 //! interpolant as a [`Dense`] solution, callable anywhere in the span.
 
 use crate::error::{Error, Result};
+use crate::tape::Expansion;
 
 /// y(θ) = y₀ + θ(F₀ + (1−θ)(F₁ + θ(F₂ + (1−θ)(F₃ + …)))), the form of Hairer's `CONTD5`/`CONTD8`.
 pub(crate) fn polynomial(theta: f64, y0: &[f64], f: &[Vec<f64>], out: &mut [f64]) {
@@ -40,6 +41,8 @@ pub(crate) enum Interpolant<'a> {
     },
     /// The quintic Hermite interpolant through the step's ends.
     Hermite { t: f64, h: f64, ends: Ends<'a> },
+    /// The Taylor polynomial of the step (the Taylor method's expansion at t).
+    Taylor { t: f64, expansion: &'a Expansion },
 }
 
 impl Interpolant<'_> {
@@ -48,6 +51,7 @@ impl Interpolant<'_> {
         match self {
             Self::Polynomial { t, h, y0, f, .. } => polynomial((time - t) / h, y0, f, out),
             Self::Hermite { t, h, ends } => hermite5((time - t) / h, *h, ends, out),
+            Self::Taylor { t, expansion } => expansion.eval(time - t, out),
         }
     }
 }
@@ -78,6 +82,8 @@ pub struct Dense {
     dim: usize,
     /// Rows F of the continuous extension; 0 for Hermite pieces.
     rows: usize,
+    /// Whether the pieces are Taylor polynomials (of degree `order`).
+    taylor: bool,
     order: usize,
     /// +1 forward in time, −1 backward.
     dir: f64,
@@ -95,6 +101,7 @@ impl Dense {
         Self {
             dim,
             rows: 0,
+            taylor: false,
             order: 0,
             dir,
             start: Vec::new(),
@@ -124,6 +131,15 @@ impl Dense {
                     self.data.extend_from_slice(part);
                 }
                 (*t, *h)
+            }
+            Interpolant::Taylor { t, expansion } => {
+                self.taylor = true;
+                self.order = expansion.order();
+                for k in 0..=self.order {
+                    self.data.extend_from_slice(expansion.q(k));
+                    self.data.extend_from_slice(expansion.qd(k));
+                }
+                (*t, end - t)
             }
         };
         self.start.push(t);
@@ -185,7 +201,9 @@ impl Dense {
 
     /// What interpolates between the steps.
     pub fn interpolant(&self) -> &'static str {
-        if self.rows > 0 {
+        if self.taylor {
+            "the Taylor polynomial of each step"
+        } else if self.rows > 0 {
             "continuous extension of the Runge–Kutta method (Hairer)"
         } else {
             "quintic Hermite interpolation through q, q̇, q̈ at the ends of each step"
@@ -237,7 +255,19 @@ impl Dense {
         // state before the reset, as the event records and the output times give it).
         let k = self.start.partition_point(|&s| (s - t) * dir < 0.0).max(1) - 1;
         let (t0, h) = (self.start[k], self.step[k]);
-        if self.rows > 0 {
+        if self.taylor {
+            // Coefficient j of (q, q̇) at data[(k·(order+1) + j)·dim ..]; Horner in t − t₀.
+            let width = (self.order + 1) * self.dim;
+            let piece = &self.data[k * width..(k + 1) * width];
+            let dt = t - t0;
+            for (i, o) in out.iter_mut().enumerate() {
+                let mut acc = 0.0;
+                for j in (0..=self.order).rev() {
+                    acc = acc * dt + piece[j * self.dim + i];
+                }
+                *o = acc;
+            }
+        } else if self.rows > 0 {
             let width = (1 + self.rows) * self.dim;
             let piece = &self.data[k * width..(k + 1) * width];
             let (y0, f) = piece.split_at(self.dim);

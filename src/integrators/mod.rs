@@ -77,6 +77,7 @@ mod stability;
 mod stiffness;
 mod symplectic;
 mod tableau;
+mod taylor;
 mod variational;
 
 pub use dense::{Dense, DenseParts};
@@ -226,6 +227,9 @@ registry! {
     /// Radau IIA of order 5 (Hairer & Wanner's RADAU5): implicit, L-stable, adaptive, with the
     /// AD Jacobian; for stiff problems.
     Radau5 = "radau5" => Radau,
+    /// The Taylor method (Jorba & Zou) on the model's expression graph: order and step from the
+    /// tolerance and the series' radius of convergence; models stated as expressions only.
+    Taylor = "taylor" => taylor::Taylor,
 }
 
 struct Info;

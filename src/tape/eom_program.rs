@@ -13,6 +13,7 @@
 
 use super::derive::{POSITION, Seeds, Simplify, TIME, VELOCITY, Wrt, gradient, reads, tangents};
 use super::jet::Num;
+use super::taylor::TaylorProgram;
 use super::{Function, Graph, Input, Inputs, Tape};
 use crate::dynamics::check_lengths;
 use crate::eom;
@@ -485,6 +486,8 @@ pub struct EomProgram {
     energy: Part,
     /// p, then G: the (q, p) form of the implicit symplectic methods.
     qp_form: Part,
+    /// M and f as series recurrences: the Taylor method's expansions.
+    taylor: Arc<TaylorProgram>,
     /// ∂(p, G)/∂(q, q̇), column by column (small systems, see [`JACOBIAN_DOF_MAX`]).
     #[cfg(feature = "jit")]
     qp_jacobian: Option<Part>,
@@ -548,6 +551,7 @@ impl EomProgram {
             momenta,
             energy,
             qp_form,
+            taylor: Arc::new(TaylorProgram::new(graph, eom)),
             #[cfg(feature = "jit")]
             qp_jacobian: None,
             #[cfg(feature = "jit")]
@@ -634,6 +638,7 @@ impl EomProgram {
         let factored = !matches!(mass_factor, Some(Err(_)));
         Ok(EomFunction {
             program: self.clone(),
+            params: params.into(),
             function,
             momenta: self.momenta.bind(params)?,
             energy: self.energy.bind(params)?,
@@ -653,6 +658,8 @@ impl EomProgram {
 #[derive(Debug, Clone)]
 pub struct EomFunction {
     program: EomProgram,
+    /// The parameter values it is bound to.
+    params: Arc<[f64]>,
     function: Function,
     momenta: BoundPart,
     energy: BoundPart,
@@ -672,6 +679,12 @@ impl EomFunction {
     /// The program.
     pub fn program(&self) -> &EomProgram {
         &self.program
+    }
+
+    /// The series recurrences of M and f and the parameter values: what the Taylor method
+    /// expands.
+    pub fn taylor(&self) -> (&Arc<TaylorProgram>, &[f64]) {
+        (&self.program.taylor, &self.params)
     }
 
     /// The tape's constants for these parameter values (what the tape reads besides t, q, q̇).

@@ -14,6 +14,8 @@
 //! at any number of coordinates. Each node keeps its whole series (and the auxiliary series its
 //! recurrence needs: cos beside sin, 1 + tan² beside tan, ln a and b ln a beside aᵇ, …).
 
+use std::sync::Arc;
+
 use super::eom_program::EomGraph;
 use super::graph::{Binary, Graph, Node, Unary};
 use crate::eom;
@@ -90,11 +92,11 @@ impl TaylorProgram {
     }
 
     /// Work space for expansions up to `order` with these parameter values.
-    pub fn expansion(&self, params: &[f64], order: usize) -> Expansion<'_> {
+    pub fn expansion(self: &Arc<Self>, params: &[f64], order: usize) -> Expansion {
         let width = order + 1;
         let aux: usize = self.nodes.iter().map(aux_count).sum();
         Expansion {
-            program: self,
+            program: self.clone(),
             params: params.to_vec(),
             order,
             series: vec![0.0; self.nodes.len() * width],
@@ -118,8 +120,8 @@ impl TaylorProgram {
 
 /// The Taylor coefficients of one expansion and their work space.
 #[derive(Debug, Clone)]
-pub struct Expansion<'p> {
-    program: &'p TaylorProgram,
+pub struct Expansion {
+    program: Arc<TaylorProgram>,
     params: Vec<f64>,
     order: usize,
     /// Node i's coefficient k at `i * (order + 1) + k`.
@@ -133,7 +135,7 @@ pub struct Expansion<'p> {
     rhs: Vec<f64>,
 }
 
-impl Expansion<'_> {
+impl Expansion {
     /// The highest order computed.
     pub fn order(&self) -> usize {
         self.order
@@ -528,6 +530,7 @@ mod tests {
             forces: None,
         };
         let (program, _) = setup(&mut g, 1, &parts, &[]);
+        let program = Arc::new(program);
         let mut e = program.expansion(&[], 24);
         e.expand(0.0, &[1.0], &[0.0]).unwrap();
         let mut factorial = 1.0;
@@ -619,6 +622,7 @@ mod tests {
         };
         let params = [1.3];
         let (program, model) = setup(&mut g, 1, &parts, &params);
+        let program = Arc::new(program);
         let (t0, q0, v0) = (0.1, [0.3], [0.2]);
         let mut e = program.expansion(&params, 20);
         e.expand(t0, &q0, &v0).unwrap();
@@ -649,6 +653,7 @@ mod tests {
         let parts = models::double_pendulum(&mut g).unwrap();
         let params = [1.0, 2.0, 1.5, 0.7, 9.81];
         let (program, model) = setup(&mut g, 2, &parts, &params);
+        let program = Arc::new(program);
         let (q0, v0) = ([1.0, -0.5], [0.3, 2.0]);
         let mut e = program.expansion(&params, 22);
         e.expand(0.0, &q0, &v0).unwrap();

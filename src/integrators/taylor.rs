@@ -1,0 +1,241 @@
+//! The Taylor method (Jorba & Zou 2005) on a model's expression graph.
+//!
+//! Each step expands the motion through the current state to order p by series arithmetic on
+//! the graph ([`crate::tape::TaylorProgram`]: M₀ q̈ₖ = fₖ − Σ Mⱼ q̈ₖ₋ⱼ, no symbolic inverse of
+//! M) and sums the series at the step h. Following Jorba & Zou, the order comes from the
+//! tolerance, p = ⌈−ln ε / 2 + 1⌉, and the step from the last two coefficients,
+//! h = ρ / e² · e^(−0.7/(p−1)) with ρ = min((1/‖xₚ₋₁‖)^(1/(p−1)), (1/‖xₚ‖)^(1/p)): the
+//! coefficients of an analytic solution decay like ρ⁻ᵏ, so the truncation error is about ε.
+//! ε is `atol` where rtol·‖x₀‖∞ ≤ atol (absolute) and `rtol` otherwise, the norms then relative
+//! to ‖x₀‖∞. Steps are never rejected. The step's polynomial is its dense output, exact to the
+//! method's order anywhere in the step; events are found on it.
+//!
+//! The method needs the model's graph: it serves models stated as expressions (Python's
+//! `lg.Model`, `tape::EomProgram`), not Rust types implementing the energy traits.
+
+use super::dense::Interpolant;
+use super::{Flow, Integrator, Run, SegmentStepper};
+use crate::dynamics::Dynamics;
+use crate::error::{Error, Result};
+use crate::tape::Expansion;
+
+/// The Taylor method.
+pub(crate) struct Taylor;
+
+impl Integrator for Taylor {
+    fn order(&self) -> usize {
+        // The order follows the tolerance; this is the order at the default tolerance 1e-6
+        // (p = ⌈ln 10⁶ / 2 + 1⌉).
+        8
+    }
+
+    fn adaptive(&self) -> bool {
+        true
+    }
+
+    fn explicit(&self) -> bool {
+        true
+    }
+
+    fn fits<S: Dynamics + ?Sized>(
+        &self,
+        system: &S,
+        _t0: f64,
+        _q0: &[f64],
+        _qd0: &[f64],
+    ) -> std::result::Result<(), String> {
+        match system.derived_program() {
+            Some(_) => Ok(()),
+            None => Err(
+                "the Taylor method expands the model's expression graph: state the \
+                         model as expressions (lg.Model, tape::EomProgram)"
+                    .into(),
+            ),
+        }
+    }
+
+    fn start<S: Dynamics + ?Sized>(
+        self,
+        run: &mut Run<'_, S>,
+    ) -> Result<Box<dyn SegmentStepper<S>>> {
+        if run.options.dt.is_some() {
+            return Err(Error::InvalidInput {
+                what: "dt",
+                why: "taylor chooses its steps from the tolerances: give rtol and atol, not dt"
+                    .into(),
+            });
+        }
+        let Some(eom) = run.system.derived_program() else {
+            return Err(Error::InvalidInput {
+                what: "method",
+                why: "taylor needs a model stated as expressions".into(),
+            });
+        };
+        let (program, params) = eom.taylor();
+        let (rtol, atol) = (run.options.rtol, run.options.atol);
+        // The order for the tighter of the two tolerances, fixed for the run.
+        let eps = rtol.min(atol);
+        let order = ((-eps.ln() / 2.0 + 1.0).ceil() as usize).max(2);
+        let span = (run.t_end - run.t0).abs();
+        Ok(Box::new(TaylorStepper {
+            expansion: program.expansion(params, order),
+            t: run.t0,
+            y: run.y0.clone(),
+            y_new: vec![0.0; run.y0.len()],
+            h_max: run.options.max_step.unwrap_or(span).min(span),
+        }))
+    }
+}
+
+/// Where a Taylor run stands between steps.
+struct TaylorStepper {
+    expansion: Expansion,
+    t: f64,
+    y: Vec<f64>,
+    y_new: Vec<f64>,
+    h_max: f64,
+}
+
+impl TaylorStepper {
+    /// Jorba & Zou's step for the expansion at hand.
+    fn step_size(&self, rtol: f64, atol: f64) -> f64 {
+        let e = &self.expansion;
+        let p = e.order();
+        let norm = |k: usize| -> f64 {
+            e.q(k)
+                .iter()
+                .chain(e.qd(k))
+                .fold(0.0_f64, |m, x| m.max(x.abs()))
+        };
+        let x0 = norm(0);
+        // Absolute where rtol·‖x₀‖ ≤ atol, else relative to ‖x₀‖ (the order already follows
+        // the tighter tolerance).
+        let scale = if rtol * x0 <= atol { 1.0 } else { x0 };
+        let rho = |k: usize| {
+            let n = norm(k) / scale;
+            if n == 0.0 {
+                f64::INFINITY
+            } else {
+                (1.0 / n).powf(1.0 / k as f64)
+            }
+        };
+        let rho_m = rho(p - 1).min(rho(p));
+        rho_m / std::f64::consts::E.powi(2) * (-0.7 / (p - 1) as f64).exp()
+    }
+}
+
+impl<S: Dynamics + ?Sized> SegmentStepper<S> for TaylorStepper {
+    fn step(&mut self, run: &mut Run<'_, S>) -> Result<Flow> {
+        let n = run.n;
+        let opts = run.options;
+        let attempts = run.stats.accepted_steps + run.stats.rejected_steps;
+        if attempts >= opts.max_steps {
+            return Err(Error::TooManySteps {
+                t: self.t,
+                steps: attempts,
+            });
+        }
+        run.poll(self.t)?;
+        let t = self.t;
+        self.expansion.expand(t, &self.y[..n], &self.y[n..])?;
+        run.stats.rhs_evaluations += self.expansion.order();
+        let dir = run.dir();
+        let mut h = self.step_size(opts.rtol, opts.atol).min(self.h_max);
+        let floor = opts.min_step.max(10.0 * f64::EPSILON * t.abs());
+        if !(h > floor) {
+            // Infinite ρ (a polynomial solution) is capped above; a vanishing ρ is a
+            // singularity of the solution within reach.
+            return Err(Error::StepSizeTooSmall { t, h });
+        }
+        let last = (t + dir * 1.01 * h - run.t_end) * dir >= 0.0;
+        let t_new = if last { run.t_end } else { t + dir * h };
+        h = t_new - t;
+        self.expansion.eval(h, &mut self.y_new);
+        if !self.y_new.iter().all(|v| v.is_finite()) {
+            return Err(Error::NonFinite {
+                what: "state",
+                t: t_new,
+            });
+        }
+        run.stats.accepted_steps += 1;
+        let step = run.needs_interpolant(t_new).then_some(Interpolant::Taylor {
+            t,
+            expansion: &self.expansion,
+        });
+        let flow = run.accept(t, t_new, &self.y_new, last, step.as_ref())?;
+        std::mem::swap(&mut self.y, &mut self.y_new);
+        self.t = t_new;
+        Ok(flow)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::integrators::{Method, Options, solve};
+    use crate::tape::{EnergyModel, EomProgram, Function, Graph, Inputs, Tape, models};
+    use std::sync::Arc;
+
+    /// The double pendulum as expressions, with its derived program.
+    fn double_pendulum(params: &[f64]) -> EnergyModel {
+        let mut g = Graph::new();
+        let parts = models::double_pendulum(&mut g).unwrap();
+        let f = |g: &Graph, nodes: &[usize], inputs: Inputs| {
+            Function::new(
+                Arc::new(Tape::new(g, nodes, inputs, "part").unwrap()),
+                params,
+            )
+            .unwrap()
+        };
+        let kinetic = f(&g, &[parts.kinetic], Inputs::kinetic(2, 5));
+        let potential = f(&g, &[parts.potential.unwrap()], Inputs::potential(2, 5));
+        let program = EomProgram::new(&mut g, 2, 5, &parts).unwrap();
+        EnergyModel::new(2, kinetic, Some(potential), None, None)
+            .unwrap()
+            .with_program(program.bind(params).unwrap())
+            .unwrap()
+    }
+
+    /// Error proportional to the tolerance against a tight DOP853 reference, and the energy
+    /// kept to the tolerance.
+    #[test]
+    fn double_pendulum_to_the_tolerance() {
+        let params = [1.0, 2.0, 1.5, 0.7, 9.81];
+        let model = double_pendulum(&params);
+        let (q0, v0) = ([1.0, -0.5], [0.3, 2.0]);
+        let span = (0.0, 5.0);
+        let reference = solve(
+            &model,
+            &q0,
+            &v0,
+            span,
+            Method::Dop853,
+            &Options::adaptive(1e-14, 1e-14),
+        )
+        .unwrap();
+        let (_, qr, vr) = reference.last().unwrap();
+        for tol in [1e-6, 1e-9, 1e-12] {
+            let sol = solve(
+                &model,
+                &q0,
+                &v0,
+                span,
+                Method::Taylor,
+                &Options::adaptive(tol, tol),
+            )
+            .unwrap();
+            let (t, q, v) = sol.last().unwrap();
+            assert_eq!(t, 5.0);
+            let err = q
+                .iter()
+                .zip(qr)
+                .chain(v.iter().zip(vr))
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            assert!(err < 100.0 * tol.max(1e-13), "tol {tol}: error {err:e}");
+            eprintln!(
+                "tol {tol:e}: error {err:e}, steps {}",
+                sol.stats.accepted_steps
+            );
+        }
+    }
+}
