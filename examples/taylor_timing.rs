@@ -10,7 +10,11 @@ fn main() {
     let mut g = Graph::new();
     let parts = models::double_pendulum(&mut g).unwrap();
     let f = |g: &Graph, nodes: &[usize], inputs: Inputs| {
-        Function::new(Arc::new(Tape::new(g, nodes, inputs, "part").unwrap()), &params).unwrap()
+        Function::new(
+            Arc::new(Tape::new(g, nodes, inputs, "part").unwrap()),
+            &params,
+        )
+        .unwrap()
     };
     let kinetic = f(&g, &[parts.kinetic], Inputs::kinetic(2, 5));
     let potential = f(&g, &[parts.potential.unwrap()], Inputs::potential(2, 5));
@@ -21,14 +25,34 @@ fn main() {
         .unwrap();
     let (q0, v0) = ([1.0, 0.5], [0.0, 0.0]);
     let span = (0.0, 10.0);
-    let reference = solve(&model, &q0, &v0, span, Method::Dop853, &Options::adaptive(1e-15, 1e-15)).unwrap();
+    let reference = solve(
+        &model,
+        &q0,
+        &v0,
+        span,
+        Method::Dop853,
+        &Options::adaptive(1e-15, 1e-15),
+    )
+    .unwrap();
     let (_, qr, vr) = reference.last().unwrap();
+    let repeat: usize = std::env::var("REPEAT")
+        .ok()
+        .and_then(|r| r.parse().ok())
+        .unwrap_or(5);
+    let only: Option<f64> = std::env::var("TOL").ok().and_then(|r| r.parse().ok());
     for tol in [1e-6, 1e-9, 1e-12, 1e-15] {
+        if only.is_some_and(|o| o != tol) {
+            continue;
+        }
         for method in [Method::Dop853, Method::Taylor] {
-            let options = Options::adaptive(tol, tol).with_output(lagrangian::integrators::Output::Every(usize::MAX));
+            if only.is_some() && method != Method::Taylor {
+                continue;
+            }
+            let options = Options::adaptive(tol, tol)
+                .with_output(lagrangian::integrators::Output::Every(usize::MAX));
             let mut best = f64::INFINITY;
             let mut sol = None;
-            for _ in 0..5 {
+            for _ in 0..repeat {
                 let t0 = Instant::now();
                 let s = solve(&model, &q0, &v0, span, method, &options).unwrap();
                 best = best.min(t0.elapsed().as_secs_f64());
@@ -36,8 +60,17 @@ fn main() {
             }
             let sol = sol.unwrap();
             let (_, q, v) = sol.last().unwrap();
-            let err = q.iter().zip(qr).chain(v.iter().zip(vr)).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-            println!("tol {tol:e} {method}: {:.3} ms, error {err:.1e}, steps {}", best * 1e3, sol.stats.accepted_steps);
+            let err = q
+                .iter()
+                .zip(qr)
+                .chain(v.iter().zip(vr))
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            println!(
+                "tol {tol:e} {method}: {:.3} ms, error {err:.1e}, steps {}",
+                best * 1e3,
+                sol.stats.accepted_steps
+            );
         }
     }
 }

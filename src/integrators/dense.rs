@@ -56,10 +56,11 @@ impl Interpolant<'_> {
     }
 }
 
-/// [`Dense`]'s contents: (dim, rows, order, dir, start, step, end, data).
+/// [`Dense`]'s contents: (dim, rows, taylor, order, dir, start, step, end, data).
 pub type DenseParts = (
     usize,
     usize,
+    bool,
     usize,
     f64,
     Vec<f64>,
@@ -147,11 +148,13 @@ impl Dense {
         self.end.push(end);
     }
 
-    /// Everything it holds, for pickling: (dim, rows, order, dir, start, step, end, data).
+    /// Everything it holds, for pickling: (dim, rows, taylor, order, dir, start, step, end,
+    /// data).
     pub fn to_parts(&self) -> DenseParts {
         (
             self.dim,
             self.rows,
+            self.taylor,
             self.order,
             self.dir,
             self.start.clone(),
@@ -166,9 +169,15 @@ impl Dense {
     /// # Errors
     /// [`Error::InvalidInput`] when the parts do not fit together.
     pub fn from_parts(parts: DenseParts) -> Result<Self> {
-        let (dim, rows, order, dir, start, step, end, data) = parts;
+        let (dim, rows, taylor, order, dir, start, step, end, data) = parts;
         let pieces = start.len();
-        let width = if rows > 0 { (1 + rows) * dim } else { 3 * dim };
+        let width = if taylor {
+            (order + 1) * dim
+        } else if rows > 0 {
+            (1 + rows) * dim
+        } else {
+            3 * dim
+        };
         let fits = dim > 0
             && dim % 2 == 0
             && (dir == 1.0 || dir == -1.0)
@@ -185,6 +194,7 @@ impl Dense {
         Ok(Self {
             dim,
             rows,
+            taylor,
             order,
             dir,
             start,

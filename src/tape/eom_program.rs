@@ -571,6 +571,7 @@ impl EomProgram {
             momenta: self.momenta.interpreted(),
             energy: self.energy.interpreted(),
             qp_form: self.qp_form.interpreted(),
+            taylor: Arc::new(self.taylor.interpreted()),
             #[cfg(feature = "jit")]
             native: None,
             #[cfg(feature = "jit")]

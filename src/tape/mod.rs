@@ -86,6 +86,8 @@ mod native;
 mod particles;
 mod sensitivity;
 mod taylor;
+#[cfg(feature = "jit")]
+mod taylor_native;
 
 use compile::Input;
 pub use compile::{Inputs, Tape};

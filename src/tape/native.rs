@@ -85,7 +85,7 @@ impl std::fmt::Debug for NativeTape {
 }
 
 /// A Cranelift failure or unsupported tape.
-fn fail(why: impl std::fmt::Display) -> Error {
+pub(super) fn fail(why: impl std::fmt::Display) -> Error {
     Error::InvalidInput {
         what: "native code",
         why: why.to_string(),
@@ -143,6 +143,33 @@ unsafe extern "C" fn lagrangian_sin_cos(x: f64, cos: *mut f64) -> f64 {
     s
 }
 
+/// A Cranelift module for the host, with the `f64` functions the generated code calls
+/// registered, for code of about `instructions` instructions (which picks the register
+/// allocator, [`BACKTRACKING_UP_TO`]).
+pub(super) fn jit_module(instructions: usize) -> Result<JITModule> {
+    let mut flags = settings::builder();
+    let regalloc = if instructions <= BACKTRACKING_UP_TO {
+        "backtracking"
+    } else {
+        "single_pass"
+    };
+    for (k, v) in [
+        ("opt_level", "none"),
+        ("regalloc_algorithm", regalloc),
+        ("enable_probestack", "true"),
+        ("probestack_strategy", "inline"),
+    ] {
+        flags.set(k, v).map_err(fail)?;
+    }
+    let isa = cranelift_native::builder()
+        .map_err(fail)?
+        .finish(settings::Flags::new(flags))
+        .map_err(fail)?;
+    let mut jit = JITBuilder::with_isa(isa, default_libcall_names());
+    register(&mut jit);
+    Ok(JITModule::new(jit))
+}
+
 impl NativeTape {
     /// Compile `tape` to machine code for the host.
     ///
@@ -151,27 +178,7 @@ impl NativeTape {
     /// malformed (an index out of range, a slot read before it is written): fall back to the
     /// interpreter.
     pub fn compile(tape: &Tape) -> Result<Self> {
-        let mut flags = settings::builder();
-        let regalloc = if tape.code.len() <= BACKTRACKING_UP_TO {
-            "backtracking"
-        } else {
-            "single_pass"
-        };
-        for (k, v) in [
-            ("opt_level", "none"),
-            ("regalloc_algorithm", regalloc),
-            ("enable_probestack", "true"),
-            ("probestack_strategy", "inline"),
-        ] {
-            flags.set(k, v).map_err(fail)?;
-        }
-        let isa = cranelift_native::builder()
-            .map_err(fail)?
-            .finish(settings::Flags::new(flags))
-            .map_err(fail)?;
-        let mut jit = JITBuilder::with_isa(isa, default_libcall_names());
-        register(&mut jit);
-        let mut module = JITModule::new(jit);
+        let mut module = jit_module(tape.code.len())?;
         match Self::define(&mut module, tape) {
             Ok(entry) => Ok(Self {
                 module: Some(module),

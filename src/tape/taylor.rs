@@ -1,4 +1,4 @@
-//! Taylor coefficients of the motion by series arithmetic on the expression graph (issue 16).
+//! Taylor coefficients of the motion by series arithmetic on the expression graph.
 //!
 //! Lagrange's equations are implicit in q̈: M(t, q) q̈ = f(t, q, q̇) (eq. 55, derived on the graph
 //! by [`eom_graph`](super::eom_graph)). The normalized Taylor coefficients xₖ = x⁽ᵏ⁾(t₀)/k! of
@@ -11,40 +11,298 @@
 //! M₀ q̈ₖ = fₖ − Σⱼ₌₁..ₖ Mⱼ q̈ₖ₋ⱼ.
 //!
 //! No symbolic inverse of M is formed, so the cost is a few evaluations of the graph per order
-//! at any number of coordinates. Each node keeps its whole series (and the auxiliary series its
-//! recurrence needs: cos beside sin, 1 + tan² beside tan, ln a and b ln a beside aᵇ, …).
+//! at any number of coordinates.
+//!
+//! The graph is lowered once to a list of recurrences ([`Op`]) over the rows of one table: a row
+//! per node and the auxiliary rows some recurrences need (cos beside sin, 1 + tan² beside tan,
+//! the squares of a power by squaring, …). Nodes that depend on none of t, q, q̇ have a series
+//! with nothing beyond order 0, so they are evaluated once per expansion and skipped at higher
+//! orders, and a product or quotient by one of them is a scaling. The recurrences are
+//! interpreted here and compiled to machine code by `taylor_native.rs` (feature `jit`), with the
+//! same operations in the same order, so both give the same coefficients bit for bit.
 
 use std::sync::Arc;
+#[cfg(feature = "jit")]
+use std::sync::OnceLock;
 
 use super::eom_program::EomGraph;
-use super::graph::{Binary, Graph, Node, Unary};
+use super::graph::{Binary, Graph, Node, Unary, sign};
 use crate::eom;
 use crate::error::{Error, Result};
 
-/// The part of a graph that M and f need, renumbered, ready to expand.
-#[derive(Debug, Clone)]
-pub struct TaylorProgram {
-    dof: usize,
-    nodes: Vec<Node>,
-    /// M's upper triangle and f, as indices into `nodes`.
-    mass: Vec<usize>,
-    force: Vec<usize>,
+/// One recurrence: coefficient k of row `out` (and of its partner rows) from the coefficients
+/// of its operands up to k and its own below k. Rows hold series; row r's coefficient j is at
+/// `r·w + j`, w = order + 1.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Op {
+    /// aₖ.
+    Copy { out: usize, a: usize },
+    /// −aₖ.
+    Neg { out: usize, a: usize },
+    /// aₖ + bₖ.
+    Add { out: usize, a: usize, b: usize },
+    /// aₖ − bₖ.
+    Sub { out: usize, a: usize, b: usize },
+    /// aₖ c₀, c constant.
+    Scale { out: usize, a: usize, c: usize },
+    /// Σⱼ₌₀..ₖ aⱼ bₖ₋ⱼ.
+    Mul { out: usize, a: usize, b: usize },
+    /// aₖ / c₀, c constant.
+    DivC { out: usize, a: usize, c: usize },
+    /// (aₖ − Σⱼ₌₁..ₖ bⱼ outₖ₋ⱼ) / b₀.
+    Div { out: usize, a: usize, b: usize },
+    /// 1 / b: −Σⱼ₌₁..ₖ bⱼ outₖ₋ⱼ / b₀ (1 / b₀ at order 0).
+    Recip { out: usize, b: usize },
+    /// Σⱼ₌₁..ₖ j aⱼ outₖ₋ⱼ / k.
+    Exp { out: usize, a: usize },
+    /// (aₖ − Σⱼ₌₁..ₖ₋₁ j outⱼ aₖ₋ⱼ / k) / a₀.
+    Ln { out: usize, a: usize },
+    /// (aₖ − Σⱼ₌₁..ₖ₋₁ outⱼ outₖ₋ⱼ) / (2 out₀).
+    Sqrt { out: usize, a: usize },
+    /// s = sin a, c = cos a (`hyperbolic`: sinh, cosh): sₖ = Σⱼ₌₁..ₖ j aⱼ cₖ₋ⱼ / k and
+    /// cₖ = ∓Σⱼ₌₁..ₖ j aⱼ sₖ₋ⱼ / k (− for sin and cos).
+    SinCos {
+        s: usize,
+        c: usize,
+        a: usize,
+        hyperbolic: bool,
+    },
+    /// t = tan a with w = 1 + t² (`hyperbolic`: tanh, w = 1 − t²): tₖ = Σⱼ₌₁..ₖ j aⱼ wₖ₋ⱼ / k,
+    /// wₖ = ±Σⱼ₌₀..ₖ tⱼ tₖ₋ⱼ.
+    Tan {
+        out: usize,
+        w: usize,
+        a: usize,
+        hyperbolic: bool,
+    },
+    /// |a|: aₖ with the sign of a₀.
+    Abs { out: usize, a: usize },
+    /// sign(a): ±1 at order 0, nothing beyond.
+    Sign { out: usize, a: usize },
+    /// θ = atan2(y, x) with D = x² + y² (row d) and R = θ′ = (x y′ − y x′) / D (row r, its
+    /// coefficient k − 1 found at order k): Dₖ = Σⱼ₌₀..ₖ xⱼ xₖ₋ⱼ + Σⱼ₌₀..ₖ yⱼ yₖ₋ⱼ,
+    /// Rₖ₋₁ = (Σⱼ₌₁..ₖ j yⱼ xₖ₋ⱼ − Σⱼ₌₁..ₖ j xⱼ yₖ₋ⱼ − Σⱼ₌₁..ₖ₋₁ Dⱼ Rₖ₋₁₋ⱼ) / D₀, θₖ = Rₖ₋₁ / k.
+    Atan2 {
+        out: usize,
+        y: usize,
+        x: usize,
+        d: usize,
+        r: usize,
+    },
 }
 
-/// Where a node's auxiliary series start in [`Expansion::aux`], and how many it has.
-fn aux_count(node: &Node) -> usize {
-    match node {
-        Node::Unary(Unary::Sin | Unary::Cos | Unary::Sinh | Unary::Cosh, _) => 1,
-        Node::Unary(Unary::Tan | Unary::Tanh, _) => 1,
-        Node::Binary(Binary::Pow, _, _) => 2,
-        Node::Binary(Binary::Atan2, _, _) => 3,
-        Node::PowI(_, n) => n.unsigned_abs() as usize,
-        _ => 0,
+/// Σⱼ₌ₗₒ..ₕᵢ aⱼ b_(kk − j) (`weighted`: Σ j aⱼ b_(kk − j)), summed from j = lo up; 0 when
+/// hi < lo. The compiled recurrences sum in the same order.
+#[inline(always)]
+fn conv(
+    s: &[f64],
+    w: usize,
+    a: usize,
+    b: usize,
+    lo: usize,
+    hi: usize,
+    kk: usize,
+    weighted: bool,
+) -> f64 {
+    let mut acc = 0.0;
+    for j in lo..=hi {
+        let x = s[a * w + j];
+        let x = if weighted { j as f64 * x } else { x };
+        acc += x * s[b * w + kk - j];
+    }
+    acc
+}
+
+impl Op {
+    /// Coefficient k of the rows this recurrence writes, in the table `s` of row width `w`.
+    pub(crate) fn apply(&self, s: &mut [f64], w: usize, k: usize) {
+        let at = |s: &[f64], r: usize, j: usize| s[r * w + j];
+        let kf = k as f64;
+        let value = match *self {
+            Op::Copy { a, .. } => at(s, a, k),
+            Op::Neg { a, .. } => -at(s, a, k),
+            Op::Add { a, b, .. } => at(s, a, k) + at(s, b, k),
+            Op::Sub { a, b, .. } => at(s, a, k) - at(s, b, k),
+            Op::Scale { a, c, .. } => at(s, a, k) * at(s, c, 0),
+            Op::Mul { a, b, .. } => conv(s, w, a, b, 0, k, k, false),
+            Op::DivC { a, c, .. } => at(s, a, k) / at(s, c, 0),
+            Op::Div { out, a, b } => {
+                (at(s, a, k) - conv(s, w, b, out, 1, k, k, false)) / at(s, b, 0)
+            }
+            Op::Recip { out, b } => {
+                if k == 0 {
+                    1.0 / at(s, b, 0)
+                } else {
+                    -conv(s, w, b, out, 1, k, k, false) / at(s, b, 0)
+                }
+            }
+            Op::Exp { out, a } => {
+                if k == 0 {
+                    at(s, a, 0).exp()
+                } else {
+                    conv(s, w, a, out, 1, k, k, true) / kf
+                }
+            }
+            Op::Ln { out, a } => {
+                if k == 0 {
+                    at(s, a, 0).ln()
+                } else {
+                    (at(s, a, k) - conv(s, w, out, a, 1, k - 1, k, true) / kf) / at(s, a, 0)
+                }
+            }
+            Op::Sqrt { out, a } => {
+                if k == 0 {
+                    at(s, a, 0).sqrt()
+                } else {
+                    (at(s, a, k) - conv(s, w, out, out, 1, k - 1, k, false)) / (2.0 * at(s, out, 0))
+                }
+            }
+            Op::SinCos {
+                s: sr,
+                c: cr,
+                a,
+                hyperbolic,
+            } => {
+                let (sv, cv) = if k == 0 {
+                    let x = at(s, a, 0);
+                    if hyperbolic {
+                        (x.sinh(), x.cosh())
+                    } else {
+                        x.sin_cos()
+                    }
+                } else {
+                    let sv = conv(s, w, a, cr, 1, k, k, true) / kf;
+                    let cv = conv(s, w, a, sr, 1, k, k, true) / kf;
+                    (sv, if hyperbolic { cv } else { -cv })
+                };
+                s[sr * w + k] = sv;
+                s[cr * w + k] = cv;
+                return;
+            }
+            Op::Tan {
+                out,
+                w: wr,
+                a,
+                hyperbolic,
+            } => {
+                let t = if k == 0 {
+                    let x = at(s, a, 0);
+                    if hyperbolic { x.tanh() } else { x.tan() }
+                } else {
+                    conv(s, w, a, wr, 1, k, k, true) / kf
+                };
+                s[out * w + k] = t;
+                let sq = conv(s, w, out, out, 0, k, k, false);
+                let sq = if hyperbolic { -sq } else { sq };
+                s[wr * w + k] = if k == 0 { 1.0 + sq } else { sq };
+                return;
+            }
+            Op::Abs { a, .. } => {
+                let x = at(s, a, k);
+                if k == 0 {
+                    x.abs()
+                } else if at(s, a, 0) > 0.0 {
+                    x
+                } else {
+                    -x
+                }
+            }
+            Op::Sign { a, .. } => {
+                if k == 0 {
+                    sign(at(s, a, 0))
+                } else {
+                    0.0
+                }
+            }
+            Op::Atan2 { y, x, d, r, .. } => {
+                let dk = conv(s, w, x, x, 0, k, k, false) + conv(s, w, y, y, 0, k, k, false);
+                s[d * w + k] = dk;
+                if k == 0 {
+                    at(s, y, 0).atan2(at(s, x, 0))
+                } else {
+                    let n = conv(s, w, y, x, 1, k, k, true) - conv(s, w, x, y, 1, k, k, true);
+                    let rk = (n - conv(s, w, d, r, 1, k - 1, k - 1, false)) / at(s, d, 0);
+                    s[r * w + k - 1] = rk;
+                    rk / kf
+                }
+            }
+        };
+        let out = match *self {
+            Op::Copy { out, .. }
+            | Op::Neg { out, .. }
+            | Op::Add { out, .. }
+            | Op::Sub { out, .. }
+            | Op::Scale { out, .. }
+            | Op::Mul { out, .. }
+            | Op::DivC { out, .. }
+            | Op::Div { out, .. }
+            | Op::Recip { out, .. }
+            | Op::Exp { out, .. }
+            | Op::Ln { out, .. }
+            | Op::Sqrt { out, .. }
+            | Op::Abs { out, .. }
+            | Op::Sign { out, .. }
+            | Op::Atan2 { out, .. } => out,
+            Op::SinCos { .. } | Op::Tan { .. } => unreachable!("written above"),
+        };
+        s[out * w + k] = value;
+    }
+}
+
+/// The part of a graph that M and f need, lowered to recurrences, ready to expand.
+#[derive(Debug)]
+pub struct TaylorProgram {
+    dof: usize,
+    /// Rows in the table: one per node, then the auxiliary rows.
+    rows: usize,
+    /// Every recurrence, in order: what order 0 runs (after the leaves are written).
+    all: Vec<Op>,
+    /// The recurrences of the nodes that depend on t, q or q̇: what orders ≥ 1 run.
+    varying: Vec<Op>,
+    /// Rows of the numbers and parameters (index into the parameters), written at binding.
+    numbers: Vec<(usize, f64)>,
+    params: Vec<(usize, usize)>,
+    /// Rows of t and of each qᵢ, q̇ᵢ the model reads.
+    time: Option<usize>,
+    coords: Vec<Option<usize>>,
+    velocities: Vec<Option<usize>>,
+    /// Rows of f.
+    force: Vec<usize>,
+    /// Row of M(r, c) at r·n + c.
+    mass_full: Vec<usize>,
+    /// Whether M depends on t or q (else Mⱼ = 0 for j ≥ 1).
+    mass_varies: bool,
+    /// The recurrences as machine code, compiled at the first expansion (`None`: not allowed,
+    /// or Cranelift could not compile them, and the interpreter runs).
+    #[cfg(feature = "jit")]
+    native: OnceLock<Option<super::taylor_native::SeriesKernel>>,
+    #[cfg(feature = "jit")]
+    allow_native: bool,
+}
+
+/// Builds the recurrences, allocating auxiliary rows after the node rows.
+struct Lowering {
+    rows: usize,
+    all: Vec<Op>,
+    varying: Vec<Op>,
+}
+
+impl Lowering {
+    fn row(&mut self) -> usize {
+        self.rows += 1;
+        self.rows - 1
+    }
+
+    fn push(&mut self, op: Op, varies: bool) {
+        self.all.push(op);
+        if varies {
+            self.varying.push(op);
+        }
     }
 }
 
 impl TaylorProgram {
-    /// The nodes of `graph` that `eom`'s M and f read, in topological order.
+    /// The nodes of `graph` that `eom`'s M and f read, lowered to recurrences.
     pub fn new(graph: &Graph, eom: &EomGraph) -> Self {
         let all = graph.nodes();
         let mut needed = vec![false; all.len()];
@@ -64,25 +322,189 @@ impl TaylorProgram {
                 _ => {}
             }
         }
-        let mut index = vec![usize::MAX; all.len()];
-        let mut nodes = Vec::new();
-        for (k, node) in all.iter().enumerate() {
-            if !needed[k] {
-                continue;
-            }
-            index[k] = nodes.len();
-            nodes.push(match *node {
-                Node::Unary(f, a) => Node::Unary(f, index[a]),
-                Node::Binary(f, a, b) => Node::Binary(f, index[a], index[b]),
-                Node::PowI(a, n) => Node::PowI(index[a], n),
-                other => other,
-            });
+        // Node rows first, in topological order.
+        let mut row = vec![usize::MAX; all.len()];
+        let mut kept = Vec::new();
+        for (k, _) in all.iter().enumerate().filter(|&(k, _)| needed[k]) {
+            row[k] = kept.len();
+            kept.push(k);
         }
+        let mut low = Lowering {
+            rows: kept.len(),
+            all: Vec::new(),
+            varying: Vec::new(),
+        };
+        let dof = eom.dof;
+        let (mut numbers, mut params) = (Vec::new(), Vec::new());
+        let (mut time, mut coords, mut velocities) = (None, vec![None; dof], vec![None; dof]);
+        // Whether a row's series goes beyond order 0.
+        let mut varies = vec![false; kept.len()];
+        for (out, &k) in kept.iter().enumerate() {
+            let v = |r: usize| varies[r];
+            let (op, var) = match all[k] {
+                Node::Const(x) => {
+                    numbers.push((out, x));
+                    (None, false)
+                }
+                Node::Param(p) => {
+                    params.push((out, p));
+                    (None, false)
+                }
+                Node::Time | Node::Coord(_) | Node::Velocity(_) => {
+                    match all[k] {
+                        Node::Time => time = Some(out),
+                        Node::Coord(i) => coords[i] = Some(out),
+                        Node::Velocity(i) => velocities[i] = Some(out),
+                        _ => unreachable!(),
+                    }
+                    (None, true)
+                }
+                Node::Unary(f, a) => {
+                    let a = row[a];
+                    let op = match f {
+                        Unary::Neg => Op::Neg { out, a },
+                        Unary::Sin | Unary::Cos | Unary::Sinh | Unary::Cosh => {
+                            let partner = low.row();
+                            let hyperbolic = matches!(f, Unary::Sinh | Unary::Cosh);
+                            let (s, c) = match f {
+                                Unary::Sin | Unary::Sinh => (out, partner),
+                                _ => (partner, out),
+                            };
+                            Op::SinCos {
+                                s,
+                                c,
+                                a,
+                                hyperbolic,
+                            }
+                        }
+                        Unary::Tan | Unary::Tanh => Op::Tan {
+                            out,
+                            w: low.row(),
+                            a,
+                            hyperbolic: f == Unary::Tanh,
+                        },
+                        Unary::Exp => Op::Exp { out, a },
+                        Unary::Ln => Op::Ln { out, a },
+                        Unary::Sqrt => Op::Sqrt { out, a },
+                        Unary::Abs => Op::Abs { out, a },
+                        // ±1: nothing beyond order 0.
+                        Unary::Sign => {
+                            low.push(Op::Sign { out, a }, false);
+                            varies[out] = false;
+                            continue;
+                        }
+                    };
+                    (Some(op), v(a))
+                }
+                Node::Binary(f, a, b) => {
+                    let (a, b) = (row[a], row[b]);
+                    let var = v(a) || v(b);
+                    let op = match f {
+                        Binary::Add => Op::Add { out, a, b },
+                        Binary::Sub => Op::Sub { out, a, b },
+                        Binary::Mul if !v(a) => Op::Scale { out, a: b, c: a },
+                        Binary::Mul if !v(b) => Op::Scale { out, a, c: b },
+                        Binary::Mul => Op::Mul { out, a, b },
+                        Binary::Div if !v(b) => Op::DivC { out, a, c: b },
+                        Binary::Div => Op::Div { out, a, b },
+                        Binary::Pow => {
+                            // aᵇ = exp(b ln a).
+                            let (l, m) = (low.row(), low.row());
+                            low.push(Op::Ln { out: l, a }, v(a));
+                            low.push(Op::Mul { out: m, a: b, b: l }, var);
+                            Op::Exp { out, a: m }
+                        }
+                        Binary::Atan2 => Op::Atan2 {
+                            out,
+                            y: a,
+                            x: b,
+                            d: low.row(),
+                            r: low.row(),
+                        },
+                    };
+                    (Some(op), var)
+                }
+                Node::PowI(a, n) => {
+                    let a = row[a];
+                    if n == 0 {
+                        // 1: a number.
+                        numbers.push((out, 1.0));
+                        varies[out] = false;
+                        continue;
+                    }
+                    // a^|n| by squaring, each product in a row of its own.
+                    let (mut base, mut acc, mut m) = (a, None, n.unsigned_abs());
+                    loop {
+                        if m & 1 == 1 {
+                            acc = Some(match acc {
+                                None => base,
+                                Some(r) => {
+                                    let p = low.row();
+                                    low.push(
+                                        Op::Mul {
+                                            out: p,
+                                            a: r,
+                                            b: base,
+                                        },
+                                        v(a),
+                                    );
+                                    p
+                                }
+                            });
+                        }
+                        m >>= 1;
+                        if m == 0 {
+                            break;
+                        }
+                        let sq = low.row();
+                        low.push(
+                            Op::Mul {
+                                out: sq,
+                                a: base,
+                                b: base,
+                            },
+                            v(a),
+                        );
+                        base = sq;
+                    }
+                    let power = acc.unwrap_or(a);
+                    let op = if n > 0 {
+                        Op::Copy { out, a: power }
+                    } else {
+                        Op::Recip { out, b: power }
+                    };
+                    (Some(op), v(a))
+                }
+            };
+            varies[out] = var;
+            if let Some(op) = op {
+                low.push(op, var);
+            }
+        }
+        let mass: Vec<usize> = eom.mass.iter().map(|&o| row[o]).collect();
+        // Row of M(r, c) from the upper triangle, row by row.
+        let upper = |r: usize, c: usize| {
+            let (i, l) = if r <= c { (r, c) } else { (c, r) };
+            mass[i * dof - i * (i + 1) / 2 + l]
+        };
+        let mass_full = (0..dof * dof).map(|e| upper(e / dof, e % dof)).collect();
         Self {
-            dof: eom.dof,
-            mass: eom.mass.iter().map(|&o| index[o]).collect(),
-            force: eom.force.iter().map(|&o| index[o]).collect(),
-            nodes,
+            mass_full,
+            dof,
+            rows: low.rows,
+            mass_varies: mass.iter().any(|&r| varies[r]),
+            force: eom.force.iter().map(|&o| row[o]).collect(),
+            all: low.all,
+            varying: low.varying,
+            numbers,
+            params,
+            time,
+            coords,
+            velocities,
+            #[cfg(feature = "jit")]
+            native: OnceLock::new(),
+            #[cfg(feature = "jit")]
+            allow_native: true,
         }
     }
 
@@ -91,28 +513,74 @@ impl TaylorProgram {
         self.dof
     }
 
+    /// The same program, never compiled: the interpreter's reference (`backend="interpreter"`).
+    pub(crate) fn interpreted(&self) -> Self {
+        Self {
+            dof: self.dof,
+            rows: self.rows,
+            all: self.all.clone(),
+            varying: self.varying.clone(),
+            numbers: self.numbers.clone(),
+            params: self.params.clone(),
+            time: self.time,
+            coords: self.coords.clone(),
+            velocities: self.velocities.clone(),
+            mass_full: self.mass_full.clone(),
+            force: self.force.clone(),
+            mass_varies: self.mass_varies,
+            #[cfg(feature = "jit")]
+            native: OnceLock::new(),
+            #[cfg(feature = "jit")]
+            allow_native: false,
+        }
+    }
+
+    /// The recurrences as machine code, compiled on the first call (`None` without the `jit`
+    /// feature, for an interpreted program, or where Cranelift failed).
+    #[cfg(feature = "jit")]
+    fn kernel(&self) -> Option<&super::taylor_native::SeriesKernel> {
+        if !self.allow_native {
+            return None;
+        }
+        self.native
+            .get_or_init(|| {
+                super::taylor_native::SeriesKernel::compile(&self.varying, self.rows).ok()
+            })
+            .as_ref()
+    }
+
+    /// Whether the expansions run machine code (compiling it now if it is not yet).
+    pub fn is_native(&self) -> bool {
+        #[cfg(feature = "jit")]
+        return self.kernel().is_some();
+        #[cfg(not(feature = "jit"))]
+        false
+    }
+
     /// Work space for expansions up to `order` with these parameter values.
+    ///
+    /// # Panics
+    /// If `params` is shorter than the parameters the program reads.
     pub fn expansion(self: &Arc<Self>, params: &[f64], order: usize) -> Expansion {
-        let width = order + 1;
-        let aux: usize = self.nodes.iter().map(aux_count).sum();
+        let w = order + 1;
+        let mut series = vec![0.0; self.rows * w];
+        for &(r, x) in &self.numbers {
+            series[r * w] = x;
+        }
+        for &(r, p) in &self.params {
+            series[r * w] = params[p];
+        }
+        if let (Some(r), true) = (self.time, order >= 1) {
+            series[r * w + 1] = 1.0;
+        }
         Expansion {
             program: self.clone(),
-            params: params.to_vec(),
             order,
-            series: vec![0.0; self.nodes.len() * width],
-            aux: vec![0.0; aux * width],
-            aux_start: self
-                .nodes
-                .iter()
-                .scan(0, |next, node| {
-                    let start = *next;
-                    *next += aux_count(node);
-                    Some(start)
-                })
-                .collect(),
-            q: vec![0.0; self.dof * (width + 1)],
-            v: vec![0.0; self.dof * (width + 1)],
+            series,
+            q: vec![0.0; self.dof * (w + 1)],
+            v: vec![0.0; self.dof * (w + 1)],
             m0: vec![0.0; self.dof * self.dof],
+            qdd: vec![0.0; self.dof * w],
             rhs: vec![0.0; self.dof],
         }
     }
@@ -122,16 +590,15 @@ impl TaylorProgram {
 #[derive(Debug, Clone)]
 pub struct Expansion {
     program: Arc<TaylorProgram>,
-    params: Vec<f64>,
     order: usize,
-    /// Node i's coefficient k at `i * (order + 1) + k`.
+    /// The table of series: row r's coefficient k at `r * (order + 1) + k`.
     series: Vec<f64>,
-    aux: Vec<f64>,
-    aux_start: Vec<usize>,
-    /// Coefficients of q and q̇: order k of coordinate i at `k * dof + i`, k = 0..=order + 1.
+    /// Coefficients of q and q̇: order k of coordinate i at `k * dof + i`, k = 0..=order.
     q: Vec<f64>,
     v: Vec<f64>,
     m0: Vec<f64>,
+    /// Coefficients of q̈: order k of coordinate i at `i * (order + 1) + k`.
+    qdd: Vec<f64>,
     rhs: Vec<f64>,
 }
 
@@ -153,6 +620,37 @@ impl Expansion {
         &self.v[k * n..(k + 1) * n]
     }
 
+    /// Write coefficient k of t's, q's and q̇'s rows (t's are fixed at creation beyond 0).
+    fn leaves(&mut self, k: usize, t0: f64) {
+        let (p, w, n) = (&self.program, self.order + 1, self.program.dof);
+        if let (Some(r), 0) = (p.time, k) {
+            self.series[r * w] = t0;
+        }
+        for (i, r) in p.coords.iter().enumerate() {
+            if let Some(r) = *r {
+                self.series[r * w + k] = self.q[k * n + i];
+            }
+        }
+        for (i, r) in p.velocities.iter().enumerate() {
+            if let Some(r) = *r {
+                self.series[r * w + k] = self.v[k * n + i];
+            }
+        }
+    }
+
+    /// Coefficient k ≥ 1 of every row that varies.
+    fn recurrences(&mut self, k: usize) {
+        let w = self.order + 1;
+        #[cfg(feature = "jit")]
+        if let Some(kernel) = self.program.kernel() {
+            kernel.run(&mut self.series, w, k);
+            return;
+        }
+        for op in &self.program.varying {
+            op.apply(&mut self.series, w, k);
+        }
+    }
+
     /// Expand the motion through (t₀, q₀, q̇₀) to `order` (given at creation).
     ///
     /// # Errors
@@ -161,44 +659,51 @@ impl Expansion {
     /// function at a point where its series does not exist, such as √x at x = 0).
     pub fn expand(&mut self, t0: f64, q0: &[f64], qd0: &[f64]) -> Result<()> {
         let n = self.program.dof;
+        let w = self.order + 1;
         self.q[..n].copy_from_slice(q0);
         self.v[..n].copy_from_slice(qd0);
-        for k in 0..=self.order {
-            // q and q̇ of order k are known; every node's coefficient k follows.
-            for i in 0..self.program.nodes.len() {
-                let c = self.coefficient(i, k, t0);
-                self.series[i * (self.order + 1) + k] = c;
+        self.leaves(0, t0);
+        let program = self.program.clone();
+        for op in &program.all {
+            op.apply(&mut self.series, w, 0);
+        }
+        for (m, &row) in self.m0.iter_mut().zip(&program.mass_full) {
+            *m = self.series[row * w];
+        }
+        eom::factor(&mut self.m0, n, t0, q0)?;
+        for k in 0..self.order {
+            if k > 0 {
+                self.leaves(k, t0);
+                self.recurrences(k);
             }
-            if k == 0 {
-                self.mass_at(0);
-                let q = q0.to_vec();
-                eom::factor(&mut self.m0, n, t0, &q)?;
-            }
-            if k == self.order {
-                break;
-            }
-            // M₀ q̈ₖ = fₖ − Σⱼ₌₁..ₖ Mⱼ q̈ₖ₋ⱼ, with q̈ₖ₋ⱼ = (k − j + 1) q̇ₖ₋ⱼ₊₁.
+            // M₀ q̈ₖ = fₖ − Σⱼ₌₁..ₖ Mⱼ q̈ₖ₋ⱼ: each entry of M a convolution of two rows.
             for r in 0..n {
-                let mut s = self.at(self.program.force[r], k);
-                for j in 1..=k {
+                let mut s = 0.0;
+                if program.mass_varies {
                     for c in 0..n {
-                        let a = (k - j + 1) as f64 * self.v[(k - j + 1) * n + c];
-                        s -= self.mass_entry(r, c, j) * a;
+                        let m = &self.series[program.mass_full[r * n + c] * w..][1..=k];
+                        let a = &self.qdd[c * w..][..k];
+                        s += m
+                            .iter()
+                            .zip(a.iter().rev())
+                            .map(|(x, y)| x * y)
+                            .sum::<f64>();
                     }
                 }
-                self.rhs[r] = s;
+                self.rhs[r] = self.series[program.force[r] * w + k] - s;
             }
             eom::solve(&self.m0, n, t0, &mut self.rhs)?;
-            let next = (k + 1) as f64;
-            for i in 0..n {
-                self.q[(k + 1) * n + i] = self.v[k * n + i] / next;
-                self.v[(k + 1) * n + i] = self.rhs[i] / next;
-            }
             if !self.rhs.iter().all(|x| x.is_finite()) {
                 return Err(Error::NonFinite {
                     what: "Taylor coefficient",
                     t: t0,
                 });
+            }
+            let next = (k + 1) as f64;
+            for i in 0..n {
+                self.qdd[i * w + k] = self.rhs[i];
+                self.q[(k + 1) * n + i] = self.v[k * n + i] / next;
+                self.v[(k + 1) * n + i] = self.rhs[i] / next;
             }
         }
         Ok(())
@@ -215,265 +720,6 @@ impl Expansion {
             }
             out[i] = q;
             out[n + i] = v;
-        }
-    }
-
-    fn at(&self, node: usize, k: usize) -> f64 {
-        self.series[node * (self.order + 1) + k]
-    }
-
-    fn aux_at(&self, node: usize, which: usize, k: usize) -> f64 {
-        self.aux[(self.aux_start[node] + which) * (self.order + 1) + k]
-    }
-
-    fn set_aux(&mut self, node: usize, which: usize, k: usize, x: f64) {
-        let w = self.order + 1;
-        self.aux[(self.aux_start[node] + which) * w + k] = x;
-    }
-
-    /// Mⱼ(r, c) from the upper triangle.
-    fn mass_entry(&self, r: usize, c: usize, j: usize) -> f64 {
-        let n = self.program.dof;
-        let (i, l) = if r <= c { (r, c) } else { (c, r) };
-        self.at(self.program.mass[i * n - i * (i + 1) / 2 + l], j)
-    }
-
-    fn mass_at(&mut self, j: usize) {
-        let n = self.program.dof;
-        for r in 0..n {
-            for c in 0..n {
-                self.m0[r * n + c] = self.mass_entry(r, c, j);
-            }
-        }
-    }
-
-    /// Σⱼ₌₁..ₖ j aⱼ bₖ₋ⱼ, the convolution of the recurrences of functions with x′ = g(x) a′.
-    fn weighted(&self, a: usize, k: usize, b: impl Fn(usize) -> f64) -> f64 {
-        (1..=k).map(|j| j as f64 * self.at(a, j) * b(k - j)).sum()
-    }
-
-    /// Coefficient k of node i, its inputs' coefficients up to k and its own below k known.
-    fn coefficient(&mut self, i: usize, k: usize, t0: f64) -> f64 {
-        let n = self.program.dof;
-        let kf = k as f64;
-        match self.program.nodes[i] {
-            Node::Const(x) => {
-                if k == 0 {
-                    x
-                } else {
-                    0.0
-                }
-            }
-            Node::Param(p) => {
-                if k == 0 {
-                    self.params[p]
-                } else {
-                    0.0
-                }
-            }
-            Node::Time => match k {
-                0 => t0,
-                1 => 1.0,
-                _ => 0.0,
-            },
-            Node::Coord(c) => self.q[k * n + c],
-            Node::Velocity(c) => self.v[k * n + c],
-            Node::Unary(f, a) => {
-                let x = |k: usize| self.at(a, k);
-                match f {
-                    Unary::Neg => -x(k),
-                    Unary::Sin | Unary::Cos | Unary::Sinh | Unary::Cosh => {
-                        // The node and its partner (cos beside sin, …) together.
-                        let (s, c) = if k == 0 {
-                            match f {
-                                Unary::Sin | Unary::Cos => x(0).sin_cos(),
-                                _ => (x(0).sinh(), x(0).cosh()),
-                            }
-                        } else {
-                            let (mine, partner) = (|j| self.at(i, j), |j| self.aux_at(i, 0, j));
-                            let (s_of, c_of): (&dyn Fn(usize) -> f64, &dyn Fn(usize) -> f64) =
-                                match f {
-                                    Unary::Sin | Unary::Sinh => (&mine, &partner),
-                                    _ => (&partner, &mine),
-                                };
-                            let sign = if matches!(f, Unary::Sin | Unary::Cos) {
-                                -1.0
-                            } else {
-                                1.0
-                            };
-                            (
-                                self.weighted(a, k, c_of) / kf,
-                                sign * self.weighted(a, k, s_of) / kf,
-                            )
-                        };
-                        let (value, partner) = match f {
-                            Unary::Sin | Unary::Sinh => (s, c),
-                            _ => (c, s),
-                        };
-                        self.set_aux(i, 0, k, partner);
-                        value
-                    }
-                    Unary::Tan | Unary::Tanh => {
-                        // t′ = w a′ with w = 1 ± t² (aux 0).
-                        let sign = if f == Unary::Tan { 1.0 } else { -1.0 };
-                        let t = match (k, f) {
-                            (0, Unary::Tan) => x(0).tan(),
-                            (0, _) => x(0).tanh(),
-                            _ => self.weighted(a, k, |j| self.aux_at(i, 0, j)) / kf,
-                        };
-                        let w = if k == 0 {
-                            1.0 + sign * t * t
-                        } else {
-                            let inner: f64 =
-                                (1..k).map(|j| self.at(i, j) * self.at(i, k - j)).sum();
-                            sign * (2.0 * self.at(i, 0) * t + inner)
-                        };
-                        self.set_aux(i, 0, k, w);
-                        t
-                    }
-                    Unary::Exp => {
-                        if k == 0 {
-                            x(0).exp()
-                        } else {
-                            self.weighted(a, k, |j| self.at(i, j)) / kf
-                        }
-                    }
-                    Unary::Ln => {
-                        if k == 0 {
-                            x(0).ln()
-                        } else {
-                            let s: f64 = (1..k).map(|j| j as f64 * self.at(i, j) * x(k - j)).sum();
-                            (x(k) - s / kf) / x(0)
-                        }
-                    }
-                    Unary::Sqrt => {
-                        if k == 0 {
-                            x(0).sqrt()
-                        } else {
-                            let s: f64 = (1..k).map(|j| self.at(i, j) * self.at(i, k - j)).sum();
-                            (x(k) - s) / (2.0 * self.at(i, 0))
-                        }
-                    }
-                    Unary::Abs => {
-                        if x(0) > 0.0 {
-                            x(k)
-                        } else {
-                            -x(k)
-                        }
-                    }
-                    Unary::Sign => {
-                        if k > 0 {
-                            0.0
-                        } else if x(0) > 0.0 {
-                            1.0
-                        } else {
-                            -1.0
-                        }
-                    }
-                }
-            }
-            Node::Binary(f, a, b) => {
-                let (x, y) = (|k: usize| self.at(a, k), |k: usize| self.at(b, k));
-                match f {
-                    Binary::Add => x(k) + y(k),
-                    Binary::Sub => x(k) - y(k),
-                    Binary::Mul => (0..=k).map(|j| x(j) * y(k - j)).sum(),
-                    Binary::Div => {
-                        let s: f64 = (1..=k).map(|j| y(j) * self.at(i, k - j)).sum();
-                        (x(k) - s) / y(0)
-                    }
-                    Binary::Pow => {
-                        // aᵇ = exp(m), m = b · ln a: aux 0 is ln a, aux 1 is m.
-                        let l = if k == 0 {
-                            x(0).ln()
-                        } else {
-                            let s: f64 = (1..k)
-                                .map(|j| j as f64 * self.aux_at(i, 0, j) * x(k - j))
-                                .sum();
-                            (x(k) - s / kf) / x(0)
-                        };
-                        let value = x(0).powf(y(0));
-                        self.set_aux(i, 0, k, l);
-                        let m: f64 = (0..=k)
-                            .map(|j| self.at(b, j) * self.aux_at(i, 0, k - j))
-                            .sum();
-                        self.set_aux(i, 1, k, m);
-                        if k == 0 {
-                            value
-                        } else {
-                            (1..=k)
-                                .map(|j| j as f64 * self.aux_at(i, 1, j) * self.at(i, k - j))
-                                .sum::<f64>()
-                                / kf
-                        }
-                    }
-                    Binary::Atan2 => {
-                        // θ = atan2(y, x) of the point (x, y) = (b, a): θ′ = N / D with
-                        // N = x y′ − y x′, D = x² + y²; aux N, D, R = N / D.
-                        let (num, den) = (|j| self.at(a, j), |j| self.at(b, j));
-                        let d: f64 = (0..=k)
-                            .map(|j| den(j) * den(k - j) + num(j) * num(k - j))
-                            .sum();
-                        let angle = num(0).atan2(den(0));
-                        let m = k.saturating_sub(1);
-                        let nm: f64 = (0..=m)
-                            .map(|j| {
-                                let d = (m - j + 1) as f64;
-                                den(j) * d * num(m - j + 1) - num(j) * d * den(m - j + 1)
-                            })
-                            .sum();
-                        self.set_aux(i, 1, k, d);
-                        if k == 0 {
-                            return angle;
-                        }
-                        self.set_aux(i, 0, m, nm);
-                        let s: f64 = (1..=m)
-                            .map(|j| self.aux_at(i, 1, j) * self.aux_at(i, 2, m - j))
-                            .sum();
-                        let r = (nm - s) / self.aux_at(i, 1, 0);
-                        self.set_aux(i, 2, m, r);
-                        r / kf
-                    }
-                }
-            }
-            Node::PowI(a, p) => {
-                // Powers by products: aux j − 1 holds a^(j+1)'s series for j = 1..|p| − 1, the
-                // last aux a^|p| (then 1 / a^|p| for p < 0).
-                if p == 0 {
-                    return if k == 0 { 1.0 } else { 0.0 };
-                }
-                let m = p.unsigned_abs() as usize;
-                let mut prev_value = self.at(a, k);
-                for j in 1..m {
-                    // a^(j+1) = a · a^j.
-                    let v: f64 = (0..=k)
-                        .map(|l| {
-                            let pj = if j == 1 {
-                                self.at(a, k - l)
-                            } else {
-                                self.aux_at(i, j - 2, k - l)
-                            };
-                            self.at(a, l) * pj
-                        })
-                        .sum();
-                    self.set_aux(i, j - 1, k, v);
-                    prev_value = v;
-                }
-                if p > 0 {
-                    prev_value
-                } else {
-                    // c = 1 / b with b = a^m: c_k = (δₖ₀ − Σⱼ₌₁..ₖ bⱼ cₖ₋ⱼ) / b₀.
-                    let b = |j: usize| {
-                        if m == 1 {
-                            self.at(a, j)
-                        } else {
-                            self.aux_at(i, m - 2, j)
-                        }
-                    };
-                    let s: f64 = (1..=k).map(|j| b(j) * self.at(i, k - j)).sum();
-                    (if k == 0 { 1.0 } else { 0.0 } - s) / b(0)
-                }
-            }
         }
     }
 }
