@@ -585,6 +585,33 @@ class Model:
         out: FloatArray = self._native.accelerations(t, q, qd)  # the fast path, inline
         return self._checked("accelerations", t, q, qd) if out is None else out
 
+    def taylor_series(
+        self, q: ArrayLike, qd: ArrayLike, *, t: float = 0.0, order: int = 20
+    ) -> Tuple[FloatArray, FloatArray]:
+        """The Taylor coefficients of the motion through (t, q, q̇): arrays ``cq`` and ``cqd``
+        of shape ``(order + 1, dof)`` with ``cq[k] = q⁽ᵏ⁾(t) / k!`` (and the same for q̇), so
+        that q(t + h) ≈ Σₖ cq[k] hᵏ within the series' radius of convergence.
+
+        These are what ``method="taylor"`` sums at every step: found order by order by series
+        arithmetic on the model's expressions, with one solve by the mass matrix per order (no
+        symbolic inverse). Models stated as expressions only (not ``lg.scenes``); ``order``
+        from 1 to 100.
+
+        >>> import lagrangian as lg
+        >>> x = lg.coordinates("x")
+        >>> osc = lg.Model(T=x.d**2 / 2, U=x**2 / 2)
+        >>> cq, _ = osc.taylor_series([1.0], [0.0], order=4)
+        >>> cq[:, 0].tolist()  # cos t = 1 − t²/2 + t⁴/24
+        [1.0, 0.0, -0.5, 0.0, 0.041666666666666664]
+        """
+        n = self.dof
+        q_, qd_ = vector("q", q, n).tolist(), vector("qd", qd, n).tolist()
+        k = integer("order", order)
+        if k < 1:
+            raise ValueError(f"order = {k}: give an order from 1 to 100")
+        cq, cqd = self._native.taylor_series(real("t", t), q_, qd_, k)
+        return cq, cqd
+
     def mass_matrix(self, t: float, q: ArrayLike, qd: ArrayLike) -> FloatArray:
         """The mass matrix M = ∂²T/∂q̇² at (t, q, q̇), shape (dof, dof); for ``k`` states as rows
         of ``q`` and ``qd`` (see :meth:`accelerations`), shape (k, dof, dof)."""

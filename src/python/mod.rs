@@ -272,6 +272,60 @@ impl PyModel {
         })
     }
 
+    /// The normalized Taylor coefficients qₖ = q⁽ᵏ⁾(t)/k! and q̇ₖ of the motion through
+    /// (t, q, q̇), k = 0..=order, as two arrays of shape (order + 1, n): what the Taylor method
+    /// sums at each step. Models stated as expressions only.
+    fn taylor_series<'py>(
+        &self,
+        py: Python<'py>,
+        t: f64,
+        q: Vec<f64>,
+        qd: Vec<f64>,
+        order: usize,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+        let n = self.model.dof();
+        let coefficients = guard(|| {
+            check_vector("q", &q, n)?;
+            check_vector("qd", &qd, n)?;
+            check_vector("t", &[t], 1)?;
+            let program = self
+                .model
+                .derived_program()
+                .ok_or_else(|| Error::InvalidInput {
+                    what: "model",
+                    why: "Taylor series need a model stated as expressions (lg.Model), not a \
+                      Rust scene"
+                        .into(),
+                })?;
+            if !(1..=crate::tape::MAX_TAYLOR_ORDER).contains(&order) {
+                return Err(Error::InvalidInput {
+                    what: "order",
+                    why: format!("{order} is not in 1..={}", crate::tape::MAX_TAYLOR_ORDER),
+                });
+            }
+            let (taylor, params) = program.taylor();
+            let mut e = taylor.expansion(params, order);
+            e.expand(t, &q, &qd)?;
+            let (mut cq, mut cv) = (Vec::new(), Vec::new());
+            for k in 0..=order {
+                cq.extend_from_slice(e.q(k));
+                cv.extend_from_slice(e.qd(k));
+            }
+            crate::dynamics::finite(&cq, "Taylor coefficients", t)?;
+            crate::dynamics::finite(&cv, "Taylor coefficients", t)?;
+            Ok((cq, cv))
+        })?;
+        let shape = [order + 1, n];
+        Ok((
+            PyArray1::from_vec(py, coefficients.0)
+                .reshape(shape)?
+                .into_any(),
+            PyArray1::from_vec(py, coefficients.1)
+                .reshape(shape)?
+                .into_any(),
+        ))
+    }
+
     /// The mass matrix M = ∂²T/∂q̇² at (t, q, q̇): shape (n, n), or (k, n, n).
     fn mass_matrix<'py>(
         &self,

@@ -100,4 +100,4 @@ pub use graph::{Binary, Graph, Node, Unary};
 pub use native::{NativeFunction, NativeTape};
 pub use particles::TapeParticles;
 pub use sensitivity::input_matrix;
-pub use taylor::{Expansion, TaylorProgram};
+pub use taylor::{Expansion, MAX_TAYLOR_ORDER, TaylorProgram};

@@ -91,9 +91,19 @@ pub(crate) enum Op {
     },
 }
 
-/// Σⱼ₌ₗₒ..ₕᵢ aⱼ b_(kk − j) (`weighted`: Σ j aⱼ b_(kk − j)), summed from j = lo up; 0 when
-/// hi < lo. The compiled recurrences sum in the same order.
+/// The highest order an expansion may be asked for: far beyond what double precision can use
+/// (the Taylor method's order is about 20 at a tolerance of 1e-16), and a bound on the table.
+pub const MAX_TAYLOR_ORDER: usize = 100;
+
+/// Lanes of a convolution: independent partial sums, so that the additions do not wait on each
+/// other (measured: the sums of one lane were bound by the latency of the addition).
+pub(crate) const LANES: usize = 4;
+
+/// Σⱼ₌ₗₒ..ₕᵢ aⱼ b_(kk − j) (`weighted`: Σ j aⱼ b_(kk − j)); 0 when hi < lo. Term lo + i goes to
+/// lane i mod 4 while four are left, the rest to lane 0, and the lanes are added as
+/// (l₀ + l₁) + (l₂ + l₃): the compiled recurrences sum in the same order, bit for bit.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn conv(
     s: &[f64],
     w: usize,
@@ -104,13 +114,25 @@ fn conv(
     kk: usize,
     weighted: bool,
 ) -> f64 {
-    let mut acc = 0.0;
-    for j in lo..=hi {
+    let term = |j: usize| {
         let x = s[a * w + j];
         let x = if weighted { j as f64 * x } else { x };
-        acc += x * s[b * w + kk - j];
+        x * s[b * w + kk - j]
+    };
+    let mut lanes = [0.0; LANES];
+    let mut j = lo;
+    let end = hi + 1;
+    while j + LANES <= end {
+        for (i, lane) in lanes.iter_mut().enumerate() {
+            *lane += term(j + i);
+        }
+        j += LANES;
     }
-    acc
+    while j < end {
+        lanes[0] += term(j);
+        j += 1;
+    }
+    (lanes[0] + lanes[1]) + (lanes[2] + lanes[3])
 }
 
 impl Op {
@@ -255,8 +277,10 @@ pub struct TaylorProgram {
     dof: usize,
     /// Rows in the table: one per node, then the auxiliary rows.
     rows: usize,
-    /// Every recurrence, in order: what order 0 runs (after the leaves are written).
-    all: Vec<Op>,
+    /// The recurrences of the rows fixed by the parameters: run once per binding.
+    fixed: Vec<Op>,
+    /// The recurrences of the rows the state sets: what order 0 runs.
+    order0: Vec<Op>,
     /// The recurrences of the nodes that depend on t, q or q̇: what orders ≥ 1 run.
     varying: Vec<Op>,
     /// Rows of the numbers and parameters (index into the parameters), written at binding.
@@ -280,10 +304,22 @@ pub struct TaylorProgram {
     allow_native: bool,
 }
 
+/// How far a row's series reaches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Reach {
+    /// A number fixed by the parameters: computed once per binding.
+    Fixed,
+    /// Set by the state at order 0, nothing beyond (sign(q), and what only scales it).
+    Order0,
+    /// A series in t.
+    Varying,
+}
+
 /// Builds the recurrences, allocating auxiliary rows after the node rows.
 struct Lowering {
     rows: usize,
-    all: Vec<Op>,
+    fixed: Vec<Op>,
+    order0: Vec<Op>,
     varying: Vec<Op>,
 }
 
@@ -293,10 +329,14 @@ impl Lowering {
         self.rows - 1
     }
 
-    fn push(&mut self, op: Op, varies: bool) {
-        self.all.push(op);
-        if varies {
-            self.varying.push(op);
+    fn push(&mut self, op: Op, reach: Reach) {
+        match reach {
+            Reach::Fixed => self.fixed.push(op),
+            Reach::Order0 => self.order0.push(op),
+            Reach::Varying => {
+                self.order0.push(op);
+                self.varying.push(op);
+            }
         }
     }
 }
@@ -331,24 +371,25 @@ impl TaylorProgram {
         }
         let mut low = Lowering {
             rows: kept.len(),
-            all: Vec::new(),
+            fixed: Vec::new(),
+            order0: Vec::new(),
             varying: Vec::new(),
         };
         let dof = eom.dof;
         let (mut numbers, mut params) = (Vec::new(), Vec::new());
         let (mut time, mut coords, mut velocities) = (None, vec![None; dof], vec![None; dof]);
-        // Whether a row's series goes beyond order 0.
-        let mut varies = vec![false; kept.len()];
+        let mut reach = vec![Reach::Fixed; kept.len()];
         for (out, &k) in kept.iter().enumerate() {
-            let v = |r: usize| varies[r];
+            let at = |r: usize| reach[r];
+            let v = |r: usize| reach[r] == Reach::Varying;
             let (op, var) = match all[k] {
                 Node::Const(x) => {
                     numbers.push((out, x));
-                    (None, false)
+                    (None, Reach::Fixed)
                 }
                 Node::Param(p) => {
                     params.push((out, p));
-                    (None, false)
+                    (None, Reach::Fixed)
                 }
                 Node::Time | Node::Coord(_) | Node::Velocity(_) => {
                     match all[k] {
@@ -357,7 +398,7 @@ impl TaylorProgram {
                         Node::Velocity(i) => velocities[i] = Some(out),
                         _ => unreachable!(),
                     }
-                    (None, true)
+                    (None, Reach::Varying)
                 }
                 Node::Unary(f, a) => {
                     let a = row[a];
@@ -389,16 +430,17 @@ impl TaylorProgram {
                         Unary::Abs => Op::Abs { out, a },
                         // ±1: nothing beyond order 0.
                         Unary::Sign => {
-                            low.push(Op::Sign { out, a }, false);
-                            varies[out] = false;
+                            let r = at(a).min(Reach::Order0);
+                            low.push(Op::Sign { out, a }, r);
+                            reach[out] = r;
                             continue;
                         }
                     };
-                    (Some(op), v(a))
+                    (Some(op), at(a))
                 }
                 Node::Binary(f, a, b) => {
                     let (a, b) = (row[a], row[b]);
-                    let var = v(a) || v(b);
+                    let var = at(a).max(at(b));
                     let op = match f {
                         Binary::Add => Op::Add { out, a, b },
                         Binary::Sub => Op::Sub { out, a, b },
@@ -410,7 +452,7 @@ impl TaylorProgram {
                         Binary::Pow => {
                             // aᵇ = exp(b ln a).
                             let (l, m) = (low.row(), low.row());
-                            low.push(Op::Ln { out: l, a }, v(a));
+                            low.push(Op::Ln { out: l, a }, at(a));
                             low.push(Op::Mul { out: m, a: b, b: l }, var);
                             Op::Exp { out, a: m }
                         }
@@ -429,7 +471,7 @@ impl TaylorProgram {
                     if n == 0 {
                         // 1: a number.
                         numbers.push((out, 1.0));
-                        varies[out] = false;
+                        reach[out] = Reach::Fixed;
                         continue;
                     }
                     // a^|n| by squaring, each product in a row of its own.
@@ -446,7 +488,7 @@ impl TaylorProgram {
                                             a: r,
                                             b: base,
                                         },
-                                        v(a),
+                                        at(a),
                                     );
                                     p
                                 }
@@ -463,7 +505,7 @@ impl TaylorProgram {
                                 a: base,
                                 b: base,
                             },
-                            v(a),
+                            at(a),
                         );
                         base = sq;
                     }
@@ -473,10 +515,10 @@ impl TaylorProgram {
                     } else {
                         Op::Recip { out, b: power }
                     };
-                    (Some(op), v(a))
+                    (Some(op), at(a))
                 }
             };
-            varies[out] = var;
+            reach[out] = var;
             if let Some(op) = op {
                 low.push(op, var);
             }
@@ -492,9 +534,10 @@ impl TaylorProgram {
             mass_full,
             dof,
             rows: low.rows,
-            mass_varies: mass.iter().any(|&r| varies[r]),
+            mass_varies: mass.iter().any(|&r| reach[r] == Reach::Varying),
             force: eom.force.iter().map(|&o| row[o]).collect(),
-            all: low.all,
+            fixed: low.fixed,
+            order0: low.order0,
             varying: low.varying,
             numbers,
             params,
@@ -518,7 +561,8 @@ impl TaylorProgram {
         Self {
             dof: self.dof,
             rows: self.rows,
-            all: self.all.clone(),
+            fixed: self.fixed.clone(),
+            order0: self.order0.clone(),
             varying: self.varying.clone(),
             numbers: self.numbers.clone(),
             params: self.params.clone(),
@@ -572,6 +616,9 @@ impl TaylorProgram {
         }
         if let (Some(r), true) = (self.time, order >= 1) {
             series[r * w + 1] = 1.0;
+        }
+        for op in &self.fixed {
+            op.apply(&mut series, w, 0);
         }
         Expansion {
             program: self.clone(),
@@ -664,7 +711,7 @@ impl Expansion {
         self.v[..n].copy_from_slice(qd0);
         self.leaves(0, t0);
         let program = self.program.clone();
-        for op in &program.all {
+        for op in &program.order0 {
             op.apply(&mut self.series, w, 0);
         }
         for (m, &row) in self.m0.iter_mut().zip(&program.mass_full) {

@@ -10,7 +10,7 @@
 //! [`SeriesKernel::run`] checks the table's length, the width and the order.
 
 use super::native::{fail, jit_module};
-use super::taylor::Op;
+use super::taylor::{LANES, Op};
 use crate::error::Result;
 use cranelift_codegen::ir::{
     AbiParam, BlockArg, InstBuilder, MemFlagsData, Value, condcodes, types,
@@ -220,8 +220,9 @@ impl Gen<'_> {
         self.b.ins().f64const(x)
     }
 
-    /// Σⱼ₌ₗₒ..ₕᵢ [j] aⱼ b_(kk − j), summed from j = lo up, as [`conv`](super::taylor) does:
-    /// a loop over (count, &aⱼ, &b_(kk−j), sum, j as a float).
+    /// Σⱼ₌ₗₒ..ₕᵢ [j] aⱼ b_(kk − j) in the lanes and order of [`conv`](super::taylor): a loop
+    /// over four terms at a time, then one at a time into lane 0, each block carrying (count,
+    /// &aⱼ, &b_(kk−j), j as a float, the lanes).
     fn conv(&mut self, a: usize, b: usize, lo: i64, hi: Value, kk: Value, weighted: bool) -> Value {
         let (pa, pb) = (self.row(a), self.row(b));
         let pa = self.b.ins().iadd_imm_s(pa, 8 * lo);
@@ -231,51 +232,101 @@ impl Gen<'_> {
         let count = self.b.ins().iadd_imm_s(hi, 1 - lo);
         let zero = self.f64(0.0);
         let jf = self.f64(lo as f64);
-        let header = self.b.create_block();
-        let body = self.b.create_block();
-        let exit = self.b.create_block();
-        for block in [header, body] {
-            self.b.append_block_param(block, types::I64);
-            self.b.append_block_param(block, types::I64);
-            self.b.append_block_param(block, types::I64);
-            self.b.append_block_param(block, types::F64);
-            self.b.append_block_param(block, types::F64);
+        let blocks = [(); 4].map(|_| self.b.create_block());
+        let [quad, quad_body, single, single_body] = blocks;
+        for block in blocks {
+            for t in [types::I64, types::I64, types::I64, types::F64] {
+                self.b.append_block_param(block, t);
+            }
+            for _ in 0..LANES {
+                self.b.append_block_param(block, types::F64);
+            }
         }
-        self.b.append_block_param(exit, types::F64);
+        let exit = self.b.create_block();
+        for _ in 0..LANES {
+            self.b.append_block_param(exit, types::F64);
+        }
         let args = |v: &[Value]| v.iter().map(|&x| BlockArg::Value(x)).collect::<Vec<_>>();
-        self.b.ins().jump(header, &args(&[count, pa, pb, zero, jf]));
-        self.b.switch_to_block(header);
-        let hp = self.b.block_params(header).to_vec();
+        let start = [count, pa, pb, jf, zero, zero, zero, zero];
+        self.b.ins().jump(quad, &args(&start));
+        // Four terms at a time while four are left.
+        self.b.switch_to_block(quad);
+        let p = self.b.block_params(quad).to_vec();
+        let more = self.b.ins().icmp_imm_s(
+            condcodes::IntCC::SignedGreaterThanOrEqual,
+            p[0],
+            LANES as i64,
+        );
+        self.b
+            .ins()
+            .brif(more, quad_body, &args(&p), single, &args(&p));
+        self.b.switch_to_block(quad_body);
+        self.b.seal_block(quad_body);
+        let mut p = self.b.block_params(quad_body).to_vec();
+        for i in 0..LANES {
+            let t = self.term(p[1], p[2], p[3], i as i64, weighted);
+            p[4 + i] = self.b.ins().fadd(p[4 + i], t);
+        }
+        p[0] = self.b.ins().iadd_imm_s(p[0], -(LANES as i64));
+        p[1] = self.b.ins().iadd_imm_s(p[1], 8 * LANES as i64);
+        p[2] = self.b.ins().iadd_imm_s(p[2], -8 * LANES as i64);
+        let step = self.f64(LANES as f64);
+        p[3] = self.b.ins().fadd(p[3], step);
+        self.b.ins().jump(quad, &args(&p));
+        self.b.seal_block(quad);
+        // The rest one at a time, into lane 0.
+        self.b.switch_to_block(single);
+        let p = self.b.block_params(single).to_vec();
         let more = self
             .b
             .ins()
-            .icmp_imm_s(condcodes::IntCC::SignedGreaterThan, hp[0], 0);
+            .icmp_imm_s(condcodes::IntCC::SignedGreaterThan, p[0], 0);
         self.b
             .ins()
-            .brif(more, body, &args(&hp), exit, &args(&hp[3..4]));
-        self.b.switch_to_block(body);
-        self.b.seal_block(body);
-        let bp = self.b.block_params(body).to_vec();
-        let (n, pa, pb, acc, jf) = (bp[0], bp[1], bp[2], bp[3], bp[4]);
-        let x = self.b.ins().load(types::F64, Self::flags(), pa, 0);
+            .brif(more, single_body, &args(&p), exit, &args(&p[4..]));
+        self.b.switch_to_block(single_body);
+        self.b.seal_block(single_body);
+        let mut p = self.b.block_params(single_body).to_vec();
+        let t = self.term(p[1], p[2], p[3], 0, weighted);
+        p[4] = self.b.ins().fadd(p[4], t);
+        p[0] = self.b.ins().iadd_imm_s(p[0], -1);
+        p[1] = self.b.ins().iadd_imm_s(p[1], 8);
+        p[2] = self.b.ins().iadd_imm_s(p[2], -8);
+        let one = self.f64(1.0);
+        p[3] = self.b.ins().fadd(p[3], one);
+        self.b.ins().jump(single, &args(&p));
+        self.b.seal_block(single);
+        self.b.switch_to_block(exit);
+        self.b.seal_block(exit);
+        let l = self.b.block_params(exit).to_vec();
+        let low = self.b.ins().fadd(l[0], l[1]);
+        let high = self.b.ins().fadd(l[2], l[3]);
+        self.b.ins().fadd(low, high)
+    }
+
+    /// Term j + i of a convolution: [(j + i)] a_(j+i) b_(kk−j−i), with `pa` at aⱼ, `pb` at
+    /// b_(kk−j) and `jf` = j.
+    fn term(&mut self, pa: Value, pb: Value, jf: Value, i: i64, weighted: bool) -> Value {
+        let x = self
+            .b
+            .ins()
+            .load(types::F64, Self::flags(), pa, (8 * i) as i32);
         let x = if weighted {
-            self.b.ins().fmul(jf, x)
+            let di = self.f64(i as f64);
+            let j = if i == 0 {
+                jf
+            } else {
+                self.b.ins().fadd(jf, di)
+            };
+            self.b.ins().fmul(j, x)
         } else {
             x
         };
-        let y = self.b.ins().load(types::F64, Self::flags(), pb, 0);
-        let t = self.b.ins().fmul(x, y);
-        let acc = self.b.ins().fadd(acc, t);
-        let n = self.b.ins().iadd_imm_s(n, -1);
-        let pa = self.b.ins().iadd_imm_s(pa, 8);
-        let pb = self.b.ins().iadd_imm_s(pb, -8);
-        let one = self.f64(1.0);
-        let jf = self.b.ins().fadd(jf, one);
-        self.b.ins().jump(header, &args(&[n, pa, pb, acc, jf]));
-        self.b.seal_block(header);
-        self.b.switch_to_block(exit);
-        self.b.seal_block(exit);
-        self.b.block_params(exit)[0]
+        let y = self
+            .b
+            .ins()
+            .load(types::F64, Self::flags(), pb, (-8 * i) as i32);
+        self.b.ins().fmul(x, y)
     }
 
     /// Coefficient k of `op`'s rows, as [`Op::apply`] computes it for k ≥ 1.

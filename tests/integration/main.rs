@@ -25,3 +25,4 @@ mod scenes;
 mod stability;
 mod statics;
 mod tape_speed;
+mod taylor;

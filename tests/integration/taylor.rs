@@ -1,0 +1,274 @@
+//! The Taylor method (issue 16) against closed forms: Kepler's orbit (e = 0.6) and the seed's
+//! forced two-mass system (eq. 41–44), each to within 10 × the tolerance over tol = 1e-6 … 1e-15
+//! with the error proportional to the tolerance; dense output and events on the step's
+//! polynomial; the errors it gives for what it cannot do.
+
+use lagrangian::integrators::{Event, Method, Options, solve};
+use lagrangian::scenes::ForcedTwoMass;
+use lagrangian::tape::{Binary, Energies, EnergyModel, EomProgram, Function, Graph, Inputs, Tape};
+use lagrangian::{Dynamics, Error};
+use std::sync::Arc;
+
+/// The model of `parts` on `g` with its derived (compiled) program bound to `params`.
+fn model(mut g: Graph, dof: usize, parts: &Energies, params: &[f64]) -> EnergyModel {
+    let program = EomProgram::new(&mut g, dof, params.len(), parts).unwrap();
+    let f = |nodes: &[usize], inputs: Inputs| {
+        Function::new(
+            Arc::new(Tape::new(&g, nodes, inputs, "part").unwrap()),
+            params,
+        )
+        .unwrap()
+    };
+    let all = Inputs::kinetic(dof, params.len());
+    EnergyModel::new(
+        dof,
+        f(&[parts.kinetic], all),
+        parts
+            .potential
+            .map(|u| f(&[u], Inputs::potential(dof, params.len()))),
+        parts.dissipation.map(|r| f(&[r], all)),
+        parts.forces.as_ref().map(|q| f(q, all)),
+    )
+    .unwrap()
+    .with_program(program.bind(params).unwrap())
+    .unwrap()
+}
+
+/// Kepler's problem in polar coordinates (r, θ), μ = 1: T = ½(ṙ² + r²θ̇²), U = −μ/r.
+fn kepler() -> EnergyModel {
+    let mut g = Graph::new();
+    let (r, rd, thd, mu) = (g.coord(0), g.velocity(0), g.velocity(1), g.param(0));
+    let half = g.constant(0.5);
+    let rd2 = g.powi(rd, 2).unwrap();
+    let r2 = g.powi(r, 2).unwrap();
+    let thd2 = g.powi(thd, 2).unwrap();
+    let rt = g.binary(Binary::Mul, r2, thd2).unwrap();
+    let sum = g.binary(Binary::Add, rd2, rt).unwrap();
+    let kinetic = g.binary(Binary::Mul, half, sum).unwrap();
+    let over = g.binary(Binary::Div, mu, r).unwrap();
+    let potential = g.unary(lagrangian::tape::Unary::Neg, over).unwrap();
+    let parts = Energies {
+        kinetic,
+        potential: Some(potential),
+        dissipation: None,
+        forces: None,
+    };
+    model(g, 2, &parts, &[1.0])
+}
+
+/// The orbit of semi-major axis 1 and eccentricity e from the pericentre at t = 0, μ = 1: (r, θ,
+/// ṙ, θ̇) at t from Kepler's equation E − e sin E = t (Newton to round-off), θ unwrapped.
+fn kepler_exact(e: f64, t: f64) -> [f64; 4] {
+    let mean = t;
+    let mut big_e = if e > 0.8 { std::f64::consts::PI } else { mean };
+    for _ in 0..50 {
+        let step = (big_e - e * big_e.sin() - mean) / (1.0 - e * big_e.cos());
+        big_e -= step;
+        if step.abs() < 1e-16 * big_e.abs().max(1.0) {
+            break;
+        }
+    }
+    let r = 1.0 - e * big_e.cos();
+    let half =
+        ((1.0 + e).sqrt() * (big_e / 2.0).sin()).atan2((1.0 - e).sqrt() * (big_e / 2.0).cos());
+    // ν/2 is within π/2 of E/2: the branch of atan2 that follows E.
+    let pi = std::f64::consts::PI;
+    let theta = 2.0 * (half + pi * ((big_e / 2.0 - half) / pi).round());
+    let h = (1.0 - e * e).sqrt();
+    [r, theta, e * big_e.sin() / r, h / (r * r)]
+}
+
+/// max |yᵢ − exactᵢ| / max(1, |exactᵢ|).
+fn error(y: &[f64], exact: &[f64]) -> f64 {
+    y.iter()
+        .zip(exact)
+        .map(|(a, b)| (a - b).abs() / b.abs().max(1.0))
+        .fold(0.0, f64::max)
+}
+
+/// The end state's error for each tolerance, checked against 10 × tol, and the slope of
+/// log(error) against log(tol) over the tolerances where round-off does not dominate.
+fn to_the_tolerance(
+    what: &str,
+    run: impl Fn(f64) -> (Vec<f64>, usize),
+    exact: &[f64],
+) -> Vec<(f64, f64)> {
+    let mut errors = Vec::new();
+    for tol in [
+        1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14, 1e-15,
+    ] {
+        let (y, steps) = run(tol);
+        let err = error(&y, exact);
+        eprintln!("{what}: tol {tol:e}, error {err:.2e}, {steps} steps");
+        assert!(err <= 10.0 * tol, "{what}: tol {tol:e}, error {err:e}");
+        errors.push((tol, err));
+    }
+    // Proportional to the tolerance: the least-squares slope over 1e-6 … 1e-12.
+    let pts: Vec<(f64, f64)> = errors
+        .iter()
+        .filter(|(tol, _)| *tol >= 1e-12)
+        .map(|&(tol, e)| (tol.log10(), e.log10()))
+        .collect();
+    let n = pts.len() as f64;
+    let (sx, sy) = pts.iter().fold((0.0, 0.0), |(a, b), p| (a + p.0, b + p.1));
+    let (mx, my) = (sx / n, sy / n);
+    let num: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let den: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let slope = num / den;
+    eprintln!("{what}: slope of log error against log tol {slope:.3}");
+    assert!((0.8..=1.25).contains(&slope), "{what}: slope {slope}");
+    errors
+}
+
+#[test]
+fn kepler_orbit_to_the_tolerance() {
+    let e: f64 = 0.6;
+    let model = kepler();
+    let q0 = [1.0 - e, 0.0];
+    let v0 = [0.0, (1.0 - e * e).sqrt() / ((1.0 - e) * (1.0 - e))];
+    // Two orbits and a half: through the pericentre twice, ending near the apocentre.
+    let t_end = 5.0 * std::f64::consts::PI;
+    let exact = kepler_exact(e, t_end);
+    to_the_tolerance(
+        "Kepler e = 0.6",
+        |tol| {
+            let sol = solve(
+                &model,
+                &q0,
+                &v0,
+                (0.0, t_end),
+                Method::Taylor,
+                &Options::adaptive(tol, tol),
+            )
+            .unwrap();
+            let (_, q, qd) = sol.last().unwrap();
+            ([q, qd].concat(), sol.stats.accepted_steps)
+        },
+        &exact,
+    );
+}
+
+#[test]
+fn forced_two_mass_to_the_tolerance() {
+    // Seed eq. 41–44: T = ½ m₁ẋ₁² + ½ m₂ẋ₂², U = ½ k₁x₁² + ½ k₂(x₂ − x₁)², Q″ = F cos Ωt.
+    let (m1, m2, k1, k2, f1, f2, omega) = (1.0, 2.0, 3.0, 1.5, 0.5, 0.2, 1.3);
+    let scene = ForcedTwoMass::new(m1, m2, k1, k2).with_forcing(f1, f2, omega);
+    let mut g = Graph::new();
+    let p: Vec<usize> = (0..7).map(|i| g.param(i)).collect();
+    let (x1, x2, v1, v2, t) = (
+        g.coord(0),
+        g.coord(1),
+        g.velocity(0),
+        g.velocity(1),
+        g.time(),
+    );
+    let half = g.constant(0.5);
+    let quad = |g: &mut Graph, k: usize, x: usize| {
+        let x2 = g.powi(x, 2).unwrap();
+        let kx = g.binary(Binary::Mul, k, x2).unwrap();
+        g.binary(Binary::Mul, half, kx).unwrap()
+    };
+    let t1 = quad(&mut g, p[0], v1);
+    let t2 = quad(&mut g, p[1], v2);
+    let kinetic = g.binary(Binary::Add, t1, t2).unwrap();
+    let u1 = quad(&mut g, p[2], x1);
+    let stretch = g.binary(Binary::Sub, x2, x1).unwrap();
+    let u2 = quad(&mut g, p[3], stretch);
+    let potential = g.binary(Binary::Add, u1, u2).unwrap();
+    let wt = g.binary(Binary::Mul, p[6], t).unwrap();
+    let c = g.unary(lagrangian::tape::Unary::Cos, wt).unwrap();
+    let forces = vec![
+        g.binary(Binary::Mul, p[4], c).unwrap(),
+        g.binary(Binary::Mul, p[5], c).unwrap(),
+    ];
+    let parts = Energies {
+        kinetic,
+        potential: Some(potential),
+        dissipation: None,
+        forces: Some(forces),
+    };
+    let model = model(g, 2, &parts, &[m1, m2, k1, k2, f1, f2, omega]);
+    let (x0, v0) = ([0.3, -0.2], [0.1, 0.4]);
+    let t_end = 20.0;
+    let [x, v] = scene.exact_solution(x0, v0, t_end).unwrap();
+    let exact = [x[0], x[1], v[0], v[1]];
+    to_the_tolerance(
+        "forced two-mass",
+        |tol| {
+            let sol = solve(
+                &model,
+                &x0,
+                &v0,
+                (0.0, t_end),
+                Method::Taylor,
+                &Options::adaptive(tol, tol),
+            )
+            .unwrap();
+            let (_, q, qd) = sol.last().unwrap();
+            ([q, qd].concat(), sol.stats.accepted_steps)
+        },
+        &exact,
+    );
+}
+
+/// Dense output is each step's Taylor polynomial: on Kepler's orbit it matches the exact
+/// solution between the steps as well as at them, and an event (the apocentre, ṙ = 0 falling)
+/// is found on it at the exact time (half a period, π).
+#[test]
+fn kepler_dense_output_and_apocentre_event() {
+    let e: f64 = 0.6;
+    let model = kepler();
+    let q0 = [1.0 - e, 0.0];
+    let v0 = [0.0, (1.0 - e * e).sqrt() / ((1.0 - e) * (1.0 - e))];
+    let options = Options::adaptive(1e-13, 1e-13)
+        .with_dense(true)
+        .with_event(Event::new("apocentre", |_t, _q, qd| qd[0]).falling());
+    let sol = solve(&model, &q0, &v0, (0.0, 7.0), Method::Taylor, &options).unwrap();
+    let found = &sol.events[0];
+    assert_eq!(found.t.len(), 1);
+    assert!(
+        (found.t[0] - std::f64::consts::PI).abs() < 1e-11,
+        "{}",
+        found.t[0]
+    );
+    let dense = sol.dense.as_ref().unwrap();
+    let mut y = [0.0; 4];
+    for i in 0..=200 {
+        let t = 7.0 * i as f64 / 200.0;
+        dense.eval(t, &mut y).unwrap();
+        let err = error(&y, &kepler_exact(e, t));
+        assert!(err < 1e-11, "t = {t}: error {err:e}");
+    }
+}
+
+/// What the Taylor method cannot do is a typed error: a fixed step, and a model with no
+/// expression graph (Rust types implementing the energy traits).
+#[test]
+fn taylor_refuses_fixed_steps_and_models_without_a_graph() {
+    let model = kepler();
+    let err = solve(
+        &model,
+        &[0.4, 0.0],
+        &[0.0, 2.0],
+        (0.0, 1.0),
+        Method::Taylor,
+        &Options::fixed(0.01),
+    )
+    .unwrap_err();
+    assert!(
+        matches!(err, Error::InvalidInput { what: "dt", .. }),
+        "{err:?}"
+    );
+    let scene = ForcedTwoMass::new(1.0, 1.0, 1.0, 1.0).system();
+    assert!(scene.derived_program().is_none());
+    let err = solve(
+        &scene,
+        &[0.1, 0.0],
+        &[0.0, 0.0],
+        (0.0, 1.0),
+        Method::Taylor,
+        &Options::adaptive(1e-9, 1e-9),
+    )
+    .unwrap_err();
+    assert!(format!("{err}").contains("expression"), "{err}");
+}
