@@ -40,7 +40,7 @@ fn main() {
         .and_then(|r| r.parse().ok())
         .unwrap_or(5);
     let only: Option<f64> = std::env::var("TOL").ok().and_then(|r| r.parse().ok());
-    for tol in [1e-6, 1e-9, 1e-12, 1e-15] {
+    for tol in [1e-6, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-15] {
         if only.is_some_and(|o| o != tol) {
             continue;
         }

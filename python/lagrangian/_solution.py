@@ -165,8 +165,9 @@ class Solution:
     def interpolant(self) -> Optional[Tuple[str, int]]:
         """(what interpolates between the steps, its order) when the solution is callable
         (``dense=True``): Hairer's continuous extension for DOPRI5 (order 4) and DOP853 (7),
-        the quintic Hermite polynomial through q, q̇, q̈ at the ends of each step for every other
-        method (order 5 in q, 4 in q̇); ``None`` otherwise."""
+        the Taylor polynomial of each step for ``taylor`` (its order, exact to the method's
+        accuracy anywhere in the step), the quintic Hermite polynomial through q, q̇, q̈ at the
+        ends of each step for every other method (order 5 in q, 4 in q̇); ``None`` otherwise."""
         if self._dense is None:
             return None
         return str(self._dense.interpolant), int(self._dense.order)

@@ -162,7 +162,10 @@ macro_rules! registry {
             /// 1. conservative (no Φ, no Q″, no explicit t) with a fixed `dt`: `blanes_moan4` when
             ///    separable (constant M, U(q)), otherwise `gauss4` (symplectic for any L);
             /// 2. otherwise (forced, dissipative, time-dependent, or tolerances only): `radau5`
-            ///    when the system is stiff, else `dop853` (adaptive, or at the fixed `dt`).
+            ///    when the system is stiff; else `taylor` when there is no `dt`, the tolerance
+            ///    min(rtol, atol) is ≤ 1e-11 and the model is stated as expressions with no |x| or
+            ///    sign(x) of the state (measured faster than DOP853 there); else `dop853`
+            ///    (adaptive, or at the fixed `dt`).
             ///
             /// Stiff means: at the initial state, the Jacobian of (q̇, q̈) has a decaying
             /// (relaxation) mode at least 1000 times faster than every mode the solution must

@@ -19,6 +19,12 @@ use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
 use crate::tape::Expansion;
 
+/// Jorba & Zou's order for the tolerance ε, p = ⌈−ln ε / 2 + 1⌉, capped where double precision
+/// has nothing left to gain (p = 40 is ε ≈ 1e-34).
+pub(super) fn order_for(eps: f64) -> usize {
+    ((-eps.ln() / 2.0 + 1.0).ceil() as usize).clamp(2, 40)
+}
+
 /// The Taylor method.
 pub(crate) struct Taylor;
 
@@ -45,12 +51,16 @@ impl Integrator for Taylor {
         _qd0: &[f64],
     ) -> std::result::Result<(), String> {
         match system.derived_program() {
-            Some(_) => Ok(()),
             None => Err(
                 "the Taylor method expands the model's expression graph: state the \
                          model as expressions (lg.Model, tape::EomProgram)"
                     .into(),
             ),
+            Some(p) if !p.taylor().0.is_analytic() => Err("the model takes |x| or sign(x) of \
+                 the state, which have no Taylor series across x = 0 (a step would run past \
+                 the kink unseen): use dop853, whose error control finds it"
+                .into()),
+            Some(_) => Ok(()),
         }
     }
 
@@ -75,8 +85,7 @@ impl Integrator for Taylor {
         let (rtol, atol) = (run.options.rtol, run.options.atol);
         // The order for the tighter of the two tolerances, fixed for the run.
         let eps = rtol.min(atol);
-        // Capped where double precision has nothing left to gain (p = 40 is ε ≈ 1e-34).
-        let order = ((-eps.ln() / 2.0 + 1.0).ceil() as usize).clamp(2, 40);
+        let order = order_for(eps);
         let span = (run.t_end - run.t0).abs();
         Ok(Box::new(TaylorStepper {
             expansion: program.expansion(params, order),

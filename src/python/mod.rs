@@ -301,7 +301,8 @@ impl PyModel {
                 return Err(Error::InvalidInput {
                     what: "order",
                     why: format!("{order} is not in 1..={}", crate::tape::MAX_TAYLOR_ORDER),
-                });
+                }
+                .into());
             }
             let (taylor, params) = program.taylor();
             let mut e = taylor.expansion(params, order);

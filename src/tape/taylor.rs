@@ -593,6 +593,15 @@ impl TaylorProgram {
             .as_ref()
     }
 
+    /// Whether the motion has a Taylor series wherever the model is defined: no |x| or sign(x)
+    /// of the state, whose series say nothing of the kink at 0 (a step would run past it).
+    pub fn is_analytic(&self) -> bool {
+        !self
+            .order0
+            .iter()
+            .any(|op| matches!(op, Op::Abs { .. } | Op::Sign { .. }))
+    }
+
     /// Whether the expansions run machine code (compiling it now if it is not yet).
     pub fn is_native(&self) -> bool {
         #[cfg(feature = "jit")]
