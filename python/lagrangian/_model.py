@@ -595,7 +595,7 @@ class Model:
         These are what ``method="taylor"`` sums at every step: found order by order by series
         arithmetic on the model's expressions, with one solve by the mass matrix per order (no
         symbolic inverse). Models stated as expressions only (not ``lg.scenes``); ``order``
-        from 1 to 100.
+        from 1 to 100. ``"auto"`` never picks ``taylor``: give ``method="taylor"``.
 
         >>> import lagrangian as lg
         >>> x, = lg.coordinates("x")
@@ -722,9 +722,7 @@ class Model:
             ``blanes_moan4`` when it is separable (constant mass matrix, U(q)), ``gauss4``
             otherwise (symplectic for any L); in every other case (forced, dissipative,
             time-dependent, or tolerances without ``dt``) ``radau5`` when the system is stiff
-            at the initial state; else ``taylor`` for tolerances min(rtol, atol) ≤ 1e-11 on a
-            model stated as expressions (no ``abs`` or ``sign`` of the state), where it
-            measured faster than DOP853; ``dop853`` otherwise (adaptive, or at the fixed ``dt``).
+            at the initial state, ``dop853`` otherwise (adaptive, or at the fixed ``dt``).
             Stiff means a decaying mode of the Jacobian at least 1000 times faster than every
             mode the solution must follow, so that an explicit step would be set by stability.
         dt : float, optional

@@ -2,13 +2,6 @@
 //! initial state, with the reason recorded in the statistics.
 
 use super::{Method, Options, stiffness};
-
-/// Tolerances at or below which `auto` takes the Taylor method on models stated as
-/// expressions: measured on the double pendulum (`examples/taylor_timing.rs`), the Taylor
-/// method at the same tolerance as DOP853 is as fast at 1e-11 (0.63 ms each), faster below it
-/// (0.68 against 0.79 ms at 1e-12, 0.96 against 1.61 ms at 1e-15), slower above it (0.53
-/// against 0.37 ms at 1e-9), and always 100× more accurate.
-pub(super) const TAYLOR_BELOW: f64 = 1e-11;
 use crate::dynamics::Dynamics;
 
 /// Choose a method from the system's structure, the options and the initial state (the rule
@@ -65,23 +58,6 @@ pub(super) fn choose<S: Dynamics + ?Sized>(
                  state)"
             .into(),
     };
-    let eps = options.rtol.min(options.atol);
-    let analytic = system
-        .derived_program()
-        .is_some_and(|p| p.taylor().0.is_analytic());
-    if options.dt.is_none() && analytic && eps <= TAYLOR_BELOW {
-        return (
-            Method::Taylor,
-            format!(
-                "tolerance {eps:e} ≤ {TAYLOR_BELOW:e} on a model stated as expressions, \
-                 {not_stiff}: the Taylor method (order {} here) takes steps that barely shrink \
-                 with the tolerance, where DOP853's shrink like ε^(1/8); measured on the double \
-                 pendulum, it is as fast as DOP853 at 1e-11 and faster below (1.15× at 1e-12, \
-                 1.7× at 1e-15), with errors 100× smaller at the same tolerance",
-                super::taylor::order_for(eps)
-            ),
-        );
-    }
     let why = match options.dt {
         Some(_) => format!(
             "fixed dt on a system that is forced, dissipative or time-dependent, {not_stiff}: \

@@ -21,7 +21,7 @@ use crate::tape::Expansion;
 
 /// Jorba & Zou's order for the tolerance ε, p = ⌈−ln ε / 2 + 1⌉, capped where double precision
 /// has nothing left to gain (p = 40 is ε ≈ 1e-34).
-pub(super) fn order_for(eps: f64) -> usize {
+fn order_for(eps: f64) -> usize {
     ((-eps.ln() / 2.0 + 1.0).ceil() as usize).clamp(2, 40)
 }
 
@@ -158,9 +158,9 @@ impl<S: Dynamics + ?Sized> SegmentStepper<S> for TaylorStepper {
         let dir = run.dir();
         let mut h = self.step_size(opts.rtol, opts.atol).min(self.h_max);
         let floor = opts.min_step.max(10.0 * f64::EPSILON * t.abs());
-        if !(h > floor) {
-            // Infinite ρ (a polynomial solution) is capped above; a vanishing ρ is a
-            // singularity of the solution within reach.
+        // Infinite ρ (a polynomial solution) is capped above; a vanishing ρ is a singularity of
+        // the solution within reach (NaN is refused with it).
+        if h.partial_cmp(&floor) != Some(std::cmp::Ordering::Greater) {
             return Err(Error::StepSizeTooSmall { t, h });
         }
         let last = (t + dir * 1.01 * h - run.t_end) * dir >= 0.0;
