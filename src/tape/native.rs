@@ -111,6 +111,7 @@ macro_rules! wrappers {
             $(jit.symbol(stringify!($name), $name as *const u8);)*
             jit.symbol("lagrangian_powi", lagrangian_powi as *const u8);
             jit.symbol("lagrangian_sin_cos", lagrangian_sin_cos as *const u8);
+            jit.symbol("lagrangian_conv", super::taylor::lagrangian_conv as *const u8);
         }
     };
 }

@@ -99,9 +99,10 @@ pub const MAX_TAYLOR_ORDER: usize = 100;
 /// other (measured: the sums of one lane were bound by the latency of the addition).
 pub(crate) const LANES: usize = 4;
 
-/// Σⱼ₌ₗₒ..ₕᵢ aⱼ b_(kk − j) (`weighted`: Σ j aⱼ b_(kk − j)); 0 when hi < lo. Term lo + i goes to
-/// lane i mod 4 while four are left, the rest to lane 0, and the lanes are added as
-/// (l₀ + l₁) + (l₂ + l₃): the compiled recurrences sum in the same order, bit for bit.
+/// Σⱼ₌ₗₒ..ₕᵢ aⱼ b_(kk − j) (`weighted`: Σ j aⱼ b_(kk − j)) of rows a and b of the table; 0 when
+/// hi < lo. Term lo + i goes to lane i mod 4 while four are left, the rest to lane 0, and the
+/// lanes are added as (l₀ + l₁) + (l₂ + l₃). The compiled recurrences call the same sum
+/// ([`conv_rows`], through [`lagrangian_conv`]), so both give the same bits.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn conv(
@@ -114,10 +115,23 @@ fn conv(
     kk: usize,
     weighted: bool,
 ) -> f64 {
+    conv_rows(
+        &s[a * w..(a + 1) * w],
+        &s[b * w..(b + 1) * w],
+        lo,
+        hi,
+        kk,
+        weighted,
+    )
+}
+
+/// [`conv`] on two rows.
+#[inline(always)]
+fn conv_rows(a: &[f64], b: &[f64], lo: usize, hi: usize, kk: usize, weighted: bool) -> f64 {
     let term = |j: usize| {
-        let x = s[a * w + j];
+        let x = a[j];
         let x = if weighted { j as f64 * x } else { x };
-        x * s[b * w + kk - j]
+        x * b[kk - j]
     };
     let mut lanes = [0.0; LANES];
     let mut j = lo;
@@ -133,6 +147,33 @@ fn conv(
         j += 1;
     }
     (lanes[0] + lanes[1]) + (lanes[2] + lanes[3])
+}
+
+/// [`conv_rows`] for the compiled recurrences: rows a and b from their first coefficient.
+///
+/// # Safety
+/// `a` is valid for reads of `hi + 1` values and `b` of `kk + 1` (the kernel passes rows of a
+/// table it was checked against, with hi, kk below the row width), and lo ≤ kk when lo ≤ hi.
+#[cfg(feature = "jit")]
+pub(super) unsafe extern "C" fn lagrangian_conv(
+    a: *const f64,
+    b: *const f64,
+    lo: i64,
+    hi: i64,
+    kk: i64,
+    weighted: i32,
+) -> f64 {
+    if hi < lo {
+        return 0.0;
+    }
+    // SAFETY: see the function's contract.
+    let (a, b) = unsafe {
+        (
+            std::slice::from_raw_parts(a, hi as usize + 1),
+            std::slice::from_raw_parts(b, kk as usize + 1),
+        )
+    };
+    conv_rows(a, b, lo as usize, hi as usize, kk as usize, weighted != 0)
 }
 
 impl Op {
@@ -591,6 +632,11 @@ impl TaylorProgram {
                 super::taylor_native::SeriesKernel::compile(&self.varying, self.rows).ok()
             })
             .as_ref()
+    }
+
+    /// Recurrences run at each order ≥ 1 (the nodes that vary and their auxiliary rows).
+    pub fn recurrences(&self) -> usize {
+        self.varying.len()
     }
 
     /// Whether the motion has a Taylor series wherever the model is defined: no |x| or sign(x)

@@ -455,7 +455,8 @@ fn solver_steps_are_the_runs_steps() {
     let bounce = Event::new("floor", |_t, q, _qd| q[0])
         .falling()
         .with_reset(move |_t, _q, qd| qd[0] *= -e);
-    for &method in Method::ALL {
+    // taylor needs an expression model: `taylor.rs` steps its bouncing ball.
+    for method in Method::ALL.iter().copied().filter(|&m| m != Method::Taylor) {
         let options = match method.is_adaptive() {
             Some(true) => Options::adaptive(1e-9, 1e-9),
             _ => Options::fixed(1e-2),

@@ -440,7 +440,9 @@ fn backward_oscillator_all_methods() {
     let (t0, t1) = (3.0, -2.0);
     let (q0, v0) = osc.exact_solution(1.0, 0.5, t0).unwrap();
     let (q1, v1) = osc.exact_solution(1.0, 0.5, t1).unwrap();
-    for method in Method::ALL.iter().copied() {
+    // taylor needs an expression model: its runs backwards, dense output and stepping are in
+    // `taylor.rs`.
+    for method in Method::ALL.iter().copied().filter(|&m| m != Method::Taylor) {
         let opts = if method.is_adaptive() == Some(true) {
             Options::adaptive(1e-10, 1e-10)
         } else {
@@ -562,7 +564,9 @@ fn dense_output_oscillator_all_methods() {
         .collect();
     times.insert(5, times[4]);
     times.push(10.0);
-    for method in Method::ALL.iter().copied() {
+    // taylor needs an expression model: its runs backwards, dense output and stepping are in
+    // `taylor.rs`.
+    for method in Method::ALL.iter().copied().filter(|&m| m != Method::Taylor) {
         let (opts, bound) = if method.is_adaptive() == Some(true) {
             (Options::adaptive(1e-9, 1e-9), 1e-8)
         } else {

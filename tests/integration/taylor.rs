@@ -272,3 +272,111 @@ fn taylor_refuses_fixed_steps_and_models_without_a_graph() {
     .unwrap_err();
     assert!(format!("{err}").contains("expression"), "{err}");
 }
+
+/// A program too large for loops in the code (its convolutions are calls of the interpreter's
+/// sum): the 12-link chain's coefficients bit for bit against the interpreter's.
+#[test]
+fn large_program_coefficients_match_the_interpreter() {
+    let n = 12;
+    let mut g = Graph::new();
+    let parts = lagrangian::tape::models::pendulum_chain(&mut g, n).unwrap();
+    let program = EomProgram::new(&mut g, n, 3, &parts).unwrap();
+    let params = [1.0, 0.8, 9.81];
+    let native = program.bind(&params).unwrap();
+    let interpreted = program.interpreted().bind(&params).unwrap();
+    let (a, _) = native.taylor();
+    let (b, _) = interpreted.taylor();
+    assert!(a.recurrences() > 400, "{}", a.recurrences());
+    assert_eq!(a.is_native(), cfg!(feature = "jit"));
+    let q: Vec<f64> = (0..n).map(|i| 0.3 - 0.05 * i as f64).collect();
+    let qd: Vec<f64> = (0..n).map(|i| 0.1 * (i % 3) as f64).collect();
+    let (mut x, mut y) = (a.expansion(&params, 16), b.expansion(&params, 16));
+    x.expand(0.0, &q, &qd).unwrap();
+    y.expand(0.0, &q, &qd).unwrap();
+    for k in 0..=16 {
+        for (u, v) in x.q(k).iter().zip(y.q(k)).chain(x.qd(k).iter().zip(y.qd(k))) {
+            assert_eq!(u.to_bits(), v.to_bits(), "order {k}: {u} against {v}");
+        }
+    }
+}
+
+/// A ball bouncing on the floor (T = ½ẏ², U = g y, e = 0.8), stated as expressions: the impacts
+/// at the geometric series of times, and the step-by-step solver giving `solve`'s run bit for
+/// bit, resets included.
+#[test]
+fn bouncing_ball_impacts_and_stepping() {
+    use lagrangian::integrators::{Solver, StepOutcome};
+    let (e, g_) = (0.8, 9.81);
+    let mut g = Graph::new();
+    let (y, v, grav) = (g.coord(0), g.velocity(0), g.param(0));
+    let half = g.constant(0.5);
+    let v2 = g.powi(v, 2).unwrap();
+    let kinetic = g.binary(Binary::Mul, half, v2).unwrap();
+    let potential = g.binary(Binary::Mul, grav, y).unwrap();
+    let parts = Energies {
+        kinetic,
+        potential: Some(potential),
+        dissipation: None,
+        forces: None,
+    };
+    let ball = model(g, 1, &parts, &[g_]);
+    let bounce = Event::new("floor", |_t, q, _qd| q[0])
+        .falling()
+        .with_reset(move |_t, _q, qd| qd[0] *= -e);
+    let options = Options::adaptive(1e-12, 1e-12).with_event(bounce);
+    let span = (0.0, 2.5);
+    let whole = solve(&ball, &[1.0], &[0.0], span, Method::Taylor, &options).unwrap();
+    // Impact k at t₁ (1 + 2e + … + 2eᵏ⁻¹), t₁ = √(2h/g).
+    let t1 = (2.0_f64 / g_).sqrt();
+    let found = &whole.events[0].t;
+    assert!(found.len() >= 4, "{found:?}");
+    let mut expected = t1;
+    for (k, &t) in found.iter().enumerate() {
+        assert!(
+            (t - expected).abs() < 1e-10,
+            "impact {k}: {t} against {expected}"
+        );
+        expected += 2.0 * t1 * e.powi(k as i32 + 1);
+    }
+    let mut solver = Solver::new(&ball, &[1.0], &[0.0], span, Method::Taylor, &options).unwrap();
+    let mut row = 0;
+    loop {
+        let outcome = solver.step().unwrap();
+        row += if matches!(outcome, StepOutcome::Reset { .. }) {
+            2
+        } else {
+            1
+        };
+        assert_eq!(solver.t(), whole.t[row]);
+        match outcome {
+            StepOutcome::Stepped | StepOutcome::Reset { .. } => {}
+            StepOutcome::Finished => break,
+            other => panic!("{other:?}"),
+        }
+    }
+    assert_eq!(solver.solution(), whole);
+}
+
+/// Backwards in time: Kepler's orbit from t = 5π back to 0 returns to the pericentre.
+#[test]
+fn kepler_backwards_to_the_start() {
+    let e: f64 = 0.6;
+    let model = kepler();
+    let t_end = 5.0 * std::f64::consts::PI;
+    let [r, th, rd, thd] = kepler_exact(e, t_end);
+    let sol = solve(
+        &model,
+        &[r, th],
+        &[rd, thd],
+        (t_end, 0.0),
+        Method::Taylor,
+        &Options::adaptive(1e-13, 1e-13),
+    )
+    .unwrap();
+    assert!(sol.t.windows(2).all(|w| w[1] < w[0]));
+    let (t, q, qd) = sol.last().unwrap();
+    assert_eq!(t, 0.0);
+    let back = [q, qd].concat();
+    let start = kepler_exact(e, 0.0);
+    assert!(error(&back, &start) < 1e-11, "{back:?} against {start:?}");
+}
