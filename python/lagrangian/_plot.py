@@ -341,6 +341,7 @@ _STYLES: Dict[str, Tuple[str, str]] = {
     "gauss4": ("#17becf", "*"),
     "gauss6": ("#000080", "h"),
     "radau5": ("#000000", "p"),
+    "taylor": ("#d95f02", "$T$"),
     "scipy RK45": ("#e6ab02", "d"),
     "scipy DOP853": ("#1b9e77", "H"),
     "scipy Radau": ("#9e0142", "8"),
