@@ -44,34 +44,66 @@ const BACKTRACKING_UP_TO: usize = 10_000;
 /// The compiled function: constants, t, q, q̇, outputs.
 type Entry = unsafe extern "C" fn(*const f64, f64, *const f64, *const f64, *mut f64);
 
-/// A tape compiled to machine code. Evaluate it with [`NativeTape::eval`], or bind it to
-/// parameter values with [`Function::compile_native`].
-pub struct NativeTape {
-    /// Owns the executable memory `entry` points into; freed on drop, never changed after
-    /// compilation. `None` only while dropping.
+/// Machine code and the Cranelift module that owns its memory: freed on drop, never changed
+/// after compilation. The home of the `unsafe` ownership of generated code, for [`NativeTape`]
+/// and the Taylor recurrences.
+pub(super) struct Code<E: Copy> {
+    /// `None` only while dropping.
     module: Option<JITModule>,
-    entry: Entry,
-    consts: usize,
-    dof: usize,
-    reads_q: bool,
-    reads_qd: bool,
-    outputs: usize,
+    entry: E,
 }
 
-// SAFETY: after `compile` the module is never mutated or read again except to free it in `drop`
-// (which needs `&mut self`, so no call can be running); the machine code is immutable and only
-// reads its arguments and writes `out`, so calling it from several threads at once is sound.
-unsafe impl Send for NativeTape {}
+// SAFETY: after `Code::new` the module is never mutated or read again except to free it in
+// `drop` (which needs `&mut self`, so no call can be running); the machine code is immutable, so
+// calling it from several threads at once is sound (each caller passes its own buffers).
+unsafe impl<E: Copy> Send for Code<E> {}
 // SAFETY: as for `Send`: `&self` gives access to nothing but the immutable code.
-unsafe impl Sync for NativeTape {}
+unsafe impl<E: Copy> Sync for Code<E> {}
 
-impl Drop for NativeTape {
+impl<E: Copy> Code<E> {
+    /// The function `define` emits into `module` and returns the entry of; on failure the
+    /// module's memory is freed and the error returned.
+    pub(super) fn new(
+        mut module: JITModule,
+        define: impl FnOnce(&mut JITModule) -> Result<E>,
+    ) -> Result<Self> {
+        match define(&mut module) {
+            Ok(entry) => Ok(Self {
+                module: Some(module),
+                entry,
+            }),
+            Err(e) => {
+                // SAFETY: no pointer into the module was handed out.
+                unsafe { module.free_memory() };
+                Err(e)
+            }
+        }
+    }
+
+    /// The compiled function.
+    pub(super) fn entry(&self) -> E {
+        self.entry
+    }
+}
+
+impl<E: Copy> Drop for Code<E> {
     fn drop(&mut self) {
         if let Some(module) = self.module.take() {
             // SAFETY: `entry` is only reachable through `&self`, which cannot outlive this call.
             unsafe { module.free_memory() };
         }
     }
+}
+
+/// A tape compiled to machine code. Evaluate it with [`NativeTape::eval`], or bind it to
+/// parameter values with [`Function::compile_native`].
+pub struct NativeTape {
+    code: Code<Entry>,
+    consts: usize,
+    dof: usize,
+    reads_q: bool,
+    reads_qd: bool,
+    outputs: usize,
 }
 
 impl std::fmt::Debug for NativeTape {
@@ -179,29 +211,21 @@ impl NativeTape {
     /// malformed (an index out of range, a slot read before it is written): fall back to the
     /// interpreter.
     pub fn compile(tape: &Tape) -> Result<Self> {
-        let mut module = jit_module(tape.code.len())?;
-        match Self::define(&mut module, tape) {
-            Ok(entry) => Ok(Self {
-                module: Some(module),
-                entry,
-                consts: tape.consts.len(),
-                dof: tape.inputs.dof,
-                reads_q: tape
-                    .input_slots
-                    .iter()
-                    .any(|(_, i)| matches!(i, Input::Coord(_))),
-                reads_qd: tape
-                    .input_slots
-                    .iter()
-                    .any(|(_, i)| matches!(i, Input::Velocity(_))),
-                outputs: tape.outputs.len(),
-            }),
-            Err(e) => {
-                // SAFETY: no pointer into the module was handed out.
-                unsafe { module.free_memory() };
-                Err(e)
-            }
-        }
+        let code = Code::new(jit_module(tape.code.len())?, |m| Self::define(m, tape))?;
+        Ok(Self {
+            code,
+            consts: tape.consts.len(),
+            dof: tape.inputs.dof,
+            reads_q: tape
+                .input_slots
+                .iter()
+                .any(|(_, i)| matches!(i, Input::Coord(_))),
+            reads_qd: tape
+                .input_slots
+                .iter()
+                .any(|(_, i)| matches!(i, Input::Velocity(_))),
+            outputs: tape.outputs.len(),
+        })
     }
 
     /// Generate, compile and link the function.
@@ -305,7 +329,7 @@ impl NativeTape {
         // below its output count (all checked in `compile`), and the asserts above bound the
         // slices by these sizes. `self` keeps the code alive for the call.
         unsafe {
-            (self.entry)(
+            (self.code.entry())(
                 consts.as_ptr(),
                 t,
                 q.as_ptr(),

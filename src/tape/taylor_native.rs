@@ -10,7 +10,7 @@
 //! writes is checked against the table's row count before any code is emitted, and
 //! [`SeriesKernel::run`] checks the table's length, the width and the order.
 
-use super::native::{fail, jit_module};
+use super::native::{Code, fail, jit_module};
 use super::taylor::{LANES, Op};
 
 use crate::error::Result;
@@ -35,26 +35,8 @@ type Entry = unsafe extern "C" fn(i64, i64, *mut f64);
 
 /// The recurrences of one [`TaylorProgram`](super::TaylorProgram) as machine code.
 pub(crate) struct SeriesKernel {
-    /// Owns the executable memory `entry` points into; freed on drop. `None` only while
-    /// dropping.
-    module: Option<JITModule>,
-    entry: Entry,
+    code: Code<Entry>,
     rows: usize,
-}
-
-// SAFETY: as for `NativeTape`: after `compile` the module is only freed in `drop`, and the code
-// is immutable and touches nothing but the table it is given.
-unsafe impl Send for SeriesKernel {}
-// SAFETY: as for `Send`.
-unsafe impl Sync for SeriesKernel {}
-
-impl Drop for SeriesKernel {
-    fn drop(&mut self) {
-        if let Some(module) = self.module.take() {
-            // SAFETY: `entry` is only reachable through `&self`, which cannot outlive this call.
-            unsafe { module.free_memory() };
-        }
-    }
 }
 
 impl std::fmt::Debug for SeriesKernel {
@@ -100,19 +82,9 @@ impl SeriesKernel {
         // About twenty instructions per operation and loop.
         // About twenty instructions per recurrence with its loops, four with calls.
         let inline = ops.len() <= INLINE_UP_TO;
-        let mut module = jit_module(if inline { 20 } else { 4 } * ops.len())?;
-        match define(&mut module, ops, inline) {
-            Ok(entry) => Ok(Self {
-                module: Some(module),
-                entry,
-                rows,
-            }),
-            Err(e) => {
-                // SAFETY: no pointer into the module was handed out.
-                unsafe { module.free_memory() };
-                Err(e)
-            }
-        }
+        let module = jit_module(if inline { 20 } else { 4 } * ops.len())?;
+        let code = Code::new(module, |m| define(m, ops, inline))?;
+        Ok(Self { code, rows })
     }
 
     /// Coefficient k of every row the recurrences write, in the table `s` of row width `w`.
@@ -128,7 +100,7 @@ impl SeriesKernel {
         );
         // SAFETY: the code reads and writes entries r·w + j of rows r < `rows` (checked at
         // compilation) and j ≤ k < w, all inside `s` by the assert; `self` keeps the code alive.
-        unsafe { (self.entry)(k as i64, w as i64, s.as_mut_ptr()) }
+        unsafe { (self.code.entry())(k as i64, w as i64, s.as_mut_ptr()) }
     }
 }
 
