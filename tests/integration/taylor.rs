@@ -78,6 +78,20 @@ fn kepler_exact(e: f64, t: f64) -> [f64; 4] {
     [r, theta, e * big_e.sin() / r, h / (r * r)]
 }
 
+/// The Taylor method's end state (q, q̇) at t_end from t = 0 at rtol = atol = tol, and its steps.
+fn end_state(
+    model: &EnergyModel,
+    q0: &[f64],
+    v0: &[f64],
+    t_end: f64,
+    tol: f64,
+) -> (Vec<f64>, usize) {
+    let options = Options::adaptive(tol, tol);
+    let sol = solve(model, q0, v0, (0.0, t_end), Method::Taylor, &options).unwrap();
+    let (_, q, qd) = sol.last().unwrap();
+    ([q, qd].concat(), sol.stats.accepted_steps)
+}
+
 /// max |yᵢ − exactᵢ| / max(1, |exactᵢ|).
 fn error(y: &[f64], exact: &[f64]) -> f64 {
     y.iter()
@@ -131,19 +145,7 @@ fn kepler_orbit_to_the_tolerance() {
     let exact = kepler_exact(e, t_end);
     to_the_tolerance(
         "Kepler e = 0.6",
-        |tol| {
-            let sol = solve(
-                &model,
-                &q0,
-                &v0,
-                (0.0, t_end),
-                Method::Taylor,
-                &Options::adaptive(tol, tol),
-            )
-            .unwrap();
-            let (_, q, qd) = sol.last().unwrap();
-            ([q, qd].concat(), sol.stats.accepted_steps)
-        },
+        |tol| end_state(&model, &q0, &v0, t_end, tol),
         &exact,
     );
 }
@@ -194,19 +196,7 @@ fn forced_two_mass_to_the_tolerance() {
     let exact = [x[0], x[1], v[0], v[1]];
     to_the_tolerance(
         "forced two-mass",
-        |tol| {
-            let sol = solve(
-                &model,
-                &x0,
-                &v0,
-                (0.0, t_end),
-                Method::Taylor,
-                &Options::adaptive(tol, tol),
-            )
-            .unwrap();
-            let (_, q, qd) = sol.last().unwrap();
-            ([q, qd].concat(), sol.stats.accepted_steps)
-        },
+        |tol| end_state(&model, &x0, &v0, t_end, tol),
         &exact,
     );
 }
