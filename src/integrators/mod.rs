@@ -231,8 +231,9 @@ registry! {
     /// tolerance and the series' radius of convergence; models stated as expressions only, with
     /// no |x| or sign(x) of the state. `Auto` does not choose it: measured against DOP853 at
     /// the same tolerance it is faster only on small graphs at tight tolerances (the double
-    /// pendulum written with cos(θ₁ − θ₂): 1.15× at 1e-12, 1.7× at 1e-15), 2–25× slower on
-    /// the N-link chains (N = 2 … 16), since each step costs about p²/2 graph evaluations.
+    /// pendulum written with cos(θ₁ − θ₂): 1.4× at 1e-12, 2× at 1e-15), 1.6–4× slower on the
+    /// N-link chains at 1e-12 (N = 2 … 16), since each step costs about p²/2 graph
+    /// evaluations.
     Taylor = "taylor" => taylor::Taylor,
 }
 

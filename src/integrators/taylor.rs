@@ -2,7 +2,8 @@
 //!
 //! Each step expands the motion through the current state to order p by series arithmetic on
 //! the graph ([`crate::tape::TaylorProgram`]: M₀ q̈ₖ = fₖ − Σ Mⱼ q̈ₖ₋ⱼ, no symbolic inverse of
-//! M) and sums the series at the step h. Following Jorba & Zou, the order comes from the
+//! M) and sums the series at the step h, adding the increment to the state with Kahan's
+//! compensated summation (the rounding of the state does not pile up over long runs). Following Jorba & Zou, the order comes from the
 //! tolerance, p = ⌈−ln ε / 2 + 1⌉, and the step from the last two coefficients,
 //! h = ρ / e² · e^(−0.7/(p−1)) with ρ = min((1/‖xₚ₋₁‖)^(1/(p−1)), (1/‖xₚ‖)^(1/p)): the
 //! coefficients of an analytic solution decay like ρ⁻ᵏ, so the truncation error is about ε.
@@ -93,6 +94,7 @@ impl Integrator for Taylor {
             t: run.t0,
             y: run.y0.clone(),
             y_new: vec![0.0; run.y0.len()],
+            lost: vec![0.0; run.y0.len()],
             h_max: run.options.max_step.unwrap_or(span).min(span),
         }))
     }
@@ -104,6 +106,10 @@ struct TaylorStepper {
     t: f64,
     y: Vec<f64>,
     y_new: Vec<f64>,
+    /// What rounding took off the state in the last step's sum, added back in the next one
+    /// (Kahan's compensated summation of the increments): the state's rounding errors do not
+    /// pile up step after step.
+    lost: Vec<f64>,
     h_max: f64,
 }
 
@@ -168,7 +174,12 @@ impl<S: Dynamics + ?Sized> SegmentStepper<S> for TaylorStepper {
         let last = (t + dir * 1.01 * h - run.t_end) * dir >= 0.0;
         let t_new = if last { run.t_end } else { t + dir * h };
         h = t_new - t;
-        self.expansion.eval(h, &mut self.y_new);
+        self.expansion.increment(h, &mut self.y_new);
+        for ((new, &y), lost) in self.y_new.iter_mut().zip(&self.y).zip(&mut self.lost) {
+            let increment = *new - *lost;
+            *new = y + increment;
+            *lost = (*new - y) - increment;
+        }
         if !self.y_new.iter().all(|v| v.is_finite()) {
             return Err(Error::NonFinite {
                 what: "state",

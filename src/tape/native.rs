@@ -39,7 +39,7 @@ use std::sync::Arc;
 /// Cranelift's own optimizer (`opt_level`) is off: the tape is already shared (hash-consed),
 /// folded and scheduled, and `speed` compiled ~30 % slower to code no faster (the chain's T:
 /// 741 against 674 ns).
-const BACKTRACKING_UP_TO: usize = 10_000;
+pub(super) const BACKTRACKING_UP_TO: usize = 10_000;
 
 /// The compiled function: constants, t, q, q̇, outputs.
 type Entry = unsafe extern "C" fn(*const f64, f64, *const f64, *const f64, *mut f64);
@@ -177,11 +177,11 @@ unsafe extern "C" fn lagrangian_sin_cos(x: f64, cos: *mut f64) -> f64 {
 }
 
 /// A Cranelift module for the host, with the `f64` functions the generated code calls
-/// registered, for code of about `instructions` instructions (which picks the register
-/// allocator, [`BACKTRACKING_UP_TO`]).
-pub(super) fn jit_module(instructions: usize) -> Result<JITModule> {
+/// registered, with the backtracking register allocator or the single-pass one
+/// ([`BACKTRACKING_UP_TO`]).
+pub(super) fn jit_module(backtracking: bool) -> Result<JITModule> {
     let mut flags = settings::builder();
-    let regalloc = if instructions <= BACKTRACKING_UP_TO {
+    let regalloc = if backtracking {
         "backtracking"
     } else {
         "single_pass"
@@ -211,7 +211,9 @@ impl NativeTape {
     /// malformed (an index out of range, a slot read before it is written): fall back to the
     /// interpreter.
     pub fn compile(tape: &Tape) -> Result<Self> {
-        let code = Code::new(jit_module(tape.code.len())?, |m| Self::define(m, tape))?;
+        let code = Code::new(jit_module(tape.code.len() <= BACKTRACKING_UP_TO)?, |m| {
+            Self::define(m, tape)
+        })?;
         Ok(Self {
             code,
             consts: tape.consts.len(),

@@ -24,11 +24,14 @@
 use std::sync::Arc;
 #[cfg(feature = "jit")]
 use std::sync::OnceLock;
+#[cfg(feature = "jit")]
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::eom_program::EomGraph;
 use super::graph::{Binary, Graph, Node, Unary, sign};
 use crate::eom;
 use crate::error::{Error, Result};
+use crate::linalg;
 
 /// One recurrence: coefficient k of row `out` (and of its partner rows) from the coefficients
 /// of its operands up to k and its own below k. Rows hold series; row r's coefficient j is at
@@ -315,32 +318,42 @@ impl Op {
 /// The part of a graph that M and f need, lowered to recurrences, ready to expand.
 #[derive(Debug)]
 pub struct TaylorProgram {
-    dof: usize,
+    pub(super) dof: usize,
     /// Rows in the table: one per node, then the auxiliary rows.
-    rows: usize,
+    pub(super) rows: usize,
     /// The recurrences of the rows fixed by the parameters: run once per binding.
     fixed: Vec<Op>,
     /// The recurrences of the rows the state sets: what order 0 runs.
     order0: Vec<Op>,
     /// The recurrences of the nodes that depend on t, q or q̇: what orders ≥ 1 run.
-    varying: Vec<Op>,
+    pub(super) varying: Vec<Op>,
     /// Rows of the numbers and parameters (index into the parameters), written at binding.
     numbers: Vec<(usize, f64)>,
     params: Vec<(usize, usize)>,
     /// Rows of t and of each qᵢ, q̇ᵢ the model reads.
     time: Option<usize>,
-    coords: Vec<Option<usize>>,
-    velocities: Vec<Option<usize>>,
+    pub(super) coords: Vec<Option<usize>>,
+    pub(super) velocities: Vec<Option<usize>>,
     /// Rows of f.
-    force: Vec<usize>,
+    pub(super) force: Vec<usize>,
     /// Row of M(r, c) at r·n + c.
-    mass_full: Vec<usize>,
+    pub(super) mass_full: Vec<usize>,
     /// Whether M depends on t or q (else Mⱼ = 0 for j ≥ 1).
-    mass_varies: bool,
+    pub(super) mass_varies: bool,
+    /// Whether M depends on the parameters alone (then M₀ is factored once per expansion's
+    /// work space).
+    mass_constant: bool,
     /// The recurrences as machine code, compiled at the first expansion (`None`: not allowed,
     /// or Cranelift could not compile them, and the interpreter runs).
     #[cfg(feature = "jit")]
     native: OnceLock<Option<super::taylor_native::SeriesKernel>>,
+    /// The whole expansion to order p unrolled into machine code, at index p, compiled after
+    /// `UNROLL_AFTER` expansions to that order (`None`: too large to unroll, not allowed, or
+    /// Cranelift failed), and the expansions to each order so far.
+    #[cfg(feature = "jit")]
+    unrolled: Box<[OnceLock<Option<super::taylor_native::ExpansionKernel>>]>,
+    #[cfg(feature = "jit")]
+    expansions: Box<[AtomicUsize]>,
     #[cfg(feature = "jit")]
     allow_native: bool,
 }
@@ -576,6 +589,7 @@ impl TaylorProgram {
             dof,
             rows: low.rows,
             mass_varies: mass.iter().any(|&r| reach[r] == Reach::Varying),
+            mass_constant: mass.iter().all(|&r| reach[r] == Reach::Fixed),
             force: eom.force.iter().map(|&o| row[o]).collect(),
             fixed: low.fixed,
             order0: low.order0,
@@ -587,6 +601,12 @@ impl TaylorProgram {
             velocities,
             #[cfg(feature = "jit")]
             native: OnceLock::new(),
+            #[cfg(feature = "jit")]
+            unrolled: (0..=MAX_TAYLOR_ORDER).map(|_| OnceLock::new()).collect(),
+            #[cfg(feature = "jit")]
+            expansions: (0..=MAX_TAYLOR_ORDER)
+                .map(|_| AtomicUsize::new(0))
+                .collect(),
             #[cfg(feature = "jit")]
             allow_native: true,
         }
@@ -613,8 +633,13 @@ impl TaylorProgram {
             mass_full: self.mass_full.clone(),
             force: self.force.clone(),
             mass_varies: self.mass_varies,
+            mass_constant: self.mass_constant,
             #[cfg(feature = "jit")]
             native: OnceLock::new(),
+            #[cfg(feature = "jit")]
+            unrolled: Box::new([]),
+            #[cfg(feature = "jit")]
+            expansions: Box::new([]),
             #[cfg(feature = "jit")]
             allow_native: false,
         }
@@ -632,6 +657,45 @@ impl TaylorProgram {
                 super::taylor_native::SeriesKernel::compile(&self.varying, self.rows).ok()
             })
             .as_ref()
+    }
+
+    /// The expansion to `order` unrolled into machine code, once this program has expanded to
+    /// that order `UNROLL_AFTER` times (compiled then); `None` before, without the `jit`
+    /// feature, for an interpreted program, for one too large to unroll, or where Cranelift
+    /// failed.
+    #[cfg(feature = "jit")]
+    fn unrolled(&self, order: usize) -> Option<&super::taylor_native::ExpansionKernel> {
+        let cell = self.unrolled.get(order)?;
+        if let Some(kernel) = cell.get() {
+            return kernel.as_ref();
+        }
+        let count = self.expansions[order].fetch_add(1, Ordering::Relaxed);
+        if count < super::taylor_native::UNROLL_AFTER {
+            return None;
+        }
+        self.compile_unrolled(order)
+    }
+
+    #[cfg(feature = "jit")]
+    fn compile_unrolled(&self, order: usize) -> Option<&super::taylor_native::ExpansionKernel> {
+        self.unrolled
+            .get(order)?
+            .get_or_init(|| super::taylor_native::ExpansionKernel::compile(self, order).ok())
+            .as_ref()
+    }
+
+    /// Compile the expansion to `order` unrolled into machine code now, rather than after
+    /// `UNROLL_AFTER` expansions (for a test or a benchmark of the steady state): whether
+    /// expansions to `order` run it from now on (false without the `jit` feature, for an
+    /// interpreted program, for one too large to unroll, or where Cranelift failed).
+    pub fn unroll(&self, order: usize) -> bool {
+        #[cfg(feature = "jit")]
+        return self.compile_unrolled(order).is_some();
+        #[cfg(not(feature = "jit"))]
+        {
+            let _ = order;
+            false
+        }
     }
 
     /// Recurrences run at each order ≥ 1 (the nodes that vary and their auxiliary rows).
@@ -682,6 +746,7 @@ impl TaylorProgram {
             q: vec![0.0; self.dof * (w + 1)],
             v: vec![0.0; self.dof * (w + 1)],
             m0: vec![0.0; self.dof * self.dof],
+            m0_fixed: false,
             qdd: vec![0.0; self.dof * w],
             rhs: vec![0.0; self.dof],
         }
@@ -698,7 +763,11 @@ pub struct Expansion {
     /// Coefficients of q and q̇: order k of coordinate i at `k * dof + i`, k = 0..=order.
     q: Vec<f64>,
     v: Vec<f64>,
+    /// M₀ factored (LDLᵀ).
     m0: Vec<f64>,
+    /// Whether `m0` holds the factor of a mass matrix that depends on the parameters alone,
+    /// factored at the first expansion and kept.
+    m0_fixed: bool,
     /// Coefficients of q̈: order k of coordinate i at `i * (order + 1) + k`.
     qdd: Vec<f64>,
     rhs: Vec<f64>,
@@ -722,12 +791,9 @@ impl Expansion {
         &self.v[k * n..(k + 1) * n]
     }
 
-    /// Write coefficient k of t's, q's and q̇'s rows (t's are fixed at creation beyond 0).
-    fn leaves(&mut self, k: usize, t0: f64) {
+    /// Write coefficient k of q's and q̇'s rows.
+    fn leaves(&mut self, k: usize) {
         let (p, w, n) = (&self.program, self.order + 1, self.program.dof);
-        if let (Some(r), 0) = (p.time, k) {
-            self.series[r * w] = t0;
-        }
         for (i, r) in p.coords.iter().enumerate() {
             if let Some(r) = *r {
                 self.series[r * w + k] = self.q[k * n + i];
@@ -764,43 +830,73 @@ impl Expansion {
         let w = self.order + 1;
         self.q[..n].copy_from_slice(q0);
         self.v[..n].copy_from_slice(qd0);
-        self.leaves(0, t0);
+        if let Some(r) = self.program.time {
+            // t's coefficients beyond 0 are fixed at creation.
+            self.series[r * w] = t0;
+        }
+        self.leaves(0);
         let program = self.program.clone();
         for op in &program.order0 {
             op.apply(&mut self.series, w, 0);
         }
-        for (m, &row) in self.m0.iter_mut().zip(&program.mass_full) {
-            *m = self.series[row * w];
+        if !self.m0_fixed {
+            for (m, &row) in self.m0.iter_mut().zip(&program.mass_full) {
+                *m = self.series[row * w];
+            }
+            eom::factor(&mut self.m0, n, t0, q0)?;
+            self.m0_fixed = program.mass_constant;
         }
-        eom::factor(&mut self.m0, n, t0, q0)?;
+        #[cfg(feature = "jit")]
+        let unrolled = program.unrolled(self.order).map(|kernel| {
+            kernel.run(
+                &mut self.series,
+                &mut self.q,
+                &mut self.v,
+                &mut self.qdd,
+                &self.m0,
+            )
+        });
+        #[cfg(not(feature = "jit"))]
+        let unrolled = None::<()>;
+        if unrolled.is_none() {
+            self.orders();
+        }
+        // A non-finite q̈ₖ makes every later coefficient non-finite with it.
+        if !self.qdd.iter().all(|x| x.is_finite()) {
+            return Err(Error::NonFinite {
+                what: "Taylor coefficient",
+                t: t0,
+            });
+        }
+        Ok(())
+    }
+
+    /// Orders 0, …, p − 1 of q̈ (and 1, …, p of q and q̇) given order 0 of every row and M₀
+    /// factored, order by order: what the unrolled kernel computes, in the same operations and
+    /// order.
+    fn orders(&mut self) {
+        let program = self.program.clone();
+        let (n, w) = (program.dof, self.order + 1);
         for k in 0..self.order {
             if k > 0 {
-                self.leaves(k, t0);
+                self.leaves(k);
                 self.recurrences(k);
             }
-            // M₀ q̈ₖ = fₖ − Σⱼ₌₁..ₖ Mⱼ q̈ₖ₋ⱼ: each entry of M a convolution of two rows.
+            // M₀ q̈ₖ = fₖ − Σ_c Σⱼ₌₁..ₖ M_rc,ⱼ q̈_c,ₖ₋ⱼ: a convolution per entry of M.
             for r in 0..n {
-                let mut s = 0.0;
-                if program.mass_varies {
+                let f = self.series[program.force[r] * w + k];
+                self.rhs[r] = if program.mass_varies && k > 0 {
+                    let mut s = 0.0;
                     for c in 0..n {
-                        let m = &self.series[program.mass_full[r * n + c] * w..][1..=k];
-                        let a = &self.qdd[c * w..][..k];
-                        s += m
-                            .iter()
-                            .zip(a.iter().rev())
-                            .map(|(x, y)| x * y)
-                            .sum::<f64>();
+                        let m = &self.series[program.mass_full[r * n + c] * w..][..w];
+                        s += conv_rows(m, &self.qdd[c * w..][..w], 1, k, k, false);
                     }
-                }
-                self.rhs[r] = self.series[program.force[r] * w + k] - s;
+                    f - s
+                } else {
+                    f
+                };
             }
-            eom::solve(&self.m0, n, t0, &mut self.rhs)?;
-            if !self.rhs.iter().all(|x| x.is_finite()) {
-                return Err(Error::NonFinite {
-                    what: "Taylor coefficient",
-                    t: t0,
-                });
-            }
+            linalg::ldlt_solve(&self.m0, n, &mut self.rhs);
             let next = (k + 1) as f64;
             for i in 0..n {
                 self.qdd[i * w + k] = self.rhs[i];
@@ -808,7 +904,22 @@ impl Expansion {
                 self.v[(k + 1) * n + i] = self.rhs[i] / next;
             }
         }
-        Ok(())
+    }
+
+    /// The increment y(t₀ + h) − y(t₀) = Σₖ₌₁..ₚ (q, q̇)ₖ hᵏ by Horner's rule, into `out` =
+    /// (q, q̇): what a step adds to the state, summed apart from it so that the step can add it
+    /// with compensation.
+    pub fn increment(&self, h: f64, out: &mut [f64]) {
+        let n = self.program.dof;
+        for i in 0..n {
+            let (mut q, mut v) = (0.0, 0.0);
+            for k in (1..=self.order).rev() {
+                q = q * h + self.q[k * n + i];
+                v = v * h + self.v[k * n + i];
+            }
+            out[i] = q * h;
+            out[n + i] = v * h;
+        }
     }
 
     /// y(t₀ + h) = Σₖ (q, q̇)ₖ hᵏ by Horner's rule, into `out` = (q, q̇).

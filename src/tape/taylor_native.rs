@@ -1,17 +1,22 @@
-//! The Taylor recurrences ([`Op`]) as machine code (feature `jit`): one Cranelift function that
-//! computes coefficient k ≥ 1 of every row that varies, for any order k and row width w given at
-//! the call. Each convolution is a loop in the code (small programs) or a call of the
-//! interpreter's own sum (large ones, [`INLINE_UP_TO`]), so the code grows with the graph and
-//! not with the order.
+//! The Taylor recurrences ([`Op`]) as machine code (feature `jit`), in two forms.
 //!
-//! The operations and their order are those of [`Op::apply`] (the same four lanes per sum, no
-//! fused multiply–add), so the coefficients are bit-identical to the interpreter's, which stays
-//! the fallback and the reference. Safety by construction: every row an operation reads or
-//! writes is checked against the table's row count before any code is emitted, and
-//! [`SeriesKernel::run`] checks the table's length, the width and the order.
+//! - [`ExpansionKernel`]: for a small program, the whole expansion to one order p — every
+//!   order's recurrences, fₖ − Σⱼ Mⱼ q̈ₖ₋ⱼ, the solve with M₀ and the coefficients of q and q̇
+//!   — as straight-line code with every index a constant, compiled once per order a run asks
+//!   for.
+//! - [`SeriesKernel`]: for any program, coefficient k ≥ 1 of every row that varies, for any
+//!   order k and row width w given at the call. Each convolution is a loop in the code (small
+//!   programs) or a call of the interpreter's own sum (large ones, [`INLINE_UP_TO`]), so the
+//!   code grows with the graph and not with the order.
+//!
+//! The operations and their order are those of [`Op::apply`] and `Expansion::expand` (the same
+//! four lanes per sum, no fused multiply–add), so the coefficients are bit-identical to the
+//! interpreter's, which stays the fallback and the reference. Safety by construction: every row
+//! an operation reads or writes is checked against the table's row count before any code is
+//! emitted, and the kernels' `run` check the buffers' lengths, the width and the order.
 
-use super::native::{Code, fail, jit_module};
-use super::taylor::{LANES, Op};
+use super::native::{BACKTRACKING_UP_TO, Code, fail, jit_module};
+use super::taylor::{LANES, Op, TaylorProgram};
 
 use crate::error::Result;
 use cranelift_codegen::ir::{
@@ -79,10 +84,9 @@ impl SeriesKernel {
         if let Some(r) = ops.iter().flat_map(rows_of).find(|&r| r >= rows) {
             return Err(fail(format!("row {r} of a table of {rows}")));
         }
-        // About twenty instructions per operation and loop.
         // About twenty instructions per recurrence with its loops, four with calls.
         let inline = ops.len() <= INLINE_UP_TO;
-        let module = jit_module(if inline { 20 } else { 4 } * ops.len())?;
+        let module = jit_module(if inline { 20 } else { 4 } * ops.len() <= BACKTRACKING_UP_TO)?;
         let code = Code::new(module, |m| define(m, ops, inline))?;
         Ok(Self { code, rows })
     }
@@ -104,7 +108,7 @@ impl SeriesKernel {
     }
 }
 
-/// Generate, compile and link the function.
+/// Generate, compile and link the recurrences for any order (k and w read at run time).
 fn define(module: &mut JITModule, ops: &[Op], inline: bool) -> Result<Entry> {
     let config = module.target_config();
     let ptr = config.pointer_type();
@@ -116,6 +120,20 @@ fn define(module: &mut JITModule, ops: &[Op], inline: bool) -> Result<Entry> {
     let id = module
         .declare_function("series", Linkage::Local, &ctx.func.signature)
         .map_err(fail)?;
+    let calls = if inline {
+        None
+    } else {
+        let mut conv = module.make_signature();
+        conv.params.extend([AbiParam::new(ptr), AbiParam::new(ptr)]);
+        conv.params.extend([AbiParam::new(types::I64); 3]);
+        conv.params.push(AbiParam::new(types::I32));
+        conv.returns.push(AbiParam::new(types::F64));
+        Some(
+            module
+                .declare_function("lagrangian_conv", Linkage::Import, &conv)
+                .map_err(fail)?,
+        )
+    };
     let mut fctx = FunctionBuilderContext::new();
     {
         let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
@@ -125,30 +143,10 @@ fn define(module: &mut JITModule, ops: &[Op], inline: bool) -> Result<Entry> {
         b.seal_block(entry);
         let p = b.block_params(entry).to_vec();
         let (k, w, table) = (p[0], p[1], p[2]);
-        let w8 = b.ins().ishl_imm_s(w, 3);
-        let k8 = b.ins().ishl_imm_s(k, 3);
-        let kf = b.ins().fcvt_from_sint(types::F64, k);
-        let km1 = b.ins().iadd_imm_s(k, -1);
-        let mut conv = module.make_signature();
-        conv.params.extend([AbiParam::new(ptr), AbiParam::new(ptr)]);
-        conv.params.extend([AbiParam::new(types::I64); 3]);
-        conv.params.push(AbiParam::new(types::I32));
-        conv.returns.push(AbiParam::new(types::F64));
-        let conv = module
-            .declare_function("lagrangian_conv", Linkage::Import, &conv)
-            .map_err(fail)?;
-        let conv_fn = module.declare_func_in_func(conv, b.func);
-        let mut g = Gen {
-            b,
-            table,
-            w8,
-            k8,
-            k,
-            km1,
-            kf,
-            conv_fn,
-            inline,
-        };
+        let calls = calls.map(|c| module.declare_func_in_func(c, b.func));
+        let mut g = Gen::new(b, table, Ix::Var(w), calls);
+        g.k = Ix::Var(k);
+        g.kf = g.b.ins().fcvt_from_sint(types::F64, k);
         for op in ops {
             g.op(op);
         }
@@ -164,76 +162,443 @@ fn define(module: &mut JITModule, ops: &[Op], inline: bool) -> Result<Entry> {
     Ok(unsafe { std::mem::transmute::<*const u8, Entry>(code) })
 }
 
+/// Programs whose whole expansion ([`ExpansionKernel`]) comes to at most this many instructions
+/// (estimated by [`unrolled_instructions`]) may get it compiled, unrolled; larger ones run the
+/// recurrences of [`SeriesKernel`] order by order, with the rest of the expansion in Rust.
+/// Compilation costs about 3.7 µs per estimated instruction (2-core machine, release): this is
+/// about 0.4 s, the 4-link chain at order 22.
+const UNROLL_UP_TO: usize = 100_000;
+
+/// Expansions to one order a program runs with [`SeriesKernel`] before its [`ExpansionKernel`]
+/// for that order is compiled: about the break-even, as compiling and the time it saves per
+/// expansion both grow with the program. Measured (2-core machine, release): the double
+/// pendulum at order 12 compiles in 19 ms and expands in 1.1 against 3.0 µs (break-even after
+/// 10 000 expansions), the 4-link chain at order 12 in 107 ms, 7.9 against 15.1 µs (15 000).
+/// Waiting for the break-even keeps a short run from paying for code it would not repay (at
+/// worst a run then costs about twice what the better choice in hindsight would have).
+pub(crate) const UNROLL_AFTER: usize = 10_000;
+
+/// Terms of the convolutions `op` sums at order k ≥ 1.
+fn terms(op: &Op, k: usize) -> usize {
+    match op {
+        Op::Mul { .. } => k + 1,
+        Op::Div { .. } | Op::Recip { .. } | Op::Exp { .. } => k,
+        Op::Ln { .. } | Op::Sqrt { .. } => k - 1,
+        Op::SinCos { .. } => 2 * k,
+        Op::Tan { .. } => 2 * k + 1,
+        Op::Atan2 { .. } => 5 * k + 1,
+        _ => 0,
+    }
+}
+
+/// About the instructions of `program`'s expansion to `order` unrolled: three per term of a
+/// convolution (two loads and a product, and its sum) and a few per recurrence, per Σⱼ Mⱼ q̈ₖ₋ⱼ
+/// term and per entry of the solve, at each order.
+fn unrolled_instructions(program: &TaylorProgram, order: usize) -> usize {
+    let n = program.dof;
+    (1..order)
+        .map(|k| {
+            let ops: usize = program.varying.iter().map(|op| 3 * terms(op, k) + 4).sum();
+            let mass = if program.mass_varies {
+                4 * n * n * k
+            } else {
+                0
+            };
+            ops + mass + 3 * n * n + 8 * n
+        })
+        .sum()
+}
+
+/// The entry of an [`ExpansionKernel`]: the table, the coefficients of q and of q̇ (order k of
+/// coordinate i at k·n + i), of q̈ (coordinate i's order k at i·w + k), and M₀ factored.
+type ExpansionEntry = unsafe extern "C" fn(*mut f64, *mut f64, *mut f64, *mut f64, *const f64);
+
+/// The whole expansion of a small [`TaylorProgram`] to one order p as straight-line machine code:
+/// given order 0 of every row and M₀ factored, orders k = 0, …, p − 1 of q̈ — the leaves' row
+/// coefficients, the recurrences, fₖ − Σⱼ Mⱼ q̈ₖ₋ⱼ, the LDLᵀ solve — and orders 1, …, p of q and
+/// q̇. Every index is a constant: no loop, no call, no bound to test at run time. The operations
+/// and their order are those of `Expansion::expand` with the interpreter (the sums in the lanes
+/// of `conv`, the solve of `linalg::ldlt_solve`), so the coefficients are the same bits.
+pub(crate) struct ExpansionKernel {
+    code: Code<ExpansionEntry>,
+    rows: usize,
+    dof: usize,
+    order: usize,
+}
+
+impl std::fmt::Debug for ExpansionKernel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ExpansionKernel")
+            .field("order", &self.order)
+            .finish_non_exhaustive()
+    }
+}
+
+impl ExpansionKernel {
+    /// Compile the expansion of `program` to `order` for the host, if it is small enough
+    /// ([`UNROLL_UP_TO`]).
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`](crate::Error::InvalidInput) when the expansion is too large to
+    /// unroll, a row is out of range, or Cranelift has no backend for the host or fails: the
+    /// recurrences then run order by order.
+    pub(crate) fn compile(program: &TaylorProgram, order: usize) -> Result<Self> {
+        let size = unrolled_instructions(program, order);
+        if order == 0 || size > UNROLL_UP_TO {
+            return Err(fail(format!("{size} instructions to unroll")));
+        }
+        let rows = program.rows;
+        let read = program
+            .force
+            .iter()
+            .chain(&program.mass_full)
+            .chain(program.coords.iter().chain(&program.velocities).flatten());
+        if let Some(r) = program
+            .varying
+            .iter()
+            .flat_map(rows_of)
+            .chain(read.copied())
+            .find(|&r| r >= rows)
+        {
+            return Err(fail(format!("row {r} of a table of {rows}")));
+        }
+        let w = order + 1;
+        let n = program.dof;
+        if i32::try_from(8 * (rows * w).max(n * (w + 1)).max(n * n)).is_err() {
+            return Err(fail(format!("a table of {rows} rows of {w}")));
+        }
+        // Straight-line code: the backtracking allocator at any size (measured: the single-pass
+        // allocator's code ran the double pendulum's expansion to order 19 2.2× slower, 5.3
+        // against 2.4 µs, and the 4-link chain's to order 12 2.2× slower).
+        let module = jit_module(true)?;
+        let code = Code::new(module, |m| define_expansion(m, program, order))?;
+        Ok(Self {
+            code,
+            rows,
+            dof: n,
+            order,
+        })
+    }
+
+    /// Run the expansion: `table` holds order 0 of every row, q and q̇ their order 0, `m0` M₀'s
+    /// LDLᵀ factor.
+    ///
+    /// # Panics
+    /// If a buffer is shorter than the expansion's layout.
+    pub(crate) fn run(
+        &self,
+        table: &mut [f64],
+        q: &mut [f64],
+        v: &mut [f64],
+        qdd: &mut [f64],
+        m0: &[f64],
+    ) {
+        let (n, w) = (self.dof, self.order + 1);
+        assert!(
+            table.len() >= self.rows * w
+                && q.len() >= n * (w + 1)
+                && v.len() >= n * (w + 1)
+                && qdd.len() >= n * w
+                && m0.len() >= n * n,
+            "buffers too short for an expansion of {n} coordinates to order {}",
+            self.order
+        );
+        // SAFETY: the code reads and writes table entries r·w + j with rows r < `rows` (checked
+        // at compilation) and j < w, q and q̇ entries below n·(w + 1), q̈ entries below n·w and
+        // M₀ entries below n², all inside the buffers by the assert; `self` keeps the code alive.
+        unsafe {
+            (self.code.entry())(
+                table.as_mut_ptr(),
+                q.as_mut_ptr(),
+                v.as_mut_ptr(),
+                qdd.as_mut_ptr(),
+                m0.as_ptr(),
+            )
+        }
+    }
+}
+
+/// Generate, compile and link the unrolled expansion.
+fn define_expansion(
+    module: &mut JITModule,
+    program: &TaylorProgram,
+    order: usize,
+) -> Result<ExpansionEntry> {
+    let config = module.target_config();
+    let ptr = config.pointer_type();
+    let mut ctx = module.make_context();
+    ctx.func.signature.params.extend([AbiParam::new(ptr); 5]);
+    let id = module
+        .declare_function("expansion", Linkage::Local, &ctx.func.signature)
+        .map_err(fail)?;
+    let mut fctx = FunctionBuilderContext::new();
+    {
+        let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
+        let entry = b.create_block();
+        b.append_block_params_for_function_params(entry);
+        b.switch_to_block(entry);
+        b.seal_block(entry);
+        let p = b.block_params(entry).to_vec();
+        let (table, qp, vp, qddp, m0p) = (p[0], p[1], p[2], p[3], p[4]);
+        let (n, w) = (program.dof, order + 1);
+        let mut g = Gen::new(b, table, Ix::Fixed(w), None);
+        for k in 0..order {
+            if k >= 1 {
+                // The leaves: coefficient k of q and q̇ into their rows.
+                for (base, leaf) in [(qp, &program.coords), (vp, &program.velocities)] {
+                    for (i, r) in leaf.iter().enumerate() {
+                        if let Some(r) = *r {
+                            let x = g.load_at(base, k * n + i);
+                            g.store(r, Ix::Fixed(k), x);
+                        }
+                    }
+                }
+                g.k = Ix::Fixed(k);
+                g.kf = g.f64(k as f64);
+                for op in &program.varying {
+                    g.op(op);
+                }
+            }
+            // fₖ − Σ_c Σⱼ₌₁..ₖ M_rc,ⱼ q̈_c,ₖ₋ⱼ.
+            let mut rhs = Vec::with_capacity(n);
+            for r in 0..n {
+                let f = g.load(program.force[r], Ix::Fixed(k));
+                rhs.push(if program.mass_varies && k >= 1 {
+                    let mut s = g.f64(0.0);
+                    for c in 0..n {
+                        let m = program.mass_full[r * n + c];
+                        let terms = (1..=k)
+                            .map(|j| {
+                                let x = g.load(m, Ix::Fixed(j));
+                                let y = g.load_at(qddp, c * w + k - j);
+                                g.b.ins().fmul(x, y)
+                            })
+                            .collect();
+                        let t = g.lanes(terms);
+                        s = g.b.ins().fadd(s, t);
+                    }
+                    g.b.ins().fsub(f, s)
+                } else {
+                    f
+                });
+            }
+            // M₀ q̈ₖ = rhs as `linalg::ldlt_solve`: L y = b, D z = y, Lᵀ x = z.
+            for i in 1..n {
+                let terms = (0..i)
+                    .map(|j| {
+                        let l = g.load_at(m0p, i * n + j);
+                        g.b.ins().fmul(rhs[j], l)
+                    })
+                    .collect();
+                let d = g.lanes(terms);
+                rhs[i] = g.b.ins().fsub(rhs[i], d);
+            }
+            for i in 0..n {
+                let d = g.load_at(m0p, i * n + i);
+                rhs[i] = g.b.ins().fmul(rhs[i], d);
+            }
+            for i in (1..n).rev() {
+                let x = rhs[i];
+                for j in 0..i {
+                    let l = g.load_at(m0p, i * n + j);
+                    let xl = g.b.ins().fmul(x, l);
+                    rhs[j] = g.b.ins().fsub(rhs[j], xl);
+                }
+            }
+            // q̈ₖ; qₖ₊₁ = q̇ₖ / (k + 1), q̇ₖ₊₁ = q̈ₖ / (k + 1).
+            let next = g.f64((k + 1) as f64);
+            for (i, &a) in rhs.iter().enumerate() {
+                g.store_at(qddp, i * w + k, a);
+                let vk = g.load_at(vp, k * n + i);
+                let qn = g.b.ins().fdiv(vk, next);
+                g.store_at(qp, (k + 1) * n + i, qn);
+                let vn = g.b.ins().fdiv(a, next);
+                g.store_at(vp, (k + 1) * n + i, vn);
+            }
+        }
+        g.b.ins().return_(&[]);
+        g.b.finalize(config);
+    }
+    module.define_function(id, &mut ctx).map_err(fail)?;
+    module.clear_context(&mut ctx);
+    module.finalize_definitions().map_err(fail)?;
+    let code = module.get_finalized_function(id);
+    // SAFETY: `code` is the function just defined with the signature of `ExpansionEntry` in the
+    // host's default calling convention, which is `extern "C"`.
+    Ok(unsafe { std::mem::transmute::<*const u8, ExpansionEntry>(code) })
+}
+
+/// An index the code knows at compilation, or reads at run time.
+#[derive(Clone, Copy)]
+enum Ix {
+    Fixed(usize),
+    Var(Value),
+}
+
 struct Gen<'a> {
     b: FunctionBuilder<'a>,
     table: Value,
-    /// w·8, k·8 (bytes), k, k − 1, and k as a float.
+    /// The row width, and w·8 (bytes).
+    w: Ix,
     w8: Value,
-    k8: Value,
-    k: Value,
-    km1: Value,
+    /// The order being computed, and k as a float.
+    k: Ix,
     kf: Value,
-    /// `lagrangian_conv`, imported.
-    conv_fn: FuncRef,
-    /// Whether convolutions are loops in the code, else calls.
-    inline: bool,
+    /// `lagrangian_conv`, imported, when convolutions with an index read at run time are calls
+    /// of it; `None`: loops in the code.
+    calls: Option<FuncRef>,
 }
 
-impl Gen<'_> {
+impl<'a> Gen<'a> {
+    fn new(mut b: FunctionBuilder<'a>, table: Value, w: Ix, calls: Option<FuncRef>) -> Self {
+        let w8 = match w {
+            Ix::Fixed(w) => b.ins().iconst(types::I64, 8 * w as i64),
+            Ix::Var(w) => b.ins().ishl_imm_s(w, 3),
+        };
+        let kf = b.ins().f64const(0.0);
+        Self {
+            b,
+            table,
+            w,
+            w8,
+            k: Ix::Fixed(0),
+            kf,
+            calls,
+        }
+    }
+
     fn flags() -> MemFlagsData {
         MemFlagsData::trusted()
-    }
-
-    /// The address of row r's coefficient 0.
-    fn row(&mut self, r: usize) -> Value {
-        let off = self.b.ins().imul_imm_s(self.w8, r as i64);
-        self.b.ins().iadd(self.table, off)
-    }
-
-    /// Row r's coefficient k.
-    fn at_k(&mut self, r: usize) -> Value {
-        let base = self.row(r);
-        let addr = self.b.ins().iadd(base, self.k8);
-        self.b.ins().load(types::F64, Self::flags(), addr, 0)
-    }
-
-    /// Row r's coefficient 0.
-    fn at0(&mut self, r: usize) -> Value {
-        let base = self.row(r);
-        self.b.ins().load(types::F64, Self::flags(), base, 0)
-    }
-
-    /// Row r's coefficient at the index `j` (an integer value).
-    fn store_at(&mut self, r: usize, j: Value, v: Value) {
-        let base = self.row(r);
-        let off = self.b.ins().ishl_imm_s(j, 3);
-        let addr = self.b.ins().iadd(base, off);
-        self.b.ins().store(Self::flags(), v, addr, 0);
-    }
-
-    fn store_k(&mut self, r: usize, v: Value) {
-        let k = self.k;
-        self.store_at(r, k, v);
     }
 
     fn f64(&mut self, x: f64) -> Value {
         self.b.ins().f64const(x)
     }
 
-    /// Σⱼ₌ₗₒ..ₕᵢ [j] aⱼ b_(kk − j), in the lanes and order of `conv` in `taylor.rs`: a loop
-    /// emitted here for small programs ([`INLINE_UP_TO`]), else a call of the interpreter's own
-    /// sum, `lagrangian_conv`.
-    fn conv(&mut self, a: usize, b: usize, lo: i64, hi: Value, kk: Value, weighted: bool) -> Value {
-        if self.inline {
-            return self.conv_loop(a, b, lo, hi, kk, weighted);
+    fn int(&mut self, i: Ix) -> Value {
+        match i {
+            Ix::Fixed(x) => self.b.ins().iconst(types::I64, x as i64),
+            Ix::Var(v) => v,
         }
-        let (pa, pb) = (self.row(a), self.row(b));
-        let lo = self.b.ins().iconst(types::I64, lo);
-        let weighted = self.b.ins().iconst(types::I32, i64::from(weighted));
-        let call = self
-            .b
+    }
+
+    /// k − 1.
+    fn km1(&mut self) -> Ix {
+        match self.k {
+            Ix::Fixed(k) => Ix::Fixed(k - 1),
+            Ix::Var(k) => Ix::Var(self.b.ins().iadd_imm_s(k, -1)),
+        }
+    }
+
+    /// The byte offset of entry `i` of an `f64` buffer (its bounds checked at compilation).
+    fn offset(i: usize) -> i32 {
+        i32::try_from(8 * i).expect("buffer sizes are checked before code is generated")
+    }
+
+    /// The address of row r's coefficient 0.
+    fn row(&mut self, r: usize) -> Value {
+        match self.w {
+            Ix::Fixed(w) => self.b.ins().iadd_imm_s(self.table, 8 * (r * w) as i64),
+            Ix::Var(_) => {
+                let off = self.b.ins().imul_imm_s(self.w8, r as i64);
+                self.b.ins().iadd(self.table, off)
+            }
+        }
+    }
+
+    /// Base and byte offset of row r's coefficient j.
+    fn slot(&mut self, r: usize, j: Ix) -> (Value, i32) {
+        match (self.w, j) {
+            (Ix::Fixed(w), Ix::Fixed(j)) => (self.table, Self::offset(r * w + j)),
+            (_, Ix::Fixed(j)) => (self.row(r), Self::offset(j)),
+            (_, Ix::Var(j)) => {
+                let base = self.row(r);
+                let off = self.b.ins().ishl_imm_s(j, 3);
+                (self.b.ins().iadd(base, off), 0)
+            }
+        }
+    }
+
+    /// Row r's coefficient j.
+    fn load(&mut self, r: usize, j: Ix) -> Value {
+        let (base, off) = self.slot(r, j);
+        self.b.ins().load(types::F64, Self::flags(), base, off)
+    }
+
+    fn store(&mut self, r: usize, j: Ix, v: Value) {
+        let (base, off) = self.slot(r, j);
+        self.b.ins().store(Self::flags(), v, base, off);
+    }
+
+    /// Entry i of the buffer at `base`.
+    fn load_at(&mut self, base: Value, i: usize) -> Value {
+        self.b
             .ins()
-            .call(self.conv_fn, &[pa, pb, lo, hi, kk, weighted]);
+            .load(types::F64, Self::flags(), base, Self::offset(i))
+    }
+
+    fn store_at(&mut self, base: Value, i: usize, v: Value) {
+        self.b.ins().store(Self::flags(), v, base, Self::offset(i));
+    }
+
+    /// Row r's coefficient k, and its coefficient 0.
+    fn at_k(&mut self, r: usize) -> Value {
+        let k = self.k;
+        self.load(r, k)
+    }
+
+    fn at0(&mut self, r: usize) -> Value {
+        self.load(r, Ix::Fixed(0))
+    }
+
+    fn store_k(&mut self, r: usize, v: Value) {
+        let k = self.k;
+        self.store(r, k, v);
+    }
+
+    /// The sum of `terms` in the lanes and order of `conv` in `taylor.rs` (and of
+    /// `linalg::dot`): term i into lane i mod 4 while four are left, the rest into lane 0, then
+    /// (l₀ + l₁) + (l₂ + l₃).
+    fn lanes(&mut self, terms: Vec<Value>) -> Value {
+        let zero = self.f64(0.0);
+        let mut l = [zero; LANES];
+        let full = terms.len() / LANES * LANES;
+        for (i, &t) in terms.iter().enumerate() {
+            let lane = if i < full { i % LANES } else { 0 };
+            l[lane] = self.b.ins().fadd(l[lane], t);
+        }
+        let low = self.b.ins().fadd(l[0], l[1]);
+        let high = self.b.ins().fadd(l[2], l[3]);
+        self.b.ins().fadd(low, high)
+    }
+
+    /// Σⱼ₌ₗₒ..ₕᵢ [j] aⱼ b_(kk − j), as `conv` in `taylor.rs` sums it: unrolled when hi and kk
+    /// are known at compilation, else a loop in the code or a call of `lagrangian_conv`.
+    fn conv(&mut self, a: usize, b: usize, lo: usize, hi: Ix, kk: Ix, weighted: bool) -> Value {
+        if let (Ix::Fixed(hi), Ix::Fixed(kk)) = (hi, kk) {
+            let terms = (lo..=hi)
+                .map(|j| {
+                    let x = self.load(a, Ix::Fixed(j));
+                    let x = if weighted {
+                        let jf = self.f64(j as f64);
+                        self.b.ins().fmul(jf, x)
+                    } else {
+                        x
+                    };
+                    let y = self.load(b, Ix::Fixed(kk - j));
+                    self.b.ins().fmul(x, y)
+                })
+                .collect();
+            return self.lanes(terms);
+        }
+        let (hi, kk) = (self.int(hi), self.int(kk));
+        let Some(conv_fn) = self.calls else {
+            return self.conv_loop(a, b, lo as i64, hi, kk, weighted);
+        };
+        let (pa, pb) = (self.row(a), self.row(b));
+        let lo = self.b.ins().iconst(types::I64, lo as i64);
+        let weighted = self.b.ins().iconst(types::I32, i64::from(weighted));
+        let call = self.b.ins().call(conv_fn, &[pa, pb, lo, hi, kk, weighted]);
         self.b.inst_results(call)[0]
     }
 
@@ -356,7 +721,7 @@ impl Gen<'_> {
 
     /// Coefficient k of `op`'s rows, as [`Op::apply`] computes it for k ≥ 1.
     fn op(&mut self, op: &Op) {
-        let (k, km1, kf) = (self.k, self.km1, self.kf);
+        let (k, kf) = (self.k, self.kf);
         let (out, value) = match *op {
             Op::Copy { out, a } => (out, self.at_k(a)),
             Op::Neg { out, a } => {
@@ -398,6 +763,7 @@ impl Gen<'_> {
                 (out, self.b.ins().fdiv(s, kf))
             }
             Op::Ln { out, a } => {
+                let km1 = self.km1();
                 let s = self.conv(out, a, 1, km1, k, true);
                 let s = self.b.ins().fdiv(s, kf);
                 let x = self.at_k(a);
@@ -406,6 +772,7 @@ impl Gen<'_> {
                 (out, self.b.ins().fdiv(n, d))
             }
             Op::Sqrt { out, a } => {
+                let km1 = self.km1();
                 let s = self.conv(out, out, 1, km1, k, false);
                 let x = self.at_k(a);
                 let n = self.b.ins().fsub(x, s);
@@ -466,11 +833,12 @@ impl Gen<'_> {
                 let yx = self.conv(y, x, 1, k, k, true);
                 let xy = self.conv(x, y, 1, k, k, true);
                 let n = self.b.ins().fsub(yx, xy);
+                let km1 = self.km1();
                 let dr = self.conv(d, r, 1, km1, km1, false);
                 let n = self.b.ins().fsub(n, dr);
                 let d0 = self.at0(d);
                 let rk = self.b.ins().fdiv(n, d0);
-                self.store_at(r, km1, rk);
+                self.store(r, km1, rk);
                 (out, self.b.ins().fdiv(rk, kf))
             }
         };
