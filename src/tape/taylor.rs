@@ -698,6 +698,22 @@ impl TaylorProgram {
         }
     }
 
+    /// Whether expansions to `order` run the unrolled code now (compiled by [`Self::unroll`]
+    /// or after `UNROLL_AFTER` expansions to that order).
+    pub fn is_unrolled(&self, order: usize) -> bool {
+        #[cfg(feature = "jit")]
+        return self
+            .unrolled
+            .get(order)
+            .and_then(|cell| cell.get())
+            .is_some_and(|kernel| kernel.is_some());
+        #[cfg(not(feature = "jit"))]
+        {
+            let _ = order;
+            false
+        }
+    }
+
     /// Recurrences run at each order ≥ 1 (the nodes that vary and their auxiliary rows).
     pub fn recurrences(&self) -> usize {
         self.varying.len()
