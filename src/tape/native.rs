@@ -203,6 +203,45 @@ pub(super) fn jit_module(backtracking: bool) -> Result<JITModule> {
     Ok(JITModule::new(jit))
 }
 
+/// A function with parameters `params` and no result (the host's default calling convention),
+/// declared in `module` as `name`, and the context to build it in.
+pub(super) fn declare(
+    module: &mut JITModule,
+    name: &str,
+    params: &[ir::Type],
+) -> Result<(FuncId, cranelift_codegen::Context)> {
+    let mut ctx = module.make_context();
+    let sig = &mut ctx.func.signature;
+    sig.params.extend(params.iter().map(|&t| AbiParam::new(t)));
+    let id = module
+        .declare_function(name, Linkage::Local, &ctx.func.signature)
+        .map_err(fail)?;
+    Ok((id, ctx))
+}
+
+/// Open the entry block of the function `b` builds (sealed: nothing jumps back to it) and give
+/// its parameters.
+pub(super) fn enter(b: &mut FunctionBuilder<'_>) -> Vec<Value> {
+    let entry = b.create_block();
+    b.append_block_params_for_function_params(entry);
+    b.switch_to_block(entry);
+    b.seal_block(entry);
+    b.block_params(entry).to_vec()
+}
+
+/// Compile the function built in `ctx`, declared as `id`, link the module, and give the
+/// function's address.
+pub(super) fn link(
+    module: &mut JITModule,
+    id: FuncId,
+    ctx: &mut cranelift_codegen::Context,
+) -> Result<*const u8> {
+    module.define_function(id, ctx).map_err(fail)?;
+    module.clear_context(ctx);
+    module.finalize_definitions().map_err(fail)?;
+    Ok(module.get_finalized_function(id))
+}
+
 impl NativeTape {
     /// Compile `tape` to machine code for the host.
     ///
@@ -234,22 +273,11 @@ impl NativeTape {
     fn define(module: &mut JITModule, tape: &Tape) -> Result<Entry> {
         let config = module.target_config();
         let ptr = config.pointer_type();
-        let mut ctx = module.make_context();
-        let sig = &mut ctx.func.signature;
-        sig.params.push(AbiParam::new(ptr));
-        sig.params.push(AbiParam::new(types::F64));
-        sig.params.extend([AbiParam::new(ptr); 3]);
-        let id = module
-            .declare_function("tape", Linkage::Local, &ctx.func.signature)
-            .map_err(fail)?;
+        let (id, mut ctx) = declare(module, "tape", &[ptr, types::F64, ptr, ptr, ptr])?;
         let mut fctx = FunctionBuilderContext::new();
         {
             let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
-            let block = b.create_block();
-            b.append_block_params_for_function_params(block);
-            b.switch_to_block(block);
-            b.seal_block(block);
-            let p = b.block_params(block).to_vec();
+            let p = enter(&mut b);
             let (consts_ptr, t, q, qd, out) = (p[0], p[1], p[2], p[3], p[4]);
             let mut g = Gen {
                 module,
@@ -295,10 +323,7 @@ impl NativeTape {
             g.b.ins().return_(&[]);
             g.b.finalize(config);
         }
-        module.define_function(id, &mut ctx).map_err(fail)?;
-        module.clear_context(&mut ctx);
-        module.finalize_definitions().map_err(fail)?;
-        let code = module.get_finalized_function(id);
+        let code = link(module, id, &mut ctx)?;
         // SAFETY: `code` is the function just defined with the signature of `Entry` in the
         // host's default calling convention, which is `extern "C"`.
         Ok(unsafe { std::mem::transmute::<*const u8, Entry>(code) })

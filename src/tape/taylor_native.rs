@@ -15,7 +15,7 @@
 //! an operation reads or writes is checked against the table's row count before any code is
 //! emitted, and the kernels' `run` check the buffers' lengths, the width and the order.
 
-use super::native::{BACKTRACKING_UP_TO, Code, fail, jit_module};
+use super::native::{BACKTRACKING_UP_TO, Code, declare, enter, fail, jit_module, link};
 use super::taylor::{LANES, Op, TaylorProgram};
 
 use crate::error::Result;
@@ -112,14 +112,7 @@ impl SeriesKernel {
 fn define(module: &mut JITModule, ops: &[Op], inline: bool) -> Result<Entry> {
     let config = module.target_config();
     let ptr = config.pointer_type();
-    let mut ctx = module.make_context();
-    let sig = &mut ctx.func.signature;
-    sig.params
-        .extend([AbiParam::new(types::I64), AbiParam::new(types::I64)]);
-    sig.params.push(AbiParam::new(ptr));
-    let id = module
-        .declare_function("series", Linkage::Local, &ctx.func.signature)
-        .map_err(fail)?;
+    let (id, mut ctx) = declare(module, "series", &[types::I64, types::I64, ptr])?;
     let calls = if inline {
         None
     } else {
@@ -137,11 +130,7 @@ fn define(module: &mut JITModule, ops: &[Op], inline: bool) -> Result<Entry> {
     let mut fctx = FunctionBuilderContext::new();
     {
         let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
-        let entry = b.create_block();
-        b.append_block_params_for_function_params(entry);
-        b.switch_to_block(entry);
-        b.seal_block(entry);
-        let p = b.block_params(entry).to_vec();
+        let p = enter(&mut b);
         let (k, w, table) = (p[0], p[1], p[2]);
         let calls = calls.map(|c| module.declare_func_in_func(c, b.func));
         let mut g = Gen::new(b, table, Ix::Var(w), calls);
@@ -153,10 +142,7 @@ fn define(module: &mut JITModule, ops: &[Op], inline: bool) -> Result<Entry> {
         g.b.ins().return_(&[]);
         g.b.finalize(config);
     }
-    module.define_function(id, &mut ctx).map_err(fail)?;
-    module.clear_context(&mut ctx);
-    module.finalize_definitions().map_err(fail)?;
-    let code = module.get_finalized_function(id);
+    let code = link(module, id, &mut ctx)?;
     // SAFETY: `code` is the function just defined with the signature of `Entry` in the host's
     // default calling convention, which is `extern "C"`.
     Ok(unsafe { std::mem::transmute::<*const u8, Entry>(code) })
@@ -326,19 +312,11 @@ fn define_expansion(
 ) -> Result<ExpansionEntry> {
     let config = module.target_config();
     let ptr = config.pointer_type();
-    let mut ctx = module.make_context();
-    ctx.func.signature.params.extend([AbiParam::new(ptr); 5]);
-    let id = module
-        .declare_function("expansion", Linkage::Local, &ctx.func.signature)
-        .map_err(fail)?;
+    let (id, mut ctx) = declare(module, "expansion", &[ptr; 5])?;
     let mut fctx = FunctionBuilderContext::new();
     {
         let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
-        let entry = b.create_block();
-        b.append_block_params_for_function_params(entry);
-        b.switch_to_block(entry);
-        b.seal_block(entry);
-        let p = b.block_params(entry).to_vec();
+        let p = enter(&mut b);
         let (table, qp, vp, qddp, m0p) = (p[0], p[1], p[2], p[3], p[4]);
         let (n, w) = (program.dof, order + 1);
         let mut g = Gen::new(b, table, Ix::Fixed(w), None);
@@ -419,10 +397,7 @@ fn define_expansion(
         g.b.ins().return_(&[]);
         g.b.finalize(config);
     }
-    module.define_function(id, &mut ctx).map_err(fail)?;
-    module.clear_context(&mut ctx);
-    module.finalize_definitions().map_err(fail)?;
-    let code = module.get_finalized_function(id);
+    let code = link(module, id, &mut ctx)?;
     // SAFETY: `code` is the function just defined with the signature of `ExpansionEntry` in the
     // host's default calling convention, which is `extern "C"`.
     Ok(unsafe { std::mem::transmute::<*const u8, ExpansionEntry>(code) })
