@@ -595,7 +595,8 @@ class Model:
         These are what ``method="taylor"`` sums at every step: found order by order by series
         arithmetic on the model's expressions, with one solve by the mass matrix per order (no
         symbolic inverse). Models stated as expressions only (not ``lg.scenes``); ``order``
-        from 1 to 100. ``"auto"`` never picks ``taylor``: give ``method="taylor"``.
+        from 1 to 100. ``"auto"`` runs ``taylor`` where it estimates it cheaper than
+        ``dop853`` (see ``simulate``); ``method="taylor"`` asks for it by name.
 
         >>> import lagrangian as lg
         >>> x, = lg.coordinates("x")
@@ -722,9 +723,13 @@ class Model:
             ``blanes_moan4`` when it is separable (constant mass matrix, U(q)), ``gauss4``
             otherwise (symplectic for any L); in every other case (forced, dissipative,
             time-dependent, or tolerances without ``dt``) ``radau5`` when the system is stiff
-            at the initial state, ``dop853`` otherwise (adaptive, or at the fixed ``dt``).
-            Stiff means a decaying mode of the Jacobian at least 1000 times faster than every
-            mode the solution must follow, so that an explicit step would be set by stability.
+            at the initial state; else, with tolerances only, ``taylor`` where its cost,
+            estimated from the sizes of the model's programs and the tolerance, is below
+            DOP853's (small smooth models from about 1e-9 down; not the N-link chains, nor a
+            model with ``abs`` or ``sign`` of the state); else ``dop853`` (adaptive, or at the
+            fixed ``dt``). Stiff means a decaying mode of the Jacobian at least 1000 times
+            faster than every mode the solution must follow, so that an explicit step would be
+            set by stability.
         dt : float, optional
             Fixed step, with the sign of ``t_end - t0``; without it the adaptive methods
             control the local error with ``rtol`` and ``atol``.

@@ -1,7 +1,7 @@
 //! [`Method::Auto`]: the choice of a method from the system's structure, the options and the
 //! initial state, with the reason recorded in the statistics.
 
-use super::{Method, Options, stiffness};
+use super::{Method, Options, stiffness, taylor};
 use crate::dynamics::Dynamics;
 
 /// Choose a method from the system's structure, the options and the initial state (the rule
@@ -48,6 +48,7 @@ pub(super) fn choose<S: Dynamics + ?Sized>(
             ),
         );
     }
+    let mut taylor_note = String::new();
     let not_stiff = match stiffness {
         Some(est) => format!(
             "not stiff (fastest mode |λ| ≈ {:.3e}, {:.0} times the slowest one to follow)",
@@ -58,6 +59,31 @@ pub(super) fn choose<S: Dynamics + ?Sized>(
                  state)"
             .into(),
     };
+    // Taylor has no stiffness detection of its own: only where the test ran and found none.
+    if options.dt.is_none()
+        && stiffness.is_some()
+        && let Some(estimate) = TaylorEstimate::new(system, options)
+    {
+        if estimate.ratio() < 1.0 {
+            return (
+                Method::Taylor,
+                format!(
+                    "no fixed dt, {not_stiff}, and the model is an analytic expression graph: \
+                     taylor (order {}) is estimated at {:.2} times DOP853's cost at this \
+                     tolerance ({}); its error follows the tolerance down to round-off",
+                    estimate.order,
+                    estimate.ratio(),
+                    estimate.detail()
+                ),
+            );
+        }
+        taylor_note = format!(
+            "; taylor (order {}) was estimated at {:.2} times its cost ({})",
+            estimate.order,
+            estimate.ratio(),
+            estimate.detail()
+        );
+    }
     let why = match options.dt {
         Some(_) => format!(
             "fixed dt on a system that is forced, dissipative or time-dependent, {not_stiff}: \
@@ -78,5 +104,76 @@ pub(super) fn choose<S: Dynamics + ?Sized>(
              control, dense output and stiffness detection"
         ),
     };
-    (Method::Dop853, why)
+    (Method::Dop853, why + &taylor_note)
+}
+
+/// The Taylor method's cost against DOP853's at the same tolerance, from the sizes of the model's
+/// programs. Fitted to `benches/taylor_choice.py` (2-core machine, release, every model there
+/// at rtol = atol = 1e-6 … 1e-15, Taylor's expansions before they are compiled unrolled, so a
+/// choice never counts on code it has not compiled): in nanoseconds,
+///
+/// - a Taylor step ≈ 300 + U/4 + 13 O, U the estimated instructions of the expansion to the
+///   order ([`TaylorProgram::expansion_instructions`](crate::tape::TaylorProgram)), O the
+///   operations of order 0;
+/// - a DOP853 step ≈ 620 + 3.5 R + 100 C, R the instructions of one evaluation of the
+///   accelerations, C its calls to the maths library (12 evaluations and the stages' vector
+///   work per step);
+/// - DOP853 takes (10⁻⁹/ε)^(1/9) times as many steps as Taylor at ε = max(rtol, atol) (the
+///   tolerance atol + rtol |yᵢ| of a component of order one): Jorba and Zou's step hardly
+///   shrinks with ε (the order, set by min(rtol, atol), grows instead), DOP853's like ε^(1/8).
+///   Measured: 0.38–0.54 at 1e-6, 0.84–1.40 at 1e-9, 1.7–3.6 at 1e-12, 3.7–10 at 1e-15.
+///
+/// The fit's per-step costs are within about 45 % of the measured ones; the choices it makes
+/// are the faster method on every model measured except five within 25 % of the break-even,
+/// where it keeps DOP853.
+struct TaylorEstimate {
+    order: usize,
+    /// Estimated nanoseconds per step.
+    taylor_step: f64,
+    dop853_step: f64,
+    /// DOP853's steps per Taylor step.
+    steps: f64,
+}
+
+impl TaylorEstimate {
+    /// The estimate for a model the Taylor method can run: stated as an expression graph
+    /// without |x| or sign(x) of the state. The fit is of machine code on both sides; the
+    /// interpreter (`backend="interpreter"`, or no `jit` feature) gets the same choice, so
+    /// that the backend changes the speed of a run, never its result.
+    fn new<S: Dynamics + ?Sized>(system: &S, options: &Options) -> Option<Self> {
+        let eom = system.derived_program()?;
+        let (program, _) = eom.taylor();
+        if !program.is_analytic() {
+            return None;
+        }
+        // The order follows the tighter tolerance; the steps of both methods follow the
+        // tolerance of components of order one, atol + rtol, which the looser one sets.
+        let order = taylor::order_for(options.rtol.min(options.atol));
+        let eps = options.rtol.max(options.atol);
+        let (operations, calls) = program.order0_operations();
+        Some(Self {
+            order,
+            taylor_step: 300.0
+                + program.expansion_instructions(order) as f64 / 4.0
+                + 13.0 * operations as f64,
+            dop853_step: 620.0
+                + 3.5 * eom.acceleration_instructions() as f64
+                + 100.0 * calls as f64,
+            steps: (1e-9 / eps).powf(1.0 / 9.0),
+        })
+    }
+
+    /// Taylor's estimated cost over DOP853's for the same span.
+    fn ratio(&self) -> f64 {
+        self.taylor_step / (self.steps * self.dop853_step)
+    }
+
+    fn detail(&self) -> String {
+        format!(
+            "a Taylor step ≈ {:.1} DOP853 steps' work, DOP853 taking ≈ {:.2} times as many \
+             steps; estimates from the programs' sizes, fitted by benches/taylor_choice.py",
+            self.taylor_step / self.dop853_step,
+            self.steps
+        )
+    }
 }

@@ -162,7 +162,13 @@ macro_rules! registry {
             /// 1. conservative (no Φ, no Q″, no explicit t) with a fixed `dt`: `blanes_moan4` when
             ///    separable (constant M, U(q)), otherwise `gauss4` (symplectic for any L);
             /// 2. otherwise (forced, dissipative, time-dependent, or tolerances only): `radau5`
-            ///    when the system is stiff, else `dop853` (adaptive, or at the fixed `dt`).
+            ///    when the system is stiff;
+            /// 3. else, with tolerances only, `taylor` for a model stated as an analytic
+            ///    expression graph (compiled to machine code) where its cost, estimated from
+            ///    the sizes of the model's programs and the tolerance, is below DOP853's: small
+            ///    smooth systems from about 1e-9 down (the double pendulum from about 1e-12);
+            ///    not the N-link chains, whose series of M cost too much per step;
+            /// 4. else `dop853` (adaptive, or at the fixed `dt`).
             ///
             /// Stiff means: at the initial state, the Jacobian of (q̇, q̈) has a decaying
             /// (relaxation) mode at least 1000 times faster than every mode the solution must

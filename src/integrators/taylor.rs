@@ -23,7 +23,7 @@ use crate::tape::Expansion;
 
 /// Jorba & Zou's order for the tolerance ε, p = ⌈−ln ε / 2 + 1⌉, capped where double precision
 /// has nothing left to gain (p = 40 is ε ≈ 1e-34).
-fn order_for(eps: f64) -> usize {
+pub(super) fn order_for(eps: f64) -> usize {
     ((-eps.ln() / 2.0 + 1.0).ceil() as usize).clamp(2, 40)
 }
 

@@ -688,6 +688,24 @@ impl EomFunction {
         (&self.program.taylor, &self.params)
     }
 
+    /// About the instructions of one evaluation of the accelerations: those of the program
+    /// with the solve unrolled, where it has one; else those of M and f and of the LDLᵀ
+    /// factorization and solve (n³/3 + 2n², the solve alone when a constant M was factored
+    /// once). `Method::Auto` weighs a Runge–Kutta step's cost with it.
+    pub fn acceleration_instructions(&self) -> usize {
+        #[cfg(feature = "jit")]
+        if let Some(solved) = &self.solved {
+            return solved.function.tape().instructions();
+        }
+        let n = self.program.dof;
+        let factor = if self.mass_factor.is_some() {
+            0
+        } else {
+            n * n * n / 3
+        };
+        self.program.tape.instructions() + factor + 2 * n * n
+    }
+
     /// The tape's constants for these parameter values (what the tape reads besides t, q, q̇).
     pub fn constants(&self) -> &[f64] {
         &self.function.consts

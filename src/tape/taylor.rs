@@ -180,6 +180,27 @@ pub(super) unsafe extern "C" fn lagrangian_conv(
 }
 
 impl Op {
+    /// Whether order 0 of this recurrence calls the maths library.
+    fn calls_libm(&self) -> bool {
+        matches!(
+            self,
+            Op::Exp { .. } | Op::Ln { .. } | Op::SinCos { .. } | Op::Tan { .. } | Op::Atan2 { .. }
+        )
+    }
+
+    /// Terms of the convolutions this recurrence sums at order k ≥ 1.
+    fn terms(&self, k: usize) -> usize {
+        match self {
+            Op::Mul { .. } => k + 1,
+            Op::Div { .. } | Op::Recip { .. } | Op::Exp { .. } => k,
+            Op::Ln { .. } | Op::Sqrt { .. } => k - 1,
+            Op::SinCos { .. } => 2 * k,
+            Op::Tan { .. } => 2 * k + 1,
+            Op::Atan2 { .. } => 5 * k + 1,
+            _ => 0,
+        }
+    }
+
     /// Coefficient k of the rows this recurrence writes, in the table `s` of row width `w`.
     pub(crate) fn apply(&self, s: &mut [f64], w: usize, k: usize) {
         let at = |s: &[f64], r: usize, j: usize| s[r * w + j];
@@ -717,6 +738,30 @@ impl TaylorProgram {
     /// Recurrences run at each order ≥ 1 (the nodes that vary and their auxiliary rows).
     pub fn recurrences(&self) -> usize {
         self.varying.len()
+    }
+
+    /// About the machine instructions of one expansion to `order` compiled unrolled (orders
+    /// 1 to p − 1 of q̈; order 0 is evaluated as the accelerations are): three per term of a
+    /// convolution (two loads and a product, and its sum) and a few per recurrence, per
+    /// Σⱼ Mⱼ q̈ₖ₋ⱼ term and per entry of the solve, at each order. It decides which programs
+    /// are small enough to unroll, and `Method::Auto`'s estimate of a Taylor step's cost.
+    pub fn expansion_instructions(&self, order: usize) -> usize {
+        let n = self.dof;
+        (1..order)
+            .map(|k| {
+                let ops: usize = self.varying.iter().map(|op| 3 * op.terms(k) + 4).sum();
+                let mass = if self.mass_varies { 4 * n * n * k } else { 0 };
+                ops + mass + 3 * n * n + 8 * n
+            })
+            .sum()
+    }
+
+    /// Operations of order 0 (the rows of M and f at the expansion point, evaluated as the
+    /// accelerations are), and how many of them call the maths library (eˣ, ln, sin and cos,
+    /// tan, atan2): `Method::Auto` weighs a step's cost with them.
+    pub fn order0_operations(&self) -> (usize, usize) {
+        let calls = self.order0.iter().filter(|op| op.calls_libm()).count();
+        (self.order0.len(), calls)
     }
 
     /// Whether the motion has a Taylor series wherever the model is defined: no |x| or sign(x)

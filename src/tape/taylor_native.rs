@@ -149,7 +149,7 @@ fn define(module: &mut JITModule, ops: &[Op], inline: bool) -> Result<Entry> {
 }
 
 /// Programs whose whole expansion ([`ExpansionKernel`]) comes to at most this many instructions
-/// (estimated by [`unrolled_instructions`]) may get it compiled, unrolled; larger ones run the
+/// (estimated by [`TaylorProgram::expansion_instructions`]) may get it compiled, unrolled; larger ones run the
 /// recurrences of [`SeriesKernel`] order by order, with the rest of the expansion in Rust.
 /// Compilation costs about 3.7 µs per estimated instruction (2-core machine, release): this is
 /// about 0.4 s, the 4-link chain at order 22.
@@ -163,37 +163,6 @@ const UNROLL_UP_TO: usize = 100_000;
 /// Waiting for the break-even keeps a short run from paying for code it would not repay (at
 /// worst a run then costs about twice what the better choice in hindsight would have).
 pub(crate) const UNROLL_AFTER: usize = 10_000;
-
-/// Terms of the convolutions `op` sums at order k ≥ 1.
-fn terms(op: &Op, k: usize) -> usize {
-    match op {
-        Op::Mul { .. } => k + 1,
-        Op::Div { .. } | Op::Recip { .. } | Op::Exp { .. } => k,
-        Op::Ln { .. } | Op::Sqrt { .. } => k - 1,
-        Op::SinCos { .. } => 2 * k,
-        Op::Tan { .. } => 2 * k + 1,
-        Op::Atan2 { .. } => 5 * k + 1,
-        _ => 0,
-    }
-}
-
-/// About the instructions of `program`'s expansion to `order` unrolled: three per term of a
-/// convolution (two loads and a product, and its sum) and a few per recurrence, per Σⱼ Mⱼ q̈ₖ₋ⱼ
-/// term and per entry of the solve, at each order.
-fn unrolled_instructions(program: &TaylorProgram, order: usize) -> usize {
-    let n = program.dof;
-    (1..order)
-        .map(|k| {
-            let ops: usize = program.varying.iter().map(|op| 3 * terms(op, k) + 4).sum();
-            let mass = if program.mass_varies {
-                4 * n * n * k
-            } else {
-                0
-            };
-            ops + mass + 3 * n * n + 8 * n
-        })
-        .sum()
-}
 
 /// The entry of an [`ExpansionKernel`]: the table, the coefficients of q and of q̇ (order k of
 /// coordinate i at k·n + i), of q̈ (coordinate i's order k at i·w + k), and M₀ factored.
@@ -229,7 +198,7 @@ impl ExpansionKernel {
     /// unroll, a row is out of range, or Cranelift has no backend for the host or fails: the
     /// recurrences then run order by order.
     pub(crate) fn compile(program: &TaylorProgram, order: usize) -> Result<Self> {
-        let size = unrolled_instructions(program, order);
+        let size = program.expansion_instructions(order);
         if order == 0 || size > UNROLL_UP_TO {
             return Err(fail(format!("{size} instructions to unroll")));
         }

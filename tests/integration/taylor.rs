@@ -424,3 +424,66 @@ fn kepler_backwards_to_the_start() {
     let start = kepler_exact(e, 0.0);
     assert!(error(&back, &start) < 1e-11, "{back:?} against {start:?}");
 }
+
+/// `Method::Auto` runs the Taylor method where its estimated cost is below DOP853's: on Kepler's
+/// problem at 1e-15 (the run `Method::Taylor` gives, bit for bit, to within 10 × tol of the
+/// closed form), not at 1e-9, and never on the 4-link chain, whose series of M cost several
+/// DOP853 steps per Taylor step (`benches/taylor_choice.py`).
+#[test]
+fn auto_runs_taylor_where_it_is_estimated_cheaper() {
+    let estimate = |choice: &str| -> f64 {
+        let at = choice.find("estimated at ").expect(choice) + "estimated at ".len();
+        choice[at..].split(' ').next().unwrap().parse().unwrap()
+    };
+    let e: f64 = 0.6;
+    let (q0, v0) = (
+        [1.0 - e, 0.0],
+        [0.0, (1.0 - e * e).sqrt() / ((1.0 - e) * (1.0 - e))],
+    );
+    // As `kepler_orbit_to_the_tolerance`: ending near the apocentre.
+    let t_end = 5.0 * std::f64::consts::PI;
+    let orbit = kepler();
+    let run = |method, tol| {
+        solve(
+            &orbit,
+            &q0,
+            &v0,
+            (0.0, t_end),
+            method,
+            &Options::adaptive(tol, tol),
+        )
+        .unwrap()
+    };
+    let tight = run(Method::Auto, 1e-15);
+    let choice = tight.stats.choice.clone().unwrap();
+    assert_eq!(tight.stats.method, Method::Taylor, "{choice}");
+    assert!(
+        estimate(&choice) < 1.0 && choice.contains("not stiff"),
+        "{choice}"
+    );
+    let named = run(Method::Taylor, 1e-15);
+    assert_eq!(tight.last().unwrap(), named.last().unwrap());
+    let (_, q, v) = tight.last().unwrap();
+    let err = error(&[q, v].concat(), &kepler_exact(e, t_end));
+    assert!(err <= 1e-14, "{err:e}");
+    let loose = run(Method::Auto, 1e-9);
+    let choice = loose.stats.choice.unwrap();
+    assert_eq!(loose.stats.method, Method::Dop853, "{choice}");
+    assert!(estimate(&choice) > 1.0, "{choice}");
+
+    let mut g = Graph::new();
+    let parts = lagrangian::tape::models::pendulum_chain(&mut g, 4).unwrap();
+    let chain = model(g, 4, &parts, &[1.0, 1.0, 9.81]);
+    let sol = solve(
+        &chain,
+        &[0.3; 4],
+        &[0.0; 4],
+        (0.0, 1.0),
+        Method::Auto,
+        &Options::adaptive(1e-15, 1e-15),
+    )
+    .unwrap();
+    let choice = sol.stats.choice.unwrap();
+    assert_eq!(sol.stats.method, Method::Dop853, "{choice}");
+    assert!(estimate(&choice) > 1.5, "{choice}");
+}

@@ -316,7 +316,7 @@ def test_runs_that_fail_midway_keep_what_they_computed():
     model = pendulum()
     theta0 = np.array([0.2, 2.0, 0.15, 1.0])
     t = np.linspace(0.0, 20.0, 201)
-    kwargs = dict(t_eval=t, rtol=1e-12, atol=1e-12, max_steps=350)
+    kwargs = dict(t_eval=t, method="dop853", rtol=1e-12, atol=1e-12, max_steps=350)
     ens = model.simulate_many(theta0[:, None], [0.0], 20.0, **kwargs)
     assert ens.status.tolist() == [0, -1, 0, -1]
     for i in (1, 3):
@@ -328,10 +328,10 @@ def test_runs_that_fail_midway_keep_what_they_computed():
         assert 0 < ens.reached[i] == len(partial) < len(t)
         assert_same(ens, i, partial)
         assert ens.q.mask[i, ens.reached[i]:].all() and not ens.q.mask[i, :ens.reached[i]].any()
-    final = model.simulate_many(theta0[:, None], [0.0], 20.0, rtol=1e-12, atol=1e-12,
-                                max_steps=350, final_only=True)
-    steps = model.simulate_many(theta0[:, None], [0.0], 20.0, rtol=1e-12, atol=1e-12,
-                                max_steps=350)
+    final = model.simulate_many(theta0[:, None], [0.0], 20.0, method="dop853", rtol=1e-12,
+                                atol=1e-12, max_steps=350, final_only=True)
+    steps = model.simulate_many(theta0[:, None], [0.0], 20.0, method="dop853", rtol=1e-12,
+                                atol=1e-12, max_steps=350)
     for i in range(4):
         # The last accepted state, at its own time: never filled, never NaN.
         assert final.t[i] == steps.t[i][-1] and np.array_equal(final.q[i], steps.q[i][-1])

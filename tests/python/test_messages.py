@@ -45,18 +45,23 @@ def test_none_is_named_as_none(q0: Any, says: str) -> None:
 # -- the reason of the automatic choice -------------------------------------------------------
 
 def test_auto_reason_is_true_with_default_and_given_tolerances(osc: lg.Model) -> None:
-    for kwargs in ({}, {"rtol": 1e-8, "atol": 1e-10}):
+    # The default tolerances: DOP853, the Taylor method's estimated cost in the reason. Tight
+    # ones: the Taylor method (its expansion of this oscillator is cheap), with its estimate.
+    for kwargs, method in (({}, "dop853"), ({"rtol": 1e-10, "atol": 1e-12}, "taylor")):
         sol = osc.simulate([1.0], [0.0], 1.0, **kwargs)
         choice = sol.stats["choice"]
-        assert sol.stats["method"] == "dop853"
+        assert sol.stats["method"] == method
         assert "tolerances given" not in choice
-        assert choice.startswith("no fixed dt (adaptive steps to rtol and atol)")
+        assert choice.startswith("no fixed dt")
+        ratio = float(re.search(r"estimated at ([0-9.]+) times", choice).group(1))
+        assert (ratio < 1.0) == (method == "taylor")
 
 
 def test_simulate_docstring_describes_what_auto_does() -> None:
     doc = lg.Model.simulate.__doc__ or ""
     method = doc[doc.index("method : str"):doc.index("dt : float")]
-    for word in ("blanes_moan4", "gauss4", "radau5", "dop853", "stiff", 'stats["choice"]'):
+    for word in ("blanes_moan4", "gauss4", "radau5", "taylor", "dop853", "stiff",
+                 'stats["choice"]'):
         assert word in method, word
     # What it says happens: gauss4 for a conservative non-separable system with a fixed dt,
     # blanes_moan4 for a separable one, dop853 given tolerances.
