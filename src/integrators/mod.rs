@@ -163,8 +163,8 @@ macro_rules! registry {
             ///    separable (constant M, U(q)), otherwise `gauss4` (symplectic for any L);
             /// 2. otherwise (forced, dissipative, time-dependent, or tolerances only): `radau5`
             ///    when the system is stiff;
-            /// 3. else, with tolerances only, `taylor` for a model stated as an analytic
-            ///    expression graph (compiled to machine code) where its cost, estimated from
+            /// 3. else, with tolerances only and where the stiffness test ran, `taylor` for a
+            ///    model stated as an analytic expression graph where its cost, estimated from
             ///    the sizes of the model's programs and the tolerance, is below DOP853's: small
             ///    smooth systems from about 1e-9 down (the double pendulum from about 1e-12);
             ///    not the N-link chains, whose series of M cost too much per step;

@@ -149,8 +149,9 @@ fn define(module: &mut JITModule, ops: &[Op], inline: bool) -> Result<Entry> {
 }
 
 /// Programs whose whole expansion ([`ExpansionKernel`]) comes to at most this many instructions
-/// (estimated by [`TaylorProgram::expansion_instructions`]) may get it compiled, unrolled; larger ones run the
-/// recurrences of [`SeriesKernel`] order by order, with the rest of the expansion in Rust.
+/// (estimated by [`TaylorProgram::expansion_instructions`]) may get it compiled, unrolled;
+/// larger ones run the recurrences of [`SeriesKernel`] order by order, with the rest of the
+/// expansion in Rust.
 /// Compilation costs about 3.7 µs per estimated instruction (2-core machine, release): this is
 /// about 0.4 s, the 4-link chain at order 22.
 const UNROLL_UP_TO: usize = 100_000;
