@@ -834,7 +834,7 @@ class Model:
         """Whether h = q̇·p − L is a constant of a run with these events (``stats["conserved"]``:
         its plot shows the drift then): a conservative model, and no reset."""
         resets = any(e.reset for e in events or ())
-        return bool(self._native.structure()["conservative"]) and not resets
+        return bool(self._native.conservative) and not resets
 
     def simulate_many(
         self,

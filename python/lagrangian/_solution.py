@@ -102,11 +102,11 @@ class Solution:
         dense: Any = None,
     ) -> None:
         self.t, self.q, self.qd, self.energy, self.stats = t, q, qd, energy, stats
-        self.names = None if names is None else tuple(str(n) for n in names)
+        self.names = None if names is None else tuple(map(str, names))
         self.t_events = [np.asarray(e[0]) for e in events]
         self.q_events = [np.asarray(e[1]) for e in events]
         self.qd_events = [np.asarray(e[2]) for e in events]
-        self.event_names = tuple(str(n) for n in event_names)
+        self.event_names = tuple(map(str, event_names))
         self.status, self.message = status, message
         self._dense = dense
         self._y: Optional[FloatArray] = None
@@ -129,7 +129,7 @@ class Solution:
             q,
             qd,
             energy,
-            dict(stats),
+            stats,  # a new dict from every native call: the solution owns it
             names=names,
             events=events,
             event_names=event_names,

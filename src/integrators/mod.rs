@@ -206,11 +206,11 @@ macro_rules! registry {
 
 registry! {
     /// Classical Runge–Kutta of order 4, fixed step.
-    Rk4 = "rk4" => ExplicitRk::new(Tableau::rk4()),
+    Rk4 = "rk4" => ExplicitRk::new(&runge_kutta::RK4),
     /// Dormand–Prince 5(4) with step control, dense output and stiffness test (Hairer's `dopri5`).
-    Dopri5 = "dopri5" => ExplicitRk::new(Tableau::dopri5()),
+    Dopri5 = "dopri5" => ExplicitRk::new(&runge_kutta::DOPRI5),
     /// Dormand–Prince 8(5,3) with step control, dense output and stiffness test (Hairer's `dop853`).
-    Dop853 = "dop853" => ExplicitRk::new(Tableau::dop853()),
+    Dop853 = "dop853" => ExplicitRk::new(&runge_kutta::DOP853),
     /// Störmer–Verlet (velocity Verlet, kick–drift–kick), order 2, symplectic.
     StormerVerlet = "stormer_verlet" => Splitting::new(SymplecticTableau::stormer_verlet()),
     /// Yoshida's triple-jump composition of Störmer–Verlet, order 4, symplectic.
@@ -235,11 +235,10 @@ registry! {
     Radau5 = "radau5" => Radau,
     /// The Taylor method (Jorba & Zou) on the model's expression graph: order and step from the
     /// tolerance and the series' radius of convergence; models stated as expressions only, with
-    /// no |x| or sign(x) of the state. `Auto` does not choose it: measured against DOP853 at
-    /// the same tolerance it is faster only on small graphs at tight tolerances (the double
-    /// pendulum written with cos(θ₁ − θ₂): 1.4× at 1e-12, 2× at 1e-15), 1.6–4× slower on the
-    /// N-link chains at 1e-12 (N = 2 … 16), since each step costs about p²/2 graph
-    /// evaluations.
+    /// no |x| or sign(x) of the state. `Auto` chooses it where its cost, estimated from the
+    /// sizes of the model's programs and the tolerance, is below DOP853's (`auto.rs`): small
+    /// smooth models from about 1e-9 down, not the N-link chains, where a step's p²/2 graph
+    /// evaluations make it 1.9–10× slower than DOP853.
     Taylor = "taylor" => taylor::Taylor,
 }
 

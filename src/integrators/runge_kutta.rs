@@ -8,17 +8,24 @@ use super::tableau::{ErrorEstimate, Tableau};
 use super::{Flow, Integrator, Run, SegmentStepper};
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
+use std::sync::LazyLock;
 
 /// An explicit Runge–Kutta method given by its tableau.
 pub(crate) struct ExplicitRk {
-    tableau: Tableau,
+    tableau: &'static Tableau,
 }
 
 impl ExplicitRk {
-    pub(crate) fn new(tableau: Tableau) -> Self {
+    pub(crate) fn new(tableau: &'static Tableau) -> Self {
         Self { tableau }
     }
 }
+
+/// The registry's tableaux, built once. Built per call, DOP853's rows and their allocations
+/// were 7 % of the time of a one-step `simulate` from Python.
+pub(crate) static RK4: LazyLock<Tableau> = LazyLock::new(Tableau::rk4);
+pub(crate) static DOPRI5: LazyLock<Tableau> = LazyLock::new(Tableau::dopri5);
+pub(crate) static DOP853: LazyLock<Tableau> = LazyLock::new(Tableau::dop853);
 
 /// Preallocated work space: nothing is allocated inside the step loop.
 struct Cache {
@@ -490,7 +497,7 @@ impl Integrator for ExplicitRk {
         self,
         run: &mut Run<'_, S>,
     ) -> Result<Box<dyn SegmentStepper<S>>> {
-        let mut c = Cache::new(&self.tableau, &run.y0);
+        let mut c = Cache::new(self.tableau, &run.y0);
         let (t0, y0) = (run.t0, run.y0.clone());
         run.rhs(t0, &y0, &mut c.k[0])?;
         let mode = match run.options.dt {

@@ -88,6 +88,15 @@ def test_bouncing_ball_ten_impacts():
     assert np.max(np.abs(sol.t_events[0] - impacts)) < 1e-9
     # The run went on through the impacts, the state jumping at each.
     assert sol.status == 0 and sol.t[-1] == t_end
+    # h is a constant of the flight, not of a run whose resets take energy away; without the
+    # reset, or with a terminal event only, it is one.
+    assert sol.stats["conserved"] is False
+    hit = lg.Event(y, direction=-1, terminal=True)
+    assert ball.simulate([h], [0.0], t_end, events=[hit]).stats["conserved"] is True
+    assert ball.simulate([h], [0.0], 0.1).stats["conserved"] is True
+    damped = lg.Model(coordinates=[y], kinetic=0.5 * y.d**2, potential=g * y,
+                      dissipation=0.1 * y.d**2, parameters={"g": G})
+    assert damped.simulate([h], [0.0], 0.1).stats["conserved"] is False
     k = int(np.flatnonzero(sol.t == sol.t_events[0][0])[0])
     assert sol.t[k + 1] == sol.t[k] and sol.qd[k + 1, 0] == pytest.approx(-0.8 * sol.qd[k, 0])
     # A reset through a parameter of the model: e = 6 g / G = 1 on the moon, elastic bounces
