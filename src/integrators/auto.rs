@@ -124,8 +124,8 @@ pub(super) fn choose<S: Dynamics + ?Sized>(
 ///   Measured: 0.38–0.54 at 1e-6, 0.84–1.40 at 1e-9, 1.7–3.6 at 1e-12, 3.7–10 at 1e-15.
 ///
 /// The fit's per-step costs are within about 45 % of the measured ones. Its choice was the
-/// faster method in 44 of the 48 (model, tolerance) pairs measured; the other four keep DOP853
-/// where Taylor was 3–18 % faster.
+/// faster method in 45 of the 48 (model, tolerance) pairs measured; the other three keep DOP853
+/// where Taylor was 0–18 % faster.
 struct TaylorEstimate {
     order: usize,
     /// Estimated nanoseconds per step.

@@ -238,7 +238,7 @@ registry! {
     /// no |x| or sign(x) of the state. `Auto` chooses it where its cost, estimated from the
     /// sizes of the model's programs and the tolerance, is below DOP853's (`auto.rs`): small
     /// smooth models from about 1e-9 down, not the N-link chains, where a step's p²/2 graph
-    /// evaluations make it 1.9–10× slower than DOP853.
+    /// evaluations make it 1.9–11× slower than DOP853.
     Taylor = "taylor" => taylor::Taylor,
 }
 
