@@ -43,9 +43,14 @@ pub trait Particles {
     fn coordinates_len(&self) -> usize {
         self.count() * self.dim()
     }
+
+    /// The number of coordinates when every value of the type has the same, as
+    /// [`KineticEnergy::FIXED_DOF`]: compiles the derivative passes for that one size.
+    const FIXED_DOF: Option<usize> = None;
 }
 
 impl<P: Particles + ?Sized> Particles for &P {
+    const FIXED_DOF: Option<usize> = P::FIXED_DOF;
     fn dof(&self) -> usize {
         (**self).dof()
     }
@@ -112,6 +117,7 @@ impl<F: CartesianForces + ?Sized> CartesianForces for &F {
 pub struct ParticleKinetic<P>(pub P);
 
 impl<P: Particles> KineticEnergy for ParticleKinetic<P> {
+    const FIXED_DOF: Option<usize> = P::FIXED_DOF;
     fn kinetic<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
         let p = &self.0;
         let dim = p.dim();
@@ -183,7 +189,11 @@ impl<P: Particles, F: CartesianForces> GeneralizedForces for MappedForces<P, F> 
             with_buf::<D, 12, _>(na, D::zero(), |v| {
                 with_buf::<D, 12, _>(na, D::zero(), |f| {
                     with_buf::<D, 36, _>(na * n, D::zero(), |jac| {
-                        by_dof!(n, self.jacobian_and_velocity(t, q, qd, jac, r, v));
+                        by_dof!(
+                            P::FIXED_DOF,
+                            n,
+                            self.jacobian_and_velocity(t, q, qd, jac, r, v)
+                        );
                         self.forces.forces(t, r, v, f);
                         project(jac, n, f, out);
                     })
@@ -653,7 +663,11 @@ where
     }
 
     fn potential_gradient_into<D: Scalar>(&self, t: D, q: &[D], out: &mut [D]) {
-        by_dof!(self.dof(), self.potential_gradient_dof(t, q, out))
+        by_dof!(
+            P::FIXED_DOF,
+            self.dof(),
+            self.potential_gradient_dof(t, q, out)
+        )
     }
 
     fn generalized_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
@@ -673,15 +687,23 @@ where
     }
 
     fn momenta_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        by_dof!(self.dof(), self.momenta_dof(t, q, qd, out))
+        by_dof!(P::FIXED_DOF, self.dof(), self.momenta_dof(t, q, qd, out))
     }
 
     fn mass_matrix_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        by_dof!(self.dof(), self.mass_matrix_dof(t, q, qd, out))
+        by_dof!(
+            P::FIXED_DOF,
+            self.dof(),
+            self.mass_matrix_dof(t, q, qd, out)
+        )
     }
 
     fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
         check_lengths(self.dof(), q, qd, out)?;
-        by_dof!(self.dof(), self.accelerations_dof(t, q, qd, out))
+        by_dof!(
+            P::FIXED_DOF,
+            self.dof(),
+            self.accelerations_dof(t, q, qd, out)
+        )
     }
 }

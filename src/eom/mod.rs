@@ -27,23 +27,47 @@ use crate::{Dissipation, GeneralizedForces, Potential, Scalar};
 use passes::{Wrt, gradient};
 
 /// Call a const-generic method with `C` = the number of coordinates (up to the chunk size
-/// [`passes::CHUNK`]) and `C2 = 2 C`: `by_dof!(n, self.method(args))` calls
-/// `self.method::<C, C2, _>(args)`.
+/// [`passes::CHUNK`]) and `C2 = 2 C`: `by_dof!(hint, n, self.method(args))` calls
+/// `self.method::<C, C2, _>(args)`. `hint` is the number of coordinates when the type fixes it
+/// ([`KineticEnergy::FIXED_DOF`](crate::KineticEnergy::FIXED_DOF)): the choice is then made at
+/// compile time and only that one `C` is instantiated (rustc skips a `match` arm on a constant),
+/// a quarter of the code of the runtime choice among four (issue 19: build time). Both choices
+/// pick the same `C` for the same n.
 macro_rules! by_dof {
-    ($n:expr, $this:ident . $f:ident ( $($arg:expr),* $(,)? )) => {
-        match $n {
+    ($hint:expr, $n:expr, $this:ident . $f:ident ( $($arg:expr),* $(,)? )) => {
+        match const { $crate::eom::fixed_chunk($hint) } {
             1 => $this.$f::<1, 2, _>($($arg),*),
             2 => $this.$f::<2, 4, _>($($arg),*),
             3 => $this.$f::<3, 6, _>($($arg),*),
-            _ => $this.$f::<
+            $crate::eom::passes::CHUNK => $this.$f::<
                 { $crate::eom::passes::CHUNK },
                 { 2 * $crate::eom::passes::CHUNK },
                 _,
             >($($arg),*),
+            _ => match $n {
+                1 => $this.$f::<1, 2, _>($($arg),*),
+                2 => $this.$f::<2, 4, _>($($arg),*),
+                3 => $this.$f::<3, 6, _>($($arg),*),
+                _ => $this.$f::<
+                    { $crate::eom::passes::CHUNK },
+                    { 2 * $crate::eom::passes::CHUNK },
+                    _,
+                >($($arg),*),
+            },
         }
     };
 }
 pub(crate) use by_dof;
+
+/// The `C` that [`by_dof!`] takes for a number of coordinates fixed at compile time, the same as
+/// its runtime choice for that n; 0 (choose at run time) when it is not fixed.
+pub(crate) const fn fixed_chunk(dof: Option<usize>) -> usize {
+    match dof {
+        Some(n @ 1..=3) => n,
+        Some(_) => passes::CHUNK,
+        None => 0,
+    }
+}
 
 /// The parts of eq. 55 other than T: U, Φ and Q″. An absent part (`()`, `None`) reports
 /// itself absent and costs no pass.

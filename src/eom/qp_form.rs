@@ -67,7 +67,7 @@ impl ForceParts {
         } else {
             g.fill(D::zero());
             let lagrangian = Lagrangian(system);
-            by_dof!(q.len(), lagrangian.add_position_gradient(t, q, v, g));
+            by_dof!(None, q.len(), lagrangian.add_position_gradient(t, q, v, g));
         }
         if self.forced {
             system.generalized_forces_into(t, q, v, tmp);

@@ -130,6 +130,7 @@ pub fn elliptic_k(k: f64) -> Result<f64> {
 /// J/(2r₂²), J/(2r₂²): total m, centroid c and second moment J about c, hence
 /// T = ½ m ṡ² + ½ J θ̇₂² (eq. 50) and in gravity U = m g c_y = eq. 51.
 impl Particles for BallInSphere {
+    const FIXED_DOF: Option<usize> = Some(1);
     fn dof(&self) -> usize {
         1
     }
@@ -153,6 +154,7 @@ impl Particles for BallInSphere {
 }
 
 impl KineticEnergy for BallInSphere {
+    const FIXED_DOF: Option<usize> = Some(1);
     fn kinetic<D: Scalar>(&self, _t: D, _q: &[D], qd: &[D]) -> D {
         qd[0] * qd[0] * (0.5 * self.inertia())
     }

@@ -122,6 +122,7 @@ impl ChargedParticle {
 }
 
 impl KineticEnergy for ChargedParticle {
+    const FIXED_DOF: Option<usize> = Some(2);
     fn kinetic<D: Scalar>(&self, _t: D, q: &[D], qd: &[D]) -> D {
         (qd[0] * qd[0] + qd[1] * qd[1]) * (0.5 * self.m)
             + (q[0] * qd[1] - q[1] * qd[0]) * (0.5 * self.e * self.b)
@@ -150,6 +151,7 @@ impl Potential for ChargedParticle {
 }
 
 impl Particles for ChargedParticle {
+    const FIXED_DOF: Option<usize> = Some(2);
     fn dof(&self) -> usize {
         2
     }

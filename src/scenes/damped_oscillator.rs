@@ -102,6 +102,7 @@ impl DampedOscillator {
 }
 
 impl KineticEnergy for DampedOscillator {
+    const FIXED_DOF: Option<usize> = Some(1);
     fn kinetic<D: Scalar>(&self, _t: D, _q: &[D], qd: &[D]) -> D {
         qd[0] * qd[0] * (0.5 * self.m)
     }

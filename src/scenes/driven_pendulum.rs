@@ -61,6 +61,7 @@ impl DrivenPendulum {
 }
 
 impl KineticEnergy for DrivenPendulum {
+    const FIXED_DOF: Option<usize> = Some(1);
     fn kinetic<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
         let (s, c) = q[0].sin_cos();
         let vx = c * qd[0] * self.l;
@@ -85,6 +86,7 @@ impl Potential for DrivenPendulum {
 }
 
 impl Particles for DrivenPendulum {
+    const FIXED_DOF: Option<usize> = Some(1);
     fn dof(&self) -> usize {
         1
     }

@@ -71,6 +71,7 @@ impl ElasticPendulum {
 }
 
 impl KineticEnergy for ElasticPendulum {
+    const FIXED_DOF: Option<usize> = Some(2);
     fn kinetic<D: Scalar>(&self, _t: D, q: &[D], qd: &[D]) -> D {
         let r = q[0];
         (qd[0] * qd[0] + r * r * qd[1] * qd[1]) * (0.5 * self.m)
@@ -91,6 +92,7 @@ impl Potential for ElasticPendulum {
 }
 
 impl Particles for ElasticPendulum {
+    const FIXED_DOF: Option<usize> = Some(2);
     fn dof(&self) -> usize {
         2
     }

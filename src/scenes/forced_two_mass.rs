@@ -172,6 +172,7 @@ impl ForcedTwoMass {
 }
 
 impl KineticEnergy for ForcedTwoMass {
+    const FIXED_DOF: Option<usize> = Some(2);
     fn kinetic<D: Scalar>(&self, _t: D, _q: &[D], qd: &[D]) -> D {
         (qd[0] * qd[0] * self.m1 + qd[1] * qd[1] * self.m2) * 0.5
     }

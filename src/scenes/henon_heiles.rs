@@ -39,6 +39,7 @@ impl HenonHeiles {
 }
 
 impl KineticEnergy for HenonHeiles {
+    const FIXED_DOF: Option<usize> = Some(2);
     fn kinetic<D: Scalar>(&self, _t: D, _q: &[D], qd: &[D]) -> D {
         (qd[0] * qd[0] + qd[1] * qd[1]) * 0.5
     }
@@ -64,6 +65,7 @@ impl Potential for HenonHeiles {
 }
 
 impl Particles for HenonHeiles {
+    const FIXED_DOF: Option<usize> = Some(2);
     fn dof(&self) -> usize {
         2
     }

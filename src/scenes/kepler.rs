@@ -183,6 +183,7 @@ impl Kepler {
 }
 
 impl KineticEnergy for Kepler {
+    const FIXED_DOF: Option<usize> = Some(2);
     fn kinetic<D: Scalar>(&self, _t: D, _q: &[D], qd: &[D]) -> D {
         (qd[0] * qd[0] + qd[1] * qd[1]) * (0.5 * self.m)
     }
@@ -207,6 +208,7 @@ impl Potential for Kepler {
 }
 
 impl Particles for Kepler {
+    const FIXED_DOF: Option<usize> = Some(2);
     fn dof(&self) -> usize {
         2
     }

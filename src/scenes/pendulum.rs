@@ -39,6 +39,7 @@ impl SimplePendulum {
 }
 
 impl KineticEnergy for SimplePendulum {
+    const FIXED_DOF: Option<usize> = Some(1);
     fn kinetic<D: Scalar>(&self, _t: D, _q: &[D], qd: &[D]) -> D {
         qd[0] * qd[0] * (0.5 * self.m * self.l * self.l)
     }
@@ -63,6 +64,7 @@ impl Potential for SimplePendulum {
 }
 
 impl Particles for SimplePendulum {
+    const FIXED_DOF: Option<usize> = Some(1);
     fn dof(&self) -> usize {
         1
     }
@@ -137,6 +139,7 @@ impl DoublePendulum {
 }
 
 impl KineticEnergy for DoublePendulum {
+    const FIXED_DOF: Option<usize> = Some(2);
     #[inline]
     fn kinetic<D: Scalar>(&self, _t: D, q: &[D], qd: &[D]) -> D {
         let Self { m1, m2, l1, l2, .. } = *self;
@@ -161,6 +164,7 @@ impl Potential for DoublePendulum {
 }
 
 impl Particles for DoublePendulum {
+    const FIXED_DOF: Option<usize> = Some(2);
     fn dof(&self) -> usize {
         2
     }

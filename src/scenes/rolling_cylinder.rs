@@ -69,6 +69,7 @@ impl RollingCylinder {
 }
 
 impl KineticEnergy for RollingCylinder {
+    const FIXED_DOF: Option<usize> = Some(1);
     fn kinetic<D: Scalar>(&self, _t: D, _q: &[D], qd: &[D]) -> D {
         qd[0] * qd[0] * (0.5 * self.effective_mass())
     }
@@ -98,6 +99,7 @@ impl Potential for RollingCylinder {
 /// the cylinder rolls down. Masses m − J/r², J/(2r²), J/(2r²): total m, centroid c and second
 /// moment J about c, hence T = ½ m ẋ² + ½ J θ̇² (eq. 46), and in gravity U = m g c_y = eq. 47.
 impl Particles for RollingCylinder {
+    const FIXED_DOF: Option<usize> = Some(1);
     fn dof(&self) -> usize {
         1
     }

@@ -56,6 +56,7 @@ impl Lever {
 }
 
 impl Particles for Lever {
+    const FIXED_DOF: Option<usize> = Some(1);
     fn dof(&self) -> usize {
         1
     }
@@ -152,6 +153,7 @@ impl DifferentialPulley {
 }
 
 impl Particles for DifferentialPulley {
+    const FIXED_DOF: Option<usize> = Some(1);
     fn dof(&self) -> usize {
         1
     }
@@ -237,6 +239,7 @@ impl RhombusLink {
 }
 
 impl Particles for RhombusLink {
+    const FIXED_DOF: Option<usize> = Some(1);
     fn dof(&self) -> usize {
         1
     }
@@ -358,6 +361,7 @@ impl SpringRhombus {
 }
 
 impl Particles for SpringRhombus {
+    const FIXED_DOF: Option<usize> = Some(1);
     fn dof(&self) -> usize {
         1
     }
@@ -450,6 +454,7 @@ impl TwoSprings {
 }
 
 impl KineticEnergy for TwoSprings {
+    const FIXED_DOF: Option<usize> = Some(2);
     fn kinetic<D: Scalar>(&self, _t: D, _q: &[D], qd: &[D]) -> D {
         qd[0] * qd[0] * (0.5 * self.m1) + qd[1] * qd[1] * (0.5 * self.m2)
     }

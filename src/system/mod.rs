@@ -317,7 +317,11 @@ where
     }
 
     fn potential_gradient_into<D: Scalar>(&self, t: D, q: &[D], out: &mut [D]) {
-        by_dof!(self.dof, self.potential_gradient_dof(t, q, out))
+        by_dof!(
+            T::FIXED_DOF,
+            self.dof,
+            self.potential_gradient_dof(t, q, out)
+        )
     }
 
     fn generalized_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
@@ -326,19 +330,27 @@ where
     }
 
     fn dissipative_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        by_dof!(self.dof, self.dissipative_forces_dof(t, q, qd, out))
+        by_dof!(
+            T::FIXED_DOF,
+            self.dof,
+            self.dissipative_forces_dof(t, q, qd, out)
+        )
     }
 
     fn momenta_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        by_dof!(self.dof, self.momenta_dof(t, q, qd, out))
+        by_dof!(T::FIXED_DOF, self.dof, self.momenta_dof(t, q, qd, out))
     }
 
     fn mass_matrix_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        by_dof!(self.dof, self.mass_matrix_dof(t, q, qd, out))
+        by_dof!(T::FIXED_DOF, self.dof, self.mass_matrix_dof(t, q, qd, out))
     }
 
     fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
         check_lengths(self.dof, q, qd, out)?;
-        by_dof!(self.dof, self.accelerations_dof(t, q, qd, out))
+        by_dof!(
+            T::FIXED_DOF,
+            self.dof,
+            self.accelerations_dof(t, q, qd, out)
+        )
     }
 }
