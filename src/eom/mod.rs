@@ -28,40 +28,41 @@ use passes::{Wrt, gradient};
 
 /// Call a const-generic method with `C` = the number of coordinates (up to the chunk size
 /// [`passes::CHUNK`]) and `C2 = 2 C`: `by_dof!(hint, n, self.method(args))` calls
-/// `self.method::<C, C2, _>(args)`. `hint` is the number of coordinates when the type fixes it
-/// ([`KineticEnergy::FIXED_DOF`](crate::KineticEnergy::FIXED_DOF)): the choice is then made at
-/// compile time and only that one `C` is instantiated (rustc skips a `match` arm on a constant),
-/// a quarter of the code of the runtime choice among four (issue 19: build time). Both choices
-/// pick the same `C` for the same n.
+/// `self.method::<C, C2, _>(args)` with `C` from [`pass_chunk`]. `hint` is the number of
+/// coordinates when the type fixes it
+/// ([`KineticEnergy::FIXED_DOF`](crate::KineticEnergy::FIXED_DOF)): `C` is then chosen at
+/// compile time and only that one size is instantiated (rustc skips the
+/// arms of a `match` on a constant), a quarter of the code of the runtime choice among four
+/// (issue 19: build time).
 macro_rules! by_dof {
     ($hint:expr, $n:expr, $this:ident . $f:ident ( $($arg:expr),* $(,)? )) => {
-        match const { $crate::eom::fixed_chunk($hint) } {
+        match const { $crate::eom::pass_chunk($hint) } {
+            0 => $crate::eom::by_dof!(@chunk $crate::eom::pass_chunk(Some($n)), $this.$f($($arg),*)),
+            _ => $crate::eom::by_dof!(
+                @chunk const { $crate::eom::pass_chunk($hint) },
+                $this.$f($($arg),*)
+            ),
+        }
+    };
+    (@chunk $c:expr, $this:ident . $f:ident ( $($arg:expr),* )) => {
+        match $c {
             1 => $this.$f::<1, 2, _>($($arg),*),
             2 => $this.$f::<2, 4, _>($($arg),*),
             3 => $this.$f::<3, 6, _>($($arg),*),
-            $crate::eom::passes::CHUNK => $this.$f::<
+            _ => $this.$f::<
                 { $crate::eom::passes::CHUNK },
                 { 2 * $crate::eom::passes::CHUNK },
                 _,
             >($($arg),*),
-            _ => match $n {
-                1 => $this.$f::<1, 2, _>($($arg),*),
-                2 => $this.$f::<2, 4, _>($($arg),*),
-                3 => $this.$f::<3, 6, _>($($arg),*),
-                _ => $this.$f::<
-                    { $crate::eom::passes::CHUNK },
-                    { 2 * $crate::eom::passes::CHUNK },
-                    _,
-                >($($arg),*),
-            },
         }
     };
 }
 pub(crate) use by_dof;
 
-/// The `C` that [`by_dof!`] takes for a number of coordinates fixed at compile time, the same as
-/// its runtime choice for that n; 0 (choose at run time) when it is not fixed.
-pub(crate) const fn fixed_chunk(dof: Option<usize>) -> usize {
+/// The pass size `C` that [`by_dof!`] takes for `Some(n)` coordinates, at compile time for a
+/// type's fixed number and at run time for the others, so both pick the same `C` for the same n;
+/// 0 for `None` (no fixed number: choose at run time).
+pub(crate) const fn pass_chunk(dof: Option<usize>) -> usize {
     match dof {
         Some(n @ 1..=3) => n,
         Some(_) => passes::CHUNK,
