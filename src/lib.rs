@@ -55,6 +55,10 @@ pub use particles::{
     CartesianForces, EnergyRoute, MappedForces, ParticleGravity, ParticleKinetic, ParticleSystem,
     Particles,
 };
+/// The Python extension module `lagrangian._lagrangian`, for the `extension/` crate that links it.
+#[cfg(feature = "python")]
+#[doc(hidden)]
+pub use python::lagrangian_module as python_module;
 pub use scalar::{Scalar, re};
 pub use statics::{Equilibrium, Stability, StaticsOptions, equilibrium, static_stiffness};
 pub use system::{Dissipation, GeneralizedForces, KineticEnergy, Potential, System};

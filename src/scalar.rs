@@ -97,17 +97,31 @@ pub(crate) fn with_buf<L: Copy, const CAP: usize, R>(
     fill: L,
     f: impl FnOnce(&mut [L]) -> R,
 ) -> R {
+    let mut stack = [const { MaybeUninit::<L>::zeroed() }; CAP];
+    let mut heap = Vec::new();
+    // One call site: `f` (a whole derivative pass or tape run) is compiled once, not once per
+    // branch, and the rest is instantiated once per buffer type, not once per closure.
+    f(fill_buf(&mut stack, &mut heap, len, fill))
+}
+
+/// The first `len` slots of `stack` set to `fill`, or `heap` filled with `len` of them when
+/// `len > CAP`.
+#[inline(always)]
+fn fill_buf<'a, L: Copy, const CAP: usize>(
+    stack: &'a mut [MaybeUninit<L>; CAP],
+    heap: &'a mut Vec<L>,
+    len: usize,
+    fill: L,
+) -> &'a mut [L] {
     if len <= CAP {
-        let mut buf = [const { MaybeUninit::<L>::zeroed() }; CAP];
-        for slot in &mut buf[..len] {
+        for slot in &mut stack[..len] {
             slot.write(fill);
         }
         // SAFETY: the first `len` slots were initialised just above, and `L: Copy` has no drop
         // glue, so viewing them as `&mut [L]` is sound.
-        let init = unsafe { &mut *(&mut buf[..len] as *mut [MaybeUninit<L>] as *mut [L]) };
-        f(init)
+        unsafe { &mut *(&mut stack[..len] as *mut [MaybeUninit<L>] as *mut [L]) }
     } else {
-        let mut buf = vec![fill; len];
-        f(&mut buf)
+        *heap = vec![fill; len];
+        heap
     }
 }

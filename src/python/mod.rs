@@ -816,7 +816,7 @@ pub(crate) fn solution_tuple<'py>(
 
 /// The compiled core of the `lagrangian` package.
 #[pymodule(name = "_lagrangian")]
-mod lagrangian_module {
+pub mod lagrangian_module {
     #[pymodule_export]
     use super::ensemble::simulate_many;
     #[pymodule_export]

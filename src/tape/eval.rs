@@ -111,8 +111,8 @@ impl Tape {
                         )
                     };
                     // SAFETY: as above, $dual is D.
-                    let emit = |k, v: $dual| emit(k, unsafe { jet::uncast::<$dual, D>(v) });
-                    return self.run_converted::<$dual, $jet>(consts, t, q, qd, emit);
+                    let mut emit = |k, v: $dual| emit(k, unsafe { jet::uncast::<$dual, D>(v) });
+                    return self.run_converted::<$dual, $jet>(consts, t, q, qd, &mut emit);
                 }
             };
         }
@@ -140,14 +140,17 @@ impl Tape {
     }
 
     /// Evaluate with the jet `J` standing for the dual type `T`.
-    #[inline(always)]
+    ///
+    /// Not inlined and `emit` behind `dyn`: one copy of the interpreter per jet shape, not one
+    /// per shape in every instance of [`Tape::eval`] (it holds all of them, whatever `D` is).
+    #[inline(never)]
     fn run_converted<T, J: Convert<T>>(
         &self,
         consts: &[f64],
         t: &T,
         q: &[T],
         qd: &[T],
-        mut emit: impl FnMut(usize, T),
+        emit: &mut dyn FnMut(usize, T),
     ) {
         let input = |i: Input| match i {
             Input::Time => J::from_dual(t),
