@@ -5,8 +5,8 @@
 //! stated through the Python API and print the README's table.
 //!
 //! ```text
-//! cargo bench --bench compiled --features jit -- [--rounds R] [--scenes a,b,…] [--t-scale X]
-//! cargo bench --bench compiled --features jit -- --serve
+//! cargo bench -p lagrangian-benches --bench compiled --features jit -- [--rounds R] [--scenes a,b,…] [--t-scale X]
+//! cargo bench -p lagrangian-benches --bench compiled --features jit -- --serve
 //! ```
 //!
 //! Without `--serve` it measures every scene (or those named) and prints one JSON object per

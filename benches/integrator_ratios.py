@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Print the tables of `cargo bench --bench integrators` as Markdown (AD route ÷ closed form,
+"""Print the tables of `cargo bench -p lagrangian-benches --bench integrators` as Markdown (AD route ÷ closed form,
 and against the ode_solvers crate's DOP853).
 
 Reads criterion's estimates (medians) from target/criterion (or $CARGO_TARGET_DIR/criterion) and
@@ -20,7 +20,7 @@ SIZES = [2, 4, 8, 16, 32]
 def median_ns(*parts):
     path = root.joinpath(*parts, "new", "estimates.json")
     if not path.exists():
-        sys.exit(f"missing {path}: run `cargo bench --bench integrators` first")
+        sys.exit(f"missing {path}: run `cargo bench -p lagrangian-benches --bench integrators` first")
     return json.loads(path.read_text())["median"]["point_estimate"]
 
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Print the ratios of `cargo bench --bench eom` as a Markdown table (AD route ÷ closed form).
+"""Print the ratios of `cargo bench -p lagrangian-benches --bench eom` as a Markdown table (AD route ÷ closed form).
 
 Reads criterion's estimates from target/criterion (or $CARGO_TARGET_DIR/criterion); all numbers
 come from the same bench run, so the ratios are comparable even on a noisy machine.
@@ -15,7 +15,7 @@ root = Path(os.environ.get("CARGO_TARGET_DIR", "target")) / "criterion"
 def median_ns(*parts):
     path = root.joinpath(*parts, "new", "estimates.json")
     if not path.exists():
-        sys.exit(f"missing {path}: run `cargo bench --bench eom` first")
+        sys.exit(f"missing {path}: run `cargo bench -p lagrangian-benches --bench eom` first")
     return json.loads(path.read_text())["median"]["point_estimate"]
 
 
