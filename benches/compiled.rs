@@ -5,7 +5,8 @@
 //! stated through the Python API and print the README's table.
 //!
 //! ```text
-//! cargo bench -p lagrangian-benches --bench compiled --features jit -- [--rounds R] [--scenes a,b,…] [--t-scale X]
+//! cargo bench -p lagrangian-benches --bench compiled --features jit -- \
+//!     [--rounds R] [--scenes a,b,…] [--t-scale X]
 //! cargo bench -p lagrangian-benches --bench compiled --features jit -- --serve
 //! ```
 //!

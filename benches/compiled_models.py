@@ -4,7 +4,8 @@ integrated by the same method, side by side in one run (issue 12, "Speed").
 Scenes: the double pendulum, the forced two-mass system (seed eq. 41–44), the ball in a sphere
 (eq. 49–53), the stiff spring pendulum (k = 1e6, radial damping ratio 10) and the N-pendulum for
 N = 2, 4, 8, 16, 32 (energy route and particle route). The Rust side is ``benches/compiled.rs``,
-run by this script as ``cargo bench -p lagrangian-benches --bench compiled --features jit -- --serve``; it also times
+run by this script as
+``cargo bench -p lagrangian-benches --bench compiled --features jit -- --serve``; it also times
 the same systems built in Rust from ``lagrangian::tape::Graph`` (the compiled route of a Rust user).
 
 For each scene and target error (1e-6, 1e-9) every side gets the loosest tolerance of the ladder
@@ -145,8 +146,8 @@ class Rust:
     """``benches/compiled.rs --serve``: one JSON line per request."""
 
     def __init__(self, scenes: Optional[str], t_scale: float) -> None:
-        cmd = ["cargo", "bench", "-p", "lagrangian-benches", "--bench", "compiled", "--features", "jit", "--", "--serve",
-               "--t-scale", repr(t_scale)]
+        cmd = ["cargo", "bench", "-p", "lagrangian-benches", "--bench", "compiled",
+               "--features", "jit", "--", "--serve", "--t-scale", repr(t_scale)]
         if scenes:
             cmd += ["--scenes", scenes]
         print("$ " + " ".join(cmd), file=sys.stderr, flush=True)

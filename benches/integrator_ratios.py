@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Print the tables of `cargo bench -p lagrangian-benches --bench integrators` as Markdown (AD route ÷ closed form,
-and against the ode_solvers crate's DOP853).
+"""Print the tables of `cargo bench -p lagrangian-benches --bench integrators` as Markdown (AD
+route ÷ closed form, and against the ode_solvers crate's DOP853).
 
 Reads criterion's estimates (medians) from target/criterion (or $CARGO_TARGET_DIR/criterion) and
 the tolerances the bench chose from integrators_meta.json there; all numbers come from the same

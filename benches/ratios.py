@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Print the ratios of `cargo bench -p lagrangian-benches --bench eom` as a Markdown table (AD route ÷ closed form).
+"""Print the ratios of `cargo bench -p lagrangian-benches --bench eom` as a Markdown table (AD
+route ÷ closed form).
 
 Reads criterion's estimates from target/criterion (or $CARGO_TARGET_DIR/criterion); all numbers
 come from the same bench run, so the ratios are comparable even on a noisy machine.
