@@ -307,13 +307,14 @@ fn define_expansion(
                     g.op(op);
                 }
             }
-            // fₖ − Σ_c Σⱼ₌₁..ₖ M_rc,ⱼ q̈_c,ₖ₋ⱼ.
+            // fₖ − Σ_c Σⱼ₌₁..ₖ M_rc,ⱼ q̈_c,ₖ₋ⱼ over the entries of M that vary.
             let mut rhs = Vec::with_capacity(n);
             for r in 0..n {
                 let f = g.load(program.force[r], Ix::Fixed(k));
-                rhs.push(if program.mass_varies && k >= 1 {
+                let varying = &program.mass_varying[r * n..(r + 1) * n];
+                rhs.push(if k >= 1 && varying.contains(&true) {
                     let mut s = g.f64(0.0);
-                    for c in 0..n {
+                    for c in (0..n).filter(|&c| varying[c]) {
                         let m = program.mass_full[r * n + c];
                         let terms = (1..=k)
                             .map(|j| {
@@ -731,10 +732,20 @@ impl<'a> Gen<'a> {
                 c,
                 a,
                 hyperbolic,
+                degree,
             } => {
-                let sv = self.conv(a, c, 1, k, k, true);
+                // j ≤ min(k, degree): a polynomial argument's series ends at its degree.
+                let hi = match (degree, k) {
+                    (None, _) => k,
+                    (Some(d), Ix::Fixed(k)) => Ix::Fixed(d.min(k)),
+                    (Some(d), Ix::Var(k)) => {
+                        let d = self.int(Ix::Fixed(d));
+                        Ix::Var(self.b.ins().umin(k, d))
+                    }
+                };
+                let sv = self.conv(a, c, 1, hi, k, true);
                 let sv = self.b.ins().fdiv(sv, kf);
-                let cv = self.conv(a, s, 1, k, k, true);
+                let cv = self.conv(a, s, 1, hi, k, true);
                 let cv = self.b.ins().fdiv(cv, kf);
                 let cv = if hyperbolic {
                     cv
