@@ -125,25 +125,19 @@ impl TaylorStepper {
         let e = &self.expansion;
         let p = e.order();
         let eps = rtol.min(atol);
-        let norm = |k: usize| -> f64 {
-            e.q(k)
-                .iter()
-                .chain(e.qd(k))
-                .zip(&self.y)
-                .fold(0.0_f64, |m, (x, y)| {
-                    m.max(x.abs() * eps / (atol + rtol * y.abs()))
-                })
-        };
-        let rho = |k: usize| {
-            let n = norm(k);
-            if n == 0.0 {
-                f64::INFINITY
-            } else {
-                (1.0 / n).powf(1.0 / k as f64)
-            }
-        };
-        let rho_m = rho(p - 1).min(rho(p));
-        rho_m / std::f64::consts::E.powi(2) * (-0.7 / (p - 1) as f64).exp()
+        // ‖xₚ₋₁‖ and ‖xₚ‖, each component over its own tolerance.
+        let (mut below, mut top) = (0.0_f64, 0.0_f64);
+        let coefficients = |k| e.q(k).iter().chain(e.qd(k));
+        for ((x, z), y) in coefficients(p - 1).zip(coefficients(p)).zip(&self.y) {
+            let scale = eps / (atol + rtol * y.abs());
+            below = below.max(x.abs() * scale);
+            top = top.max(z.abs() * scale);
+        }
+        // ln ρ = min(−ln ‖xₚ₋₁‖ / (p − 1), −ln ‖xₚ‖ / p), and h = ρ e^(−2 − 0.7/(p−1)) as one
+        // exponential (a zero norm gives ρ = ∞: a polynomial solution, capped by the caller).
+        let (p1, p) = ((p - 1) as f64, p as f64);
+        let ln_rho = (-below.ln() / p1).min(-top.ln() / p);
+        (ln_rho - 2.0 - 0.7 / p1).exp()
     }
 }
 

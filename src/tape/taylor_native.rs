@@ -135,7 +135,9 @@ fn define(module: &mut JITModule, ops: &[Op], inline: bool) -> Result<Entry> {
         let calls = calls.map(|c| module.declare_func_in_func(c, b.func));
         let mut g = Gen::new(b, table, Ix::Var(w), calls);
         g.k = Ix::Var(k);
-        g.kf = g.b.ins().fcvt_from_sint(types::F64, k);
+        let kf = g.b.ins().fcvt_from_sint(types::F64, k);
+        let one = g.f64(1.0);
+        g.inv_k = g.b.ins().fdiv(one, kf);
         for op in ops {
             g.op(op);
         }
@@ -302,7 +304,7 @@ fn define_expansion(
                     }
                 }
                 g.k = Ix::Fixed(k);
-                g.kf = g.f64(k as f64);
+                g.inv_k = g.f64(1.0 / k as f64);
                 for op in &program.varying {
                     g.op(op);
                 }
@@ -354,14 +356,14 @@ fn define_expansion(
                     rhs[j] = g.b.ins().fsub(rhs[j], xl);
                 }
             }
-            // q̈ₖ; qₖ₊₁ = q̇ₖ / (k + 1), q̇ₖ₊₁ = q̈ₖ / (k + 1).
-            let next = g.f64((k + 1) as f64);
+            // q̈ₖ; qₖ₊₁ = q̇ₖ · 1/(k + 1), q̇ₖ₊₁ = q̈ₖ · 1/(k + 1).
+            let next = g.f64(1.0 / (k + 1) as f64);
             for (i, &a) in rhs.iter().enumerate() {
                 g.store_at(qddp, i * w + k, a);
                 let vk = g.load_at(vp, k * n + i);
-                let qn = g.b.ins().fdiv(vk, next);
+                let qn = g.b.ins().fmul(vk, next);
                 g.store_at(qp, (k + 1) * n + i, qn);
-                let vn = g.b.ins().fdiv(a, next);
+                let vn = g.b.ins().fmul(a, next);
                 g.store_at(vp, (k + 1) * n + i, vn);
             }
         }
@@ -387,9 +389,9 @@ struct Gen<'a> {
     /// The row width, and w·8 (bytes).
     w: Ix,
     w8: Value,
-    /// The order being computed, and k as a float.
+    /// The order being computed, and 1/k.
     k: Ix,
-    kf: Value,
+    inv_k: Value,
     /// `lagrangian_conv`, imported, when convolutions with an index read at run time are calls
     /// of it; `None`: loops in the code.
     calls: Option<FuncRef>,
@@ -401,14 +403,14 @@ impl<'a> Gen<'a> {
             Ix::Fixed(w) => b.ins().iconst(types::I64, 8 * w as i64),
             Ix::Var(w) => b.ins().ishl_imm_s(w, 3),
         };
-        let kf = b.ins().f64const(0.0);
+        let inv_k = b.ins().f64const(0.0);
         Self {
             b,
             table,
             w,
             w8,
             k: Ix::Fixed(0),
-            kf,
+            inv_k,
             calls,
         }
     }
@@ -667,7 +669,7 @@ impl<'a> Gen<'a> {
 
     /// Coefficient k of `op`'s rows, as [`Op::apply`] computes it for k ≥ 1.
     fn op(&mut self, op: &Op) {
-        let (k, kf) = (self.k, self.kf);
+        let (k, inv_k) = (self.k, self.inv_k);
         let (out, value) = match *op {
             Op::Copy { out, a } => (out, self.at_k(a)),
             Op::Neg { out, a } => {
@@ -706,12 +708,12 @@ impl<'a> Gen<'a> {
             }
             Op::Exp { out, a } => {
                 let s = self.conv(a, out, 1, k, k, true);
-                (out, self.b.ins().fdiv(s, kf))
+                (out, self.b.ins().fmul(s, inv_k))
             }
             Op::Ln { out, a } => {
                 let km1 = self.km1();
                 let s = self.conv(out, a, 1, km1, k, true);
-                let s = self.b.ins().fdiv(s, kf);
+                let s = self.b.ins().fmul(s, inv_k);
                 let x = self.at_k(a);
                 let n = self.b.ins().fsub(x, s);
                 let d = self.at0(a);
@@ -744,9 +746,9 @@ impl<'a> Gen<'a> {
                     }
                 };
                 let sv = self.conv(a, c, 1, hi, k, true);
-                let sv = self.b.ins().fdiv(sv, kf);
+                let sv = self.b.ins().fmul(sv, inv_k);
                 let cv = self.conv(a, s, 1, hi, k, true);
-                let cv = self.b.ins().fdiv(cv, kf);
+                let cv = self.b.ins().fmul(cv, inv_k);
                 let cv = if hyperbolic {
                     cv
                 } else {
@@ -762,7 +764,7 @@ impl<'a> Gen<'a> {
                 hyperbolic,
             } => {
                 let t = self.conv(a, w, 1, k, k, true);
-                let t = self.b.ins().fdiv(t, kf);
+                let t = self.b.ins().fmul(t, inv_k);
                 self.store_k(out, t);
                 let sq = self.conv(out, out, 0, k, k, false);
                 let sq = if hyperbolic {
@@ -795,7 +797,7 @@ impl<'a> Gen<'a> {
                 let d0 = self.at0(d);
                 let rk = self.b.ins().fdiv(n, d0);
                 self.store(r, km1, rk);
-                (out, self.b.ins().fdiv(rk, kf))
+                (out, self.b.ins().fmul(rk, inv_k))
             }
         };
         self.store_k(out, value);
