@@ -186,10 +186,26 @@ pub(super) unsafe extern "C" fn lagrangian_conv(
 impl Op {
     /// Whether order 0 of this recurrence calls the maths library.
     fn calls_libm(&self) -> bool {
-        matches!(
-            self,
-            Op::Exp { .. } | Op::Ln { .. } | Op::SinCos { .. } | Op::Tan { .. } | Op::Atan2 { .. }
-        )
+        !self.libm().is_empty()
+    }
+
+    /// The functions of the maths library order 0 of this recurrence calls, by the names the
+    /// compiled code imports them under (`native.rs`).
+    pub(super) fn libm(&self) -> &'static [&'static str] {
+        match self {
+            Op::Exp { .. } => &["lagrangian_exp"],
+            Op::Ln { .. } => &["lagrangian_ln"],
+            Op::SinCos {
+                hyperbolic: true, ..
+            } => &["lagrangian_sinh", "lagrangian_cosh"],
+            Op::SinCos { .. } => &["lagrangian_sin_cos"],
+            Op::Tan {
+                hyperbolic: true, ..
+            } => &["lagrangian_tanh"],
+            Op::Tan { .. } => &["lagrangian_tan"],
+            Op::Atan2 { .. } => &["lagrangian_atan2"],
+            _ => &[],
+        }
     }
 
     /// Terms of the convolutions this recurrence sums at order k ≥ 1.
@@ -353,7 +369,7 @@ pub struct TaylorProgram {
     /// The recurrences of the rows fixed by the parameters: run once per binding.
     fixed: Vec<Op>,
     /// The recurrences of the rows the state sets: what order 0 runs.
-    order0: Vec<Op>,
+    pub(super) order0: Vec<Op>,
     /// The recurrences of the nodes that depend on t, q or q̇: what orders ≥ 1 run.
     pub(super) varying: Vec<Op>,
     /// Rows of the numbers and parameters (index into the parameters), written at binding.
@@ -938,11 +954,16 @@ impl Expansion {
             // t's coefficients beyond 0 are fixed at creation.
             self.series[r * w] = t0;
         }
-        self.leaves(0);
         let program = self.program.clone();
-        for op in &program.order0 {
-            op.apply(&mut self.series, w, 0);
+        #[cfg(feature = "jit")]
+        let kernel = program.unrolled(self.order);
+        #[cfg(feature = "jit")]
+        match kernel {
+            Some(kernel) => kernel.order0(&mut self.series, &self.q, &self.v),
+            None => self.order0(),
         }
+        #[cfg(not(feature = "jit"))]
+        self.order0();
         if !self.m0_fixed {
             for (m, &row) in self.m0.iter_mut().zip(&program.mass_full) {
                 *m = self.series[row * w];
@@ -951,20 +972,18 @@ impl Expansion {
             self.m0_fixed = program.mass_constant;
         }
         #[cfg(feature = "jit")]
-        let unrolled = program.unrolled(self.order).map(|kernel| {
-            kernel.run(
+        match kernel {
+            Some(kernel) => kernel.run(
                 &mut self.series,
                 &mut self.q,
                 &mut self.v,
                 &mut self.qdd,
                 &self.m0,
-            )
-        });
-        #[cfg(not(feature = "jit"))]
-        let unrolled = None::<()>;
-        if unrolled.is_none() {
-            self.orders();
+            ),
+            None => self.orders(),
         }
+        #[cfg(not(feature = "jit"))]
+        self.orders();
         // A non-finite q̈ₖ makes every later coefficient non-finite with it.
         if !self.qdd.iter().all(|x| x.is_finite()) {
             return Err(Error::NonFinite {
@@ -973,6 +992,15 @@ impl Expansion {
             });
         }
         Ok(())
+    }
+
+    /// Order 0 of every row the state sets: what the unrolled kernel's order 0 computes.
+    fn order0(&mut self) {
+        self.leaves(0);
+        let w = self.order + 1;
+        for op in &self.program.order0 {
+            op.apply(&mut self.series, w, 0);
+        }
     }
 
     /// Orders 0, …, p − 1 of q̈ (and 1, …, p of q and q̇) given order 0 of every row and M₀
@@ -1193,14 +1221,16 @@ mod tests {
                 k + 2
             );
         }
-        // The compiled expansion, unrolled, gives the same bits.
+        // The interpreter and the compiled expansion, unrolled, give the same bits.
+        let mut interpreted = Arc::new(program.interpreted()).expansion(&[], order);
+        interpreted.expand(t0, &[0.2], &[-0.1]).unwrap();
+        assert_eq!((&interpreted.q, &interpreted.v), (&e.q, &e.v));
         #[cfg(feature = "jit")]
         {
             assert!(program.unroll(order));
             let mut native = program.expansion(&[], order);
             native.expand(t0, &[0.2], &[-0.1]).unwrap();
-            assert_eq!(native.q, e.q);
-            assert_eq!(native.v, e.v);
+            assert_eq!((&native.q, &native.v), (&e.q, &e.v));
         }
     }
 

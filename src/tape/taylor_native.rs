@@ -20,7 +20,8 @@ use super::taylor::{LANES, Op, TaylorProgram};
 
 use crate::error::Result;
 use cranelift_codegen::ir::{
-    AbiParam, BlockArg, FuncRef, InstBuilder, MemFlagsData, Value, condcodes, types,
+    AbiParam, BlockArg, FuncRef, InstBuilder, MemFlagsData, StackSlotData, StackSlotKind, Value,
+    condcodes, types,
 };
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::JITModule;
@@ -171,14 +172,20 @@ pub(crate) const UNROLL_AFTER: usize = 10_000;
 /// coordinate i at k·n + i), of q̈ (coordinate i's order k at i·w + k), and M₀ factored.
 type ExpansionEntry = unsafe extern "C" fn(*mut f64, *mut f64, *mut f64, *mut f64, *const f64);
 
-/// The whole expansion of a small [`TaylorProgram`] to one order p as straight-line machine code:
-/// given order 0 of every row and M₀ factored, orders k = 0, …, p − 1 of q̈ — the leaves' row
-/// coefficients, the recurrences, fₖ − Σⱼ Mⱼ q̈ₖ₋ⱼ, the LDLᵀ solve — and orders 1, …, p of q and
-/// q̇. Every index is a constant: no loop, no call, no bound to test at run time. The operations
-/// and their order are those of `Expansion::expand` with the interpreter (the sums in the lanes
-/// of `conv`, the solve of `linalg::ldlt_solve`), so the coefficients are the same bits.
+/// The entry of an [`ExpansionKernel`]'s order 0: the table, q₀ and q̇₀.
+type Order0Entry = unsafe extern "C" fn(*mut f64, *const f64, *const f64);
+
+/// The whole expansion of a small [`TaylorProgram`] to one order p as straight-line machine code,
+/// in two functions either side of the factorization of M₀ (which may fail, and is reported
+/// from Rust): order 0 of every row from q₀ and q̇₀ (the maths library's functions called as
+/// the interpreter calls them), then, given M₀ factored, orders k = 0, …, p − 1 of q̈ — the
+/// leaves' row coefficients, the recurrences, fₖ − Σⱼ Mⱼ q̈ₖ₋ⱼ, the LDLᵀ solve — and orders
+/// 1, …, p of q and q̇. Every index is a constant: no loop, no bound to test at run time. The
+/// operations and their order are those of `Expansion::expand` with the interpreter (the sums
+/// in the lanes of `conv`, the solve of `linalg::ldlt_solve`), so the coefficients are the same
+/// bits.
 pub(crate) struct ExpansionKernel {
-    code: Code<ExpansionEntry>,
+    code: Code<(Order0Entry, ExpansionEntry)>,
     rows: usize,
     dof: usize,
     order: usize,
@@ -214,6 +221,7 @@ impl ExpansionKernel {
         if let Some(r) = program
             .varying
             .iter()
+            .chain(&program.order0)
             .flat_map(rows_of)
             .chain(read.copied())
             .find(|&r| r >= rows)
@@ -229,13 +237,36 @@ impl ExpansionKernel {
         // allocator's code ran the double pendulum's expansion to order 19 2.2× slower, 5.3
         // against 2.4 µs, and the 4-link chain's to order 12 2.2× slower).
         let module = jit_module(true)?;
-        let code = Code::new(module, |m| define_expansion(m, program, order))?;
+        let code = Code::new(module, |m| {
+            Ok((
+                define_order0(m, program, order)?,
+                define_expansion(m, program, order)?,
+            ))
+        })?;
         Ok(Self {
             code,
             rows,
             dof: n,
             order,
         })
+    }
+
+    /// Order 0 of every row the state sets, from q₀ and q̇₀ (`table` holds t₀ in t's row and the
+    /// rows fixed by the parameters).
+    ///
+    /// # Panics
+    /// If a buffer is shorter than the expansion's layout.
+    pub(crate) fn order0(&self, table: &mut [f64], q: &[f64], v: &[f64]) {
+        let (n, w) = (self.dof, self.order + 1);
+        assert!(
+            table.len() >= self.rows * w && q.len() >= n && v.len() >= n,
+            "buffers too short for an expansion of {n} coordinates to order {}",
+            self.order
+        );
+        // SAFETY: the code writes and reads table entries r·w with rows r < `rows` (checked at
+        // compilation) and reads q and q̇ entries below n, all inside the buffers by the assert;
+        // `self` keeps the code alive.
+        unsafe { (self.code.entry().0)(table.as_mut_ptr(), q.as_ptr(), v.as_ptr()) }
     }
 
     /// Run the expansion: `table` holds order 0 of every row, q and q̇ their order 0, `m0` M₀'s
@@ -265,7 +296,7 @@ impl ExpansionKernel {
         // at compilation) and j < w, q and q̇ entries below n·(w + 1), q̈ entries below n·w and
         // M₀ entries below n², all inside the buffers by the assert; `self` keeps the code alive.
         unsafe {
-            (self.code.entry())(
+            (self.code.entry().1)(
                 table.as_mut_ptr(),
                 q.as_mut_ptr(),
                 v.as_mut_ptr(),
@@ -274,6 +305,67 @@ impl ExpansionKernel {
             )
         }
     }
+}
+
+/// Generate, compile and link order 0 of the expansion: the leaves' rows, then `order0`'s
+/// recurrences at k = 0.
+fn define_order0(
+    module: &mut JITModule,
+    program: &TaylorProgram,
+    order: usize,
+) -> Result<Order0Entry> {
+    let config = module.target_config();
+    let ptr = config.pointer_type();
+    let (id, mut ctx) = declare(module, "order0", &[ptr; 3])?;
+    // The maths library's functions order 0 calls, imported.
+    let mut names: Vec<&'static str> = program
+        .order0
+        .iter()
+        .flat_map(|op| op.libm().iter().copied())
+        .collect();
+    names.sort_unstable();
+    names.dedup();
+    let mut imports = Vec::with_capacity(names.len());
+    for name in names {
+        let mut sig = module.make_signature();
+        let second = match name {
+            "lagrangian_atan2" => Some(types::F64),
+            "lagrangian_sin_cos" => Some(ptr),
+            _ => None,
+        };
+        sig.params.push(AbiParam::new(types::F64));
+        sig.params.extend(second.map(AbiParam::new));
+        sig.returns.push(AbiParam::new(types::F64));
+        let id = module
+            .declare_function(name, Linkage::Import, &sig)
+            .map_err(fail)?;
+        imports.push((name, module.declare_func_in_func(id, &mut ctx.func)));
+    }
+    let mut fctx = FunctionBuilderContext::new();
+    {
+        let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
+        let p = enter(&mut b);
+        let (table, qp, vp) = (p[0], p[1], p[2]);
+        let mut g = Gen::new(b, table, Ix::Fixed(order + 1), None);
+        g.libm = imports;
+        for (base, leaf) in [(qp, &program.coords), (vp, &program.velocities)] {
+            for (i, r) in leaf.iter().enumerate() {
+                if let Some(r) = *r {
+                    let x = g.load_at(base, i);
+                    g.store(r, Ix::Fixed(0), x);
+                }
+            }
+        }
+        for op in &program.order0 {
+            g.op0(op, ptr);
+        }
+        g.b.ins().return_(&[]);
+        g.b.finalize(config);
+    }
+    let code = link(module, id, &mut ctx)?;
+    // SAFETY: `code` is the function just defined with the signature of `Order0Entry` in the
+    // host's default calling convention, which is `extern "C"`.
+    Ok(unsafe { std::mem::transmute::<*const u8, Order0Entry>(code) })
 }
 
 /// Generate, compile and link the unrolled expansion.
@@ -395,6 +487,8 @@ struct Gen<'a> {
     /// `lagrangian_conv`, imported, when convolutions with an index read at run time are calls
     /// of it; `None`: loops in the code.
     calls: Option<FuncRef>,
+    /// The maths library's functions order 0 calls, imported ([`Op::libm`]).
+    libm: Vec<(&'static str, FuncRef)>,
 }
 
 impl<'a> Gen<'a> {
@@ -412,6 +506,7 @@ impl<'a> Gen<'a> {
             k: Ix::Fixed(0),
             inv_k,
             calls,
+            libm: Vec::new(),
         }
     }
 
@@ -665,6 +760,121 @@ impl<'a> Gen<'a> {
             .ins()
             .load(types::F64, Self::flags(), pb, (-8 * i) as i32);
         self.b.ins().fmul(x, y)
+    }
+
+    /// Call the imported maths function `name` on `args`.
+    fn call(&mut self, name: &str, args: &[Value]) -> Value {
+        let f = self
+            .libm
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|&(_, f)| f)
+            .expect("order 0's functions are imported before its code is generated");
+        let call = self.b.ins().call(f, args);
+        self.b.inst_results(call)[0]
+    }
+
+    /// Coefficient 0 of `op`'s rows, as [`Op::apply`] computes it for k = 0; `ptr` is the
+    /// pointer type.
+    fn op0(&mut self, op: &Op, ptr: types::Type) {
+        self.k = Ix::Fixed(0);
+        let unary = |g: &mut Self, out: usize, a: usize, name: &str| {
+            let x = g.at0(a);
+            let y = g.call(name, &[x]);
+            g.store_k(out, y);
+        };
+        match *op {
+            Op::Recip { out, b } => {
+                let (one, x) = (self.f64(1.0), self.at0(b));
+                let y = self.b.ins().fdiv(one, x);
+                self.store_k(out, y);
+            }
+            Op::Exp { out, a } => unary(self, out, a, "lagrangian_exp"),
+            Op::Ln { out, a } => unary(self, out, a, "lagrangian_ln"),
+            Op::Sqrt { out, a } => {
+                let x = self.at0(a);
+                let y = self.b.ins().sqrt(x);
+                self.store_k(out, y);
+            }
+            Op::SinCos {
+                s,
+                c,
+                a,
+                hyperbolic: true,
+                ..
+            } => {
+                unary(self, s, a, "lagrangian_sinh");
+                unary(self, c, a, "lagrangian_cosh");
+            }
+            Op::SinCos { s, c, a, .. } => {
+                // One call: the cosine comes back through an 8-byte slot of the frame.
+                let slot = self.b.create_sized_stack_slot(StackSlotData::new(
+                    StackSlotKind::ExplicitSlot,
+                    8,
+                    3,
+                ));
+                let addr = self.b.ins().stack_addr(ptr, slot, 0);
+                let x = self.at0(a);
+                let sv = self.call("lagrangian_sin_cos", &[x, addr]);
+                let cv = self.b.ins().stack_load(ptr, types::F64, slot, 0);
+                self.store_k(s, sv);
+                self.store_k(c, cv);
+            }
+            Op::Tan {
+                out,
+                w,
+                a,
+                hyperbolic,
+            } => {
+                let name = if hyperbolic {
+                    "lagrangian_tanh"
+                } else {
+                    "lagrangian_tan"
+                };
+                unary(self, out, a, name);
+                let sq = self.conv(out, out, 0, Ix::Fixed(0), Ix::Fixed(0), false);
+                let sq = if hyperbolic {
+                    self.b.ins().fneg(sq)
+                } else {
+                    sq
+                };
+                let one = self.f64(1.0);
+                let wv = self.b.ins().fadd(one, sq);
+                self.store_k(w, wv);
+            }
+            Op::Abs { out, a } => {
+                let x = self.at0(a);
+                let y = self.b.ins().fabs(x);
+                self.store_k(out, y);
+            }
+            Op::Sign { out, a } => {
+                // 1 for a > 0, −1 otherwise (NaN included), as `graph::sign`.
+                let x = self.at0(a);
+                let zero = self.f64(0.0);
+                let positive = self.b.ins().fcmp(condcodes::FloatCC::GreaterThan, x, zero);
+                let (one, minus_one) = (self.f64(1.0), self.f64(-1.0));
+                let y = self.b.ins().select(positive, one, minus_one);
+                self.store_k(out, y);
+            }
+            Op::Atan2 { out, y, x, d, .. } => {
+                let xx = self.conv(x, x, 0, Ix::Fixed(0), Ix::Fixed(0), false);
+                let yy = self.conv(y, y, 0, Ix::Fixed(0), Ix::Fixed(0), false);
+                let d0 = self.b.ins().fadd(xx, yy);
+                self.store_k(d, d0);
+                let (y0, x0) = (self.at0(y), self.at0(x));
+                let theta = self.call("lagrangian_atan2", &[y0, x0]);
+                self.store_k(out, theta);
+            }
+            // The same formula at every order.
+            Op::Copy { .. }
+            | Op::Neg { .. }
+            | Op::Add { .. }
+            | Op::Sub { .. }
+            | Op::Scale { .. }
+            | Op::Mul { .. }
+            | Op::DivC { .. }
+            | Op::Div { .. } => self.op(op),
+        }
     }
 
     /// Coefficient k of `op`'s rows, as [`Op::apply`] computes it for k ≥ 1.
