@@ -126,6 +126,7 @@ class Model:
 
     __slots__ = (
         "_coordinates",
+        "_names",
         "_kinetic",
         "_potential",
         "_dissipation",
@@ -139,6 +140,7 @@ class Model:
     )
 
     _coordinates: Tuple[Coordinate, ...]
+    _names: Tuple[str, ...]
     _kinetic: Optional[Expr]
     _potential: Optional[Expr]
     _dissipation: Optional[Expr]
@@ -248,6 +250,8 @@ class Model:
             )
 
         self._coordinates = coords
+        # The coordinates' names, as every solution carries them.
+        self._names = tuple(c.name for c in coords)
         self._kinetic, self._potential, self._dissipation = t_, u_, r_
         self._forces, self._positions, self._masses = f_, pos, mass
         self._parameters = values
@@ -810,7 +814,7 @@ class Model:
         if dense:
             kwargs["dense"] = True
         t_end = real("t_end", t_end)
-        names = [c.name for c in self._coordinates]
+        names = self._names
         try:
             out = self._native.simulate(q0, qd0, t_end, **kwargs)
             if out is None:
@@ -833,8 +837,9 @@ class Model:
     def _conserved(self, events: Optional[Sequence[Event]]) -> bool:
         """Whether h = q̇·p − L is a constant of a run with these events (``stats["conserved"]``:
         its plot shows the drift then): a conservative model, and no reset."""
-        resets = any(e.reset for e in events or ())
-        return bool(self._native.conservative) and not resets
+        if not bool(self._native.conservative):
+            return False
+        return events is None or not any(e.reset for e in events)
 
     def simulate_many(
         self,

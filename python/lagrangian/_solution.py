@@ -103,9 +103,11 @@ class Solution:
     ) -> None:
         self.t, self.q, self.qd, self.energy, self.stats = t, q, qd, energy, stats
         self.names = None if names is None else tuple(map(str, names))
-        self.t_events = [np.asarray(e[0]) for e in events]
-        self.q_events = [np.asarray(e[1]) for e in events]
-        self.qd_events = [np.asarray(e[2]) for e in events]
+        self.t_events, self.q_events, self.qd_events = [], [], []
+        for te, qe, qde in events:
+            self.t_events.append(np.asarray(te))
+            self.q_events.append(np.asarray(qe))
+            self.qd_events.append(np.asarray(qde))
         self.event_names = tuple(map(str, event_names))
         self.status, self.message = status, message
         self._dense = dense
