@@ -28,8 +28,8 @@ use cranelift_jit::JITModule;
 use cranelift_module::{Linkage, Module};
 
 /// Programs of up to this many recurrences get their convolutions as loops in the code, larger
-/// ones as calls of the interpreter's sum (`lagrangian_conv`). Measured when chosen (release,
-/// 2-core machine, `examples/taylor_timing.rs` and N-link chains): loops run the double pendulum's
+/// ones as calls of the interpreter's sum (`lagrangian_conv`). Measured (release, 2-core
+/// machine, `examples/taylor_timing.rs` and N-link chains): loops run the double pendulum's
 /// steps 1.34× faster than calls (0.53 against 0.70 ms at 1e-9) and compile within the
 /// backtracking register allocator's budget ([`jit_module`]); past it, the single-pass
 /// allocator made the loops 5–9× slower than calls (the 8-link chain: 6.4 against 1.3 ms), and
@@ -155,19 +155,17 @@ fn define(module: &mut JITModule, ops: &[Op], inline: bool) -> Result<Entry> {
 /// (estimated by [`TaylorProgram::expansion_instructions`]) may get it compiled, unrolled;
 /// larger ones run the recurrences of [`SeriesKernel`] order by order, with the rest of the
 /// expansion in Rust.
-/// Compilation costs about 3 µs per estimated instruction (2-core machine, release, 2026-11-25:
-/// the double pendulum at order 12, 4 235 instructions, in 13 ms; the 4-link chain, 34 188, in
-/// 99 ms): this is about 0.3 s, the 4-link chain at order 22 (98 448).
+/// Compilation costs about 3.7 µs per estimated instruction (2-core machine, release): this is
+/// about 0.4 s, the 4-link chain at order 22.
 const UNROLL_UP_TO: usize = 100_000;
 
 /// Expansions to one order a program runs with [`SeriesKernel`] before its [`ExpansionKernel`]
 /// for that order is compiled: about the break-even, as compiling and the time it saves per
-/// expansion both grow with the program. Measured (2-core machine, release, 2026-11-25, best of
-/// 3): the double pendulum at order 12 compiles in 13 ms and expands in 0.85 against 1.35 µs
-/// (break-even after 26 000 expansions), the 4-link chain at order 12 in 99 ms, 5.2 against
-/// 12.4 µs (14 000). Waiting for about the break-even keeps a short run from paying for code it
-/// would not repay (at worst a run then costs about twice what the better choice in hindsight
-/// would have: the double pendulum's runs of 10 000 to 26 000 steps pay a little early).
+/// expansion both grow with the program. Measured (2-core machine, release): the double
+/// pendulum at order 12 compiles in 19 ms and expands in 1.1 against 3.0 µs (break-even after
+/// 10 000 expansions), the 4-link chain at order 12 in 107 ms, 7.9 against 15.1 µs (15 000).
+/// Waiting for the break-even keeps a short run from paying for code it would not repay (at
+/// worst a run then costs about twice what the better choice in hindsight would have).
 pub(crate) const UNROLL_AFTER: usize = 10_000;
 
 /// The entry of an [`ExpansionKernel`]: the table, the coefficients of q and of q̇ (order k of
@@ -235,9 +233,9 @@ impl ExpansionKernel {
         if i32::try_from(8 * (rows * w).max(n * (w + 1)).max(n * n)).is_err() {
             return Err(fail(format!("a table of {rows} rows of {w}")));
         }
-        // Straight-line code: the backtracking allocator at any size (measured when chosen: the
-        // single-pass allocator's code ran the double pendulum's expansion to order 19 2.2×
-        // slower, 5.3 against 2.4 µs, and the 4-link chain's to order 12 2.2× slower).
+        // Straight-line code: the backtracking allocator at any size (measured: the single-pass
+        // allocator's code ran the double pendulum's expansion to order 19 2.2× slower, 5.3
+        // against 2.4 µs, and the 4-link chain's to order 12 2.2× slower).
         let module = jit_module(true)?;
         let code = Code::new(module, |m| {
             Ok((
@@ -412,8 +410,14 @@ fn define_expansion(
                     let mut s = g.f64(0.0);
                     for c in (0..n).filter(|&c| varying[c]) {
                         let m = program.mass_full[r * n + c];
-                        let (mrow, qrow) = (Gen::offset(m * w), Gen::offset(c * w));
-                        let t = g.conv_unrolled((table, mrow), (qddp, qrow), 1, k, k, false);
+                        let terms = (1..=k)
+                            .map(|j| {
+                                let x = g.load(m, Ix::Fixed(j));
+                                let y = g.load_at(qddp, c * w + k - j);
+                                g.b.ins().fmul(x, y)
+                            })
+                            .collect();
+                        let t = g.lanes(terms);
                         s = g.b.ins().fadd(s, t);
                     }
                     g.b.ins().fsub(f, s)
@@ -614,9 +618,21 @@ impl<'a> Gen<'a> {
     /// Σⱼ₌ₗₒ..ₕᵢ [j] aⱼ b_(kk − j), as `conv` in `taylor.rs` sums it: unrolled when hi and kk
     /// are known at compilation, else a loop in the code or a call of `lagrangian_conv`.
     fn conv(&mut self, a: usize, b: usize, lo: usize, hi: Ix, kk: Ix, weighted: bool) -> Value {
-        if let (Ix::Fixed(w), Ix::Fixed(hi), Ix::Fixed(kk)) = (self.w, hi, kk) {
-            let (table, row) = (self.table, |r: usize| Self::offset(r * w));
-            return self.conv_unrolled((table, row(a)), (table, row(b)), lo, hi, kk, weighted);
+        if let (Ix::Fixed(hi), Ix::Fixed(kk)) = (hi, kk) {
+            let terms = (lo..=hi)
+                .map(|j| {
+                    let x = self.load(a, Ix::Fixed(j));
+                    let x = if weighted {
+                        let jf = self.f64(j as f64);
+                        self.b.ins().fmul(jf, x)
+                    } else {
+                        x
+                    };
+                    let y = self.load(b, Ix::Fixed(kk - j));
+                    self.b.ins().fmul(x, y)
+                })
+                .collect();
+            return self.lanes(terms);
         }
         let (hi, kk) = (self.int(hi), self.int(kk));
         let Some(conv_fn) = self.calls else {
@@ -627,76 +643,6 @@ impl<'a> Gen<'a> {
         let weighted = self.b.ins().iconst(types::I32, i64::from(weighted));
         let call = self.b.ins().call(conv_fn, &[pa, pb, lo, hi, kk, weighted]);
         self.b.inst_results(call)[0]
-    }
-
-    /// Σⱼ₌ₗₒ..ₕᵢ [j] aⱼ b_(kk − j) with every index known, the series a and b at (base, byte
-    /// offset of coefficient 0), in the lanes and order of [`conv`](super::taylor): each four
-    /// terms in two two-lane vectors (lanes 0, 1 and 2, 3: aⱼ, aⱼ₊₁ loaded together, b_(kk−j),
-    /// b_(kk−j−1) put together), the rest into lane 0. Per lane the same products and sums as
-    /// the interpreter's, so the same bits, in about half the instructions.
-    fn conv_unrolled(
-        &mut self,
-        a: (Value, i32),
-        b: (Value, i32),
-        lo: usize,
-        hi: usize,
-        kk: usize,
-        weighted: bool,
-    ) -> Value {
-        let flags = Self::flags();
-        // Vector loads of two entries need not be 16-byte aligned.
-        let unaligned = MemFlagsData::new().with_notrap();
-        let at = |i: usize| i32::try_from(8 * i).expect("offsets are checked at compilation");
-        let scalar = |g: &mut Self, (base, off): (Value, i32), i: usize| {
-            g.b.ins().load(types::F64, flags, base, off + at(i))
-        };
-        let count = (hi + 1).saturating_sub(lo);
-        let quads = count / LANES;
-        let mut l = [self.f64(0.0); LANES];
-        if quads > 0 {
-            let zero = self.f64(0.0);
-            let zero = self.b.ins().splat(types::F64X2, zero);
-            let mut v = [zero; 2];
-            for q in 0..quads {
-                let j = lo + LANES * q;
-                for (half, acc) in v.iter_mut().enumerate() {
-                    let j = j + 2 * half;
-                    let x = self.b.ins().load(types::F64X2, unaligned, a.0, a.1 + at(j));
-                    let x = if weighted {
-                        let (j0, j1) = (self.f64(j as f64), self.f64((j + 1) as f64));
-                        let js = self.b.ins().scalar_to_vector(types::F64X2, j0);
-                        let js = self.b.ins().insertlane(js, j1, 1);
-                        self.b.ins().fmul(js, x)
-                    } else {
-                        x
-                    };
-                    let y0 = scalar(self, b, kk - j);
-                    let y1 = scalar(self, b, kk - j - 1);
-                    let y = self.b.ins().scalar_to_vector(types::F64X2, y0);
-                    let y = self.b.ins().insertlane(y, y1, 1);
-                    let xy = self.b.ins().fmul(x, y);
-                    *acc = self.b.ins().fadd(*acc, xy);
-                }
-            }
-            for (lane, slot) in l.iter_mut().enumerate() {
-                *slot = self.b.ins().extractlane(v[lane / 2], (lane % 2) as u8);
-            }
-        }
-        for j in lo + LANES * quads..=hi {
-            let x = scalar(self, a, j);
-            let x = if weighted {
-                let jf = self.f64(j as f64);
-                self.b.ins().fmul(jf, x)
-            } else {
-                x
-            };
-            let y = scalar(self, b, kk - j);
-            let xy = self.b.ins().fmul(x, y);
-            l[0] = self.b.ins().fadd(l[0], xy);
-        }
-        let low = self.b.ins().fadd(l[0], l[1]);
-        let high = self.b.ins().fadd(l[2], l[3]);
-        self.b.ins().fadd(low, high)
     }
 
     /// Σⱼ₌ₗₒ..ₕᵢ [j] aⱼ b_(kk − j) in the lanes and order of [`conv`](super::taylor): a loop
