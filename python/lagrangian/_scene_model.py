@@ -38,6 +38,7 @@ class SceneModel(Model):
         native, values, names = _lagrangian.scene_model(scene, dict(arguments))
         self = cls.__new__(cls)
         self._coordinates = tuple(Coordinate(n) for n in names)
+        self._names = tuple(c.name for c in self._coordinates)
         self._kinetic = self._potential = self._dissipation = None
         self._forces = self._positions = self._masses = None
         self._parameters = dict(values)
