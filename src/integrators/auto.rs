@@ -123,9 +123,10 @@ pub(super) fn choose<S: Dynamics + ?Sized>(
 ///   shrinks with ε (the order, set by min(rtol, atol), grows instead), DOP853's like ε^(1/8).
 ///   Measured: 0.38–0.54 at 1e-6, 0.84–1.40 at 1e-9, 1.7–3.6 at 1e-12, 3.7–10 at 1e-15.
 ///
-/// The fit's per-step costs are within about 45 % of the measured ones. Its choice was the
-/// faster method in 45 of the 48 (model, tolerance) pairs measured; the other three keep DOP853
-/// where Taylor was 0–18 % faster.
+/// The fit's per-step costs were within about 45 % of the measured ones. Re-measured on
+/// 2026-11-25 with the expansion's cheaper recurrences (which the instruction estimate follows):
+/// within about 35 %, and the choice the faster method in 45 of the 48 pairs; the other three
+/// keep DOP853 where Taylor was 1–34 % faster (Kepler at 1e-12 a tie).
 struct TaylorEstimate {
     order: usize,
     /// Estimated nanoseconds per step.
