@@ -122,17 +122,9 @@ impl TaylorStepper {
     /// that grows, such as an angle that winds, would loosen every other component's
     /// tolerance).
     fn step_size(&self, rtol: f64, atol: f64) -> f64 {
-        let e = &self.expansion;
-        let p = e.order();
-        let eps = rtol.min(atol);
+        let p = self.expansion.order();
         // ‖xₚ₋₁‖ and ‖xₚ‖, each component over its own tolerance.
-        let (mut below, mut top) = (0.0_f64, 0.0_f64);
-        let coefficients = |k| e.q(k).iter().chain(e.qd(k));
-        for ((x, z), y) in coefficients(p - 1).zip(coefficients(p)).zip(&self.y) {
-            let scale = eps / (atol + rtol * y.abs());
-            below = below.max(x.abs() * scale);
-            top = top.max(z.abs() * scale);
-        }
+        let (below, top) = self.expansion.norms(&self.y, rtol, atol);
         // ln ρ = min(−ln ‖xₚ₋₁‖ / (p − 1), −ln ‖xₚ‖ / p), and h = ρ e^(−2 − 0.7/(p−1)) as one
         // exponential (a zero norm gives ρ = ∞: a polynomial solution, capped by the caller).
         let (p1, p) = ((p - 1) as f64, p as f64);
@@ -168,13 +160,7 @@ impl<S: Dynamics + ?Sized> SegmentStepper<S> for TaylorStepper {
         let last = (t + dir * 1.01 * h - run.t_end) * dir >= 0.0;
         let t_new = if last { run.t_end } else { t + dir * h };
         h = t_new - t;
-        self.expansion.increment(h, &mut self.y_new);
-        for ((new, &y), lost) in self.y_new.iter_mut().zip(&self.y).zip(&mut self.lost) {
-            let increment = *new - *lost;
-            *new = y + increment;
-            *lost = (*new - y) - increment;
-        }
-        if !self.y_new.iter().all(|v| v.is_finite()) {
+        if !(self.expansion).advance(h, &self.y, &mut self.lost, &mut self.y_new) {
             return Err(Error::NonFinite {
                 what: "state",
                 t: t_new,

@@ -106,10 +106,15 @@ pub const MAX_TAYLOR_ORDER: usize = 100;
 /// other (measured: the sums of one lane were bound by the latency of the addition).
 pub(crate) const LANES: usize = 4;
 
-/// Σⱼ₌ₗₒ..ₕᵢ aⱼ b_(kk − j) (`weighted`: Σ j aⱼ b_(kk − j)) of rows a and b of the table; 0 when
-/// hi < lo. Term lo + i goes to lane i mod 4 while four are left, the rest to lane 0, and the
-/// lanes are added as (l₀ + l₁) + (l₂ + l₃). The compiled recurrences call the same sum
-/// ([`conv_rows`], through [`lagrangian_conv`]), so both give the same bits.
+/// Σⱼ₌ₗₒ..ₕᵢ aⱼ b_(kk − j) (`weighted`: Σ j aⱼ b_(kk − j)) of rows a and b of the table at
+/// order k; 0 when hi < lo. At k ≥ 1 the terms that read a coefficient of order k — j = 0 when
+/// lo = 0 and kk = k (b_k), j = k when hi = k (a_k) — are computed last in the order, so they
+/// are added last: first the other terms, term lo + i to lane i mod 4 while four are left and
+/// the rest to lane 0, the lanes added as (l₀ + l₁) + (l₂ + l₃), then the j = 0 term, then
+/// the j = k term. (The lanes do not wait on each other, and the sum of the older terms does
+/// not wait for order k; the compiled code sums them in two-lane vectors.) The compiled
+/// recurrences sum in the same order ([`conv_rows`], through [`lagrangian_conv`]), so both
+/// give the same bits.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn conv(
@@ -120,6 +125,7 @@ fn conv(
     lo: usize,
     hi: usize,
     kk: usize,
+    k: usize,
     weighted: bool,
 ) -> f64 {
     conv_rows(
@@ -128,21 +134,40 @@ fn conv(
         lo,
         hi,
         kk,
+        k,
         weighted,
     )
 }
 
+/// Which of a convolution's end terms read a coefficient of the order k being computed, and
+/// are added last ([`conv`]): (j = 0, j = k).
+#[inline(always)]
+pub(super) fn fresh_ends(lo: usize, hi: usize, kk: usize, k: usize) -> (bool, bool) {
+    let first = k > 0 && lo == 0 && kk == k && lo <= hi;
+    let last = k > 0 && hi == k && lo <= hi;
+    (first, last)
+}
+
 /// [`conv`] on two rows.
 #[inline(always)]
-fn conv_rows(a: &[f64], b: &[f64], lo: usize, hi: usize, kk: usize, weighted: bool) -> f64 {
+fn conv_rows(
+    a: &[f64],
+    b: &[f64],
+    lo: usize,
+    hi: usize,
+    kk: usize,
+    k: usize,
+    weighted: bool,
+) -> f64 {
     let term = |j: usize| {
         let x = a[j];
         let x = if weighted { j as f64 * x } else { x };
         x * b[kk - j]
     };
+    let (first, last) = fresh_ends(lo, hi, kk, k);
     let mut lanes = [0.0; LANES];
-    let mut j = lo;
-    let end = hi + 1;
+    let mut j = lo + usize::from(first);
+    let end = hi + 1 - usize::from(last);
     while j + LANES <= end {
         for (i, lane) in lanes.iter_mut().enumerate() {
             *lane += term(j + i);
@@ -153,7 +178,14 @@ fn conv_rows(a: &[f64], b: &[f64], lo: usize, hi: usize, kk: usize, weighted: bo
         lanes[0] += term(j);
         j += 1;
     }
-    (lanes[0] + lanes[1]) + (lanes[2] + lanes[3])
+    let mut sum = (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]);
+    if first {
+        sum += term(0);
+    }
+    if last {
+        sum += term(k);
+    }
+    sum
 }
 
 /// [`conv_rows`] for the compiled recurrences: rows a and b from their first coefficient.
@@ -168,6 +200,7 @@ pub(super) unsafe extern "C" fn lagrangian_conv(
     lo: i64,
     hi: i64,
     kk: i64,
+    k: i64,
     weighted: i32,
 ) -> f64 {
     if hi < lo {
@@ -180,7 +213,15 @@ pub(super) unsafe extern "C" fn lagrangian_conv(
             std::slice::from_raw_parts(b, kk as usize + 1),
         )
     };
-    conv_rows(a, b, lo as usize, hi as usize, kk as usize, weighted != 0)
+    conv_rows(
+        a,
+        b,
+        lo as usize,
+        hi as usize,
+        kk as usize,
+        k as usize,
+        weighted != 0,
+    )
 }
 
 impl Op {
@@ -205,6 +246,30 @@ impl Op {
             Op::Tan { .. } => &["lagrangian_tan"],
             Op::Atan2 { .. } => &["lagrangian_atan2"],
             _ => &[],
+        }
+    }
+
+    /// The rows whose coefficients below k this recurrence reads at order k (the operands of
+    /// its sums, its own row in a recursive one): the only rows whose coefficients must be kept
+    /// past the order that computes them. The others are read at their own order only (and
+    /// coefficient 0 of every row is computed apart, at order 0).
+    pub(super) fn history(&self) -> Vec<usize> {
+        match *self {
+            Op::Mul { a, b, .. } => vec![a, b],
+            Op::Div { out, b, .. } | Op::Recip { out, b } => vec![out, b],
+            Op::Exp { out, a } | Op::Ln { out, a } => vec![out, a],
+            Op::Sqrt { out, .. } => vec![out],
+            Op::SinCos { s, c, a, .. } => vec![s, c, a],
+            Op::Tan { out, w, a, .. } => vec![out, w, a],
+            Op::Atan2 { y, x, d, r, .. } => vec![y, x, d, r],
+            Op::Copy { .. }
+            | Op::Neg { .. }
+            | Op::Add { .. }
+            | Op::Sub { .. }
+            | Op::Scale { .. }
+            | Op::DivC { .. }
+            | Op::Abs { .. }
+            | Op::Sign { .. } => Vec::new(),
         }
     }
 
@@ -233,37 +298,38 @@ impl Op {
             Op::Add { a, b, .. } => at(s, a, k) + at(s, b, k),
             Op::Sub { a, b, .. } => at(s, a, k) - at(s, b, k),
             Op::Scale { a, c, .. } => at(s, a, k) * at(s, c, 0),
-            Op::Mul { a, b, .. } => conv(s, w, a, b, 0, k, k, false),
+            Op::Mul { a, b, .. } => conv(s, w, a, b, 0, k, k, k, false),
             Op::DivC { a, c, .. } => at(s, a, k) / at(s, c, 0),
             Op::Div { out, a, b } => {
-                (at(s, a, k) - conv(s, w, b, out, 1, k, k, false)) / at(s, b, 0)
+                (at(s, a, k) - conv(s, w, b, out, 1, k, k, k, false)) / at(s, b, 0)
             }
             Op::Recip { out, b } => {
                 if k == 0 {
                     1.0 / at(s, b, 0)
                 } else {
-                    -conv(s, w, b, out, 1, k, k, false) / at(s, b, 0)
+                    -conv(s, w, b, out, 1, k, k, k, false) / at(s, b, 0)
                 }
             }
             Op::Exp { out, a } => {
                 if k == 0 {
                     at(s, a, 0).exp()
                 } else {
-                    conv(s, w, a, out, 1, k, k, true) * inv_k
+                    conv(s, w, a, out, 1, k, k, k, true) * inv_k
                 }
             }
             Op::Ln { out, a } => {
                 if k == 0 {
                     at(s, a, 0).ln()
                 } else {
-                    (at(s, a, k) - conv(s, w, out, a, 1, k - 1, k, true) * inv_k) / at(s, a, 0)
+                    (at(s, a, k) - conv(s, w, out, a, 1, k - 1, k, k, true) * inv_k) / at(s, a, 0)
                 }
             }
             Op::Sqrt { out, a } => {
                 if k == 0 {
                     at(s, a, 0).sqrt()
                 } else {
-                    (at(s, a, k) - conv(s, w, out, out, 1, k - 1, k, false)) / (2.0 * at(s, out, 0))
+                    (at(s, a, k) - conv(s, w, out, out, 1, k - 1, k, k, false))
+                        / (2.0 * at(s, out, 0))
                 }
             }
             Op::SinCos {
@@ -282,8 +348,8 @@ impl Op {
                     }
                 } else {
                     let hi = degree.map_or(k, |d| d.min(k));
-                    let sv = conv(s, w, a, cr, 1, hi, k, true) * inv_k;
-                    let cv = conv(s, w, a, sr, 1, hi, k, true) * inv_k;
+                    let sv = conv(s, w, a, cr, 1, hi, k, k, true) * inv_k;
+                    let cv = conv(s, w, a, sr, 1, hi, k, k, true) * inv_k;
                     (sv, if hyperbolic { cv } else { -cv })
                 };
                 s[sr * w + k] = sv;
@@ -300,10 +366,10 @@ impl Op {
                     let x = at(s, a, 0);
                     if hyperbolic { x.tanh() } else { x.tan() }
                 } else {
-                    conv(s, w, a, wr, 1, k, k, true) * inv_k
+                    conv(s, w, a, wr, 1, k, k, k, true) * inv_k
                 };
                 s[out * w + k] = t;
-                let sq = conv(s, w, out, out, 0, k, k, false);
+                let sq = conv(s, w, out, out, 0, k, k, k, false);
                 let sq = if hyperbolic { -sq } else { sq };
                 s[wr * w + k] = if k == 0 { 1.0 + sq } else { sq };
                 return;
@@ -326,13 +392,13 @@ impl Op {
                 }
             }
             Op::Atan2 { y, x, d, r, .. } => {
-                let dk = conv(s, w, x, x, 0, k, k, false) + conv(s, w, y, y, 0, k, k, false);
+                let dk = conv(s, w, x, x, 0, k, k, k, false) + conv(s, w, y, y, 0, k, k, k, false);
                 s[d * w + k] = dk;
                 if k == 0 {
                     at(s, y, 0).atan2(at(s, x, 0))
                 } else {
-                    let n = conv(s, w, y, x, 1, k, k, true) - conv(s, w, x, y, 1, k, k, true);
-                    let rk = (n - conv(s, w, d, r, 1, k - 1, k - 1, false)) / at(s, d, 0);
+                    let n = conv(s, w, y, x, 1, k, k, k, true) - conv(s, w, x, y, 1, k, k, k, true);
+                    let rk = (n - conv(s, w, d, r, 1, k - 1, k - 1, k, false)) / at(s, d, 0);
                     s[r * w + k - 1] = rk;
                     rk * inv_k
                 }
@@ -794,6 +860,13 @@ impl TaylorProgram {
         }
     }
 
+    /// The expansion to `order` unrolled, if it is compiled already (it is not counted as an
+    /// expansion, nor compiled here).
+    #[cfg(feature = "jit")]
+    fn unrolled_now(&self, order: usize) -> Option<&super::taylor_native::ExpansionKernel> {
+        self.unrolled.get(order)?.get()?.as_ref()
+    }
+
     /// Recurrences run at each order ≥ 1 (the nodes that vary and their auxiliary rows).
     pub fn recurrences(&self) -> usize {
         self.varying.len()
@@ -869,6 +942,7 @@ impl TaylorProgram {
             m0_fixed: false,
             qdd: vec![0.0; self.dof * w],
             rhs: vec![0.0; self.dof],
+            reversed: Vec::new(),
         }
     }
 }
@@ -891,6 +965,9 @@ pub struct Expansion {
     /// Coefficients of q̈: order k of coordinate i at `i * (order + 1) + k`.
     qdd: Vec<f64>,
     rhs: Vec<f64>,
+    /// Work space of the unrolled expansion (the series it reads backwards, mirrored), sized
+    /// at its first run.
+    reversed: Vec<f64>,
 }
 
 impl Expansion {
@@ -954,44 +1031,48 @@ impl Expansion {
             // t's coefficients beyond 0 are fixed at creation.
             self.series[r * w] = t0;
         }
-        let program = self.program.clone();
         #[cfg(feature = "jit")]
-        let kernel = program.unrolled(self.order);
-        #[cfg(feature = "jit")]
-        match kernel {
-            Some(kernel) => kernel.order0(&mut self.series, &self.q, &self.v),
-            None => self.order0(),
-        }
-        #[cfg(not(feature = "jit"))]
-        self.order0();
-        if !self.m0_fixed {
-            for (m, &row) in self.m0.iter_mut().zip(&program.mass_full) {
-                *m = self.series[row * w];
+        if let Some(kernel) = self.program.unrolled(self.order) {
+            let Self {
+                program: _,
+                series,
+                q,
+                v,
+                qdd,
+                m0,
+                m0_fixed,
+                reversed,
+                ..
+            } = self;
+            kernel.order0(series, q, v);
+            factor_m0(&self.program, series, w, m0, m0_fixed, t0, q0)?;
+            if reversed.len() < kernel.reversed_len() {
+                reversed.resize(kernel.reversed_len(), 0.0);
             }
-            eom::factor(&mut self.m0, n, t0, q0)?;
-            self.m0_fixed = program.mass_constant;
+            return match kernel.run(series, q, v, qdd, m0, reversed) {
+                true => Ok(()),
+                false => Err(non_finite(t0)),
+            };
         }
-        #[cfg(feature = "jit")]
-        match kernel {
-            Some(kernel) => kernel.run(
-                &mut self.series,
-                &mut self.q,
-                &mut self.v,
-                &mut self.qdd,
-                &self.m0,
-            ),
-            None => self.orders(),
-        }
-        #[cfg(not(feature = "jit"))]
+        self.order0();
+        let Self {
+            program,
+            series,
+            m0,
+            m0_fixed,
+            ..
+        } = self;
+        factor_m0(program, series, w, m0, m0_fixed, t0, q0)?;
         self.orders();
-        // A non-finite q̈ₖ makes every later coefficient non-finite with it.
-        if !self.qdd.iter().all(|x| x.is_finite()) {
-            return Err(Error::NonFinite {
-                what: "Taylor coefficient",
-                t: t0,
-            });
+        self.check(t0)
+    }
+
+    /// [`Error::NonFinite`] when a coefficient of q̈ is not finite.
+    fn check(&self, t0: f64) -> Result<()> {
+        match self.qdd.iter().all(|x| x.is_finite()) {
+            true => Ok(()),
+            false => Err(non_finite(t0)),
         }
-        Ok(())
     }
 
     /// Order 0 of every row the state sets: what the unrolled kernel's order 0 computes.
@@ -1022,7 +1103,7 @@ impl Expansion {
                     let mut s = 0.0;
                     for c in (0..n).filter(|&c| varying[c]) {
                         let m = &self.series[program.mass_full[r * n + c] * w..][..w];
-                        s += conv_rows(m, &self.qdd[c * w..][..w], 1, k, k, false);
+                        s += conv_rows(m, &self.qdd[c * w..][..w], 1, k, k, k, false);
                     }
                     f - s
                 } else {
@@ -1039,20 +1120,69 @@ impl Expansion {
         }
     }
 
-    /// The increment y(t₀ + h) − y(t₀) = Σₖ₌₁..ₚ (q, q̇)ₖ hᵏ by Horner's rule, into `out` =
-    /// (q, q̇): what a step adds to the state, summed apart from it so that the step can add it
-    /// with compensation.
-    pub fn increment(&self, h: f64, out: &mut [f64]) {
-        let n = self.program.dof;
-        for i in 0..n {
-            let (mut q, mut v) = (0.0, 0.0);
-            for k in (1..=self.order).rev() {
-                q = q * h + self.q[k * n + i];
-                v = v * h + self.v[k * n + i];
-            }
-            out[i] = q * h;
-            out[n + i] = v * h;
+    /// The scaled sup norms of the last two coefficients that Jorba and Zou's step size reads:
+    /// (maxᵢ |xₚ₋₁,ᵢ| sᵢ, maxᵢ |xₚ,ᵢ| sᵢ) over the components i of y = (q, q̇), with sᵢ = ε /
+    /// (atol + rtol |yᵢ|) and ε = min(rtol, atol), the tolerance the order is chosen for (each
+    /// component measured against its own tolerance). Compiled with the expansion once it is
+    /// unrolled.
+    ///
+    /// # Panics
+    /// If `y` has fewer than 2 · dof entries.
+    pub fn norms(&self, y: &[f64], rtol: f64, atol: f64) -> (f64, f64) {
+        let (n, p) = (self.program.dof, self.order);
+        let eps = rtol.min(atol);
+        #[cfg(feature = "jit")]
+        if let Some(kernel) = self.program.unrolled_now(p) {
+            return kernel.norms(&self.q, &self.v, y, [rtol, atol, eps]);
         }
+        let (mut below, mut top) = (0.0_f64, 0.0_f64);
+        let (q, qd) = y[..2 * n].split_at(n);
+        for (y, x, z) in [
+            (q, self.q(p - 1), self.q(p)),
+            (qd, self.qd(p - 1), self.qd(p)),
+        ] {
+            for i in 0..n {
+                let scale = eps / (atol + rtol * y[i].abs());
+                below = below.max(x[i].abs() * scale);
+                top = top.max(z[i].abs() * scale);
+            }
+        }
+        (below, top)
+    }
+
+    /// A step of h from the state y = (q, q̇) the expansion is about: `y_new` = y + Σₖ₌₁..ₚ
+    /// (q, q̇)ₖ hᵏ, the increment summed by Horner's rule and added to y with Kahan's
+    /// compensated summation (`lost` holds what rounding took off the state in the last step,
+    /// and is updated: the state's rounding errors do not pile up step after step). False when
+    /// a new value is not finite. Compiled with the expansion once it is unrolled.
+    ///
+    /// # Panics
+    /// If a buffer has fewer than 2 · dof entries.
+    pub fn advance(&self, h: f64, y: &[f64], lost: &mut [f64], y_new: &mut [f64]) -> bool {
+        let (n, p) = (self.program.dof, self.order);
+        #[cfg(feature = "jit")]
+        if let Some(kernel) = self.program.unrolled_now(p) {
+            return kernel.advance(&self.q, &self.v, h, y, lost, y_new);
+        }
+        let coefficients = |k: usize, j: usize| {
+            if j < n {
+                self.q[k * n + j]
+            } else {
+                self.v[k * n + j - n]
+            }
+        };
+        let mut finite = true;
+        for j in 0..2 * n {
+            let mut sum = coefficients(p, j);
+            for k in (1..p).rev() {
+                sum = sum * h + coefficients(k, j);
+            }
+            let increment = sum * h - lost[j];
+            y_new[j] = y[j] + increment;
+            lost[j] = (y_new[j] - y[j]) - increment;
+            finite &= y_new[j].is_finite();
+        }
+        finite
     }
 
     /// y(t₀ + h) = Σₖ (q, q̇)ₖ hᵏ by Horner's rule, into `out` = (q, q̇).
@@ -1068,6 +1198,36 @@ impl Expansion {
             out[n + i] = v;
         }
     }
+}
+
+/// The error of an expansion at t₀ with a coefficient that is not finite.
+fn non_finite(t0: f64) -> Error {
+    Error::NonFinite {
+        what: "Taylor coefficient",
+        t: t0,
+    }
+}
+
+/// M₀ = M(t₀, q₀) from order 0 of its rows in `series` (row width w), factored into `m0`;
+/// `m0_fixed` keeps a mass matrix that depends on the parameters alone factored for good.
+fn factor_m0(
+    program: &TaylorProgram,
+    series: &[f64],
+    w: usize,
+    m0: &mut [f64],
+    m0_fixed: &mut bool,
+    t0: f64,
+    q0: &[f64],
+) -> Result<()> {
+    if *m0_fixed {
+        return Ok(());
+    }
+    for (m, &row) in m0.iter_mut().zip(&program.mass_full) {
+        *m = series[row * w];
+    }
+    eom::factor(m0, program.dof, t0, q0)?;
+    *m0_fixed = program.mass_constant;
+    Ok(())
 }
 
 #[cfg(test)]

@@ -451,6 +451,25 @@ fn taylor_kernel_matches_interpreter_on_random_models() {
                     assert!(same(*u, *v), "case {case}, order {k}: {u} against {v}");
                 }
             }
+            // A Taylor step from there: the norms its size is chosen from, and the new state
+            // with its compensation (compiled with the unrolled expansion).
+            let state = [q.as_slice(), qd.as_slice()].concat();
+            let (rtol, atol) = (10f64.powf(-rng.uniform(3.0, 15.0)), 1e-12);
+            let (na, nb) = (x.norms(&state, rtol, atol), y.norms(&state, rtol, atol));
+            assert!(
+                same(na.0, nb.0) && same(na.1, nb.1),
+                "case {case}: {na:?} {nb:?}"
+            );
+            let h = rng.uniform(-0.3, 0.3);
+            let lost: Vec<f64> = (0..2 * n).map(|_| rng.uniform(-1e-17, 1e-17)).collect();
+            let (mut la, mut lb) = (lost.clone(), lost);
+            let (mut ya, mut yb) = (vec![0.0; 2 * n], vec![0.0; 2 * n]);
+            let fa = x.advance(h, &state, &mut la, &mut ya);
+            let fb = y.advance(h, &state, &mut lb, &mut yb);
+            assert_eq!(fa, fb, "case {case}");
+            for (u, v) in ya.iter().zip(&yb).chain(la.iter().zip(&lb)) {
+                assert!(same(*u, *v), "case {case}, step of {h}: {u} against {v}");
+            }
         }
     }
     println!(
@@ -460,4 +479,46 @@ fn taylor_kernel_matches_interpreter_on_random_models() {
         expanded >= 300 && failed >= 10 && unrolled >= 25,
         "{expanded} {failed} {unrolled}"
     );
+}
+
+/// The unrolled expansion at the orders the Taylor method runs at tight tolerances (p = 13 at
+/// 1e-12, 19 at 1e-15), where its sums run in two-lane vectors over mirrored series, against
+/// the interpreter on random models: every coefficient bit for bit.
+#[test]
+fn unrolled_expansion_at_high_orders_matches_interpreter() {
+    let mut rng = Rng(0x0516_2026);
+    let (mut compared, mut cases) = (0, 0);
+    while cases < 4 {
+        let model = random_model(&mut rng, true);
+        let program = model.program();
+        let reference = program.clone().interpreted();
+        let (Ok(native), Ok(interpreted)) =
+            (program.bind(&model.params), reference.bind(&model.params))
+        else {
+            continue;
+        };
+        cases += 1;
+        let (a, params) = native.taylor();
+        let (b, _) = interpreted.taylor();
+        let n = model.dof;
+        for order in [13, 19] {
+            assert_eq!(a.unroll(order), cfg!(feature = "jit"));
+            let t = rng.uniform(-1.0, 1.0);
+            let q: Vec<f64> = (0..n).map(|_| rng.uniform(-1.0, 1.0)).collect();
+            let qd: Vec<f64> = (0..n).map(|_| rng.uniform(-1.0, 1.0)).collect();
+            let (mut x, mut y) = (a.expansion(params, order), b.expansion(params, order));
+            let (r1, r2) = (x.expand(t, &q, &qd), y.expand(t, &q, &qd));
+            assert_eq!(format!("{r1:?}"), format!("{r2:?}"));
+            if r1.is_err() {
+                continue;
+            }
+            for k in 0..=order {
+                for (u, v) in x.q(k).iter().zip(y.q(k)).chain(x.qd(k).iter().zip(y.qd(k))) {
+                    assert!(same(*u, *v), "order {k} of {order}: {u} against {v}");
+                }
+            }
+            compared += 1;
+        }
+    }
+    assert!(compared >= 5, "{compared}");
 }
