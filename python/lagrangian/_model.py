@@ -783,61 +783,55 @@ class Model:
         # The options are validated in Rust (one message each); here only their types. The
         # initial state goes to Rust as it is when it has the form Rust reads (float64 arrays,
         # lists of numbers; `None` otherwise), else it is converted and checked here first.
+        # The native call takes its arguments by position (no keyword dictionary to build and
+        # parse: a short run's fixed cost is most of what it costs).
         if not isinstance(method, str):
             raise TypeError(f"method must be a string such as 'dop853', got {method!r}")
-        kwargs: Dict[str, Any] = {
-            "t0": real("t0", t0),
-            "method": method,
-            "rtol": number("rtol", rtol),
-            "atol": number("atol", atol),
-        }
+        t0 = real("t0", t0)
+        rtol, atol = number("rtol", rtol), number("atol", atol)
         if dt is not None:
-            kwargs["dt"] = number("dt", dt)
+            dt = number("dt", dt)
+        times = None
         if t_eval is not None:
             times = np.ascontiguousarray(np.asarray(t_eval, dtype=np.float64))
             if times.ndim != 1:
                 raise ValueError(f"t_eval must be one-dimensional, got shape {times.shape}")
-            kwargs["t_eval"] = times
         if max_steps is not None:
-            kwargs["max_steps"] = integer("max_steps", max_steps)
-        if output_every is not None:
-            kwargs["every"] = integer("output_every", output_every)
-        event_names: List[str] = []
+            max_steps = integer("max_steps", max_steps)
+        every = None if output_every is None else integer("output_every", output_every)
+        event_names: Tuple[str, ...] = ()
+        specs: List[Any] = []
         if events is not None and not isinstance(events, Event):
             events = list(events)  # read three times below: a generator would be spent
         if events is not None:
-            kwargs["events"] = event_specs(events, self._coordinates, self._parameters)[0]
-            kwargs["backend"] = self._backend
-            event_names = [e.name for e in events]
+            specs = event_specs(events, self._coordinates, self._parameters)[0]
+            event_names = tuple(e.name for e in events)
         if not isinstance(dense, bool):
             raise TypeError(f"dense must be True or False, got {dense!r}")
-        if dense:
-            kwargs["dense"] = True
         t_end = real("t_end", t_end)
-        names = self._names
+        options = (t0, method, dt, rtol, atol, times, max_steps, every, specs, dense)
+        native = self._native
         try:
-            out = self._native.simulate(q0, qd0, t_end, **kwargs)
+            out = native.simulate(q0, qd0, t_end, *options, self._backend)
             if out is None:
                 n = self.dof
-                out = self._native.simulate(
-                    vector("q0", q0, n), vector("qd0", qd0, n), t_end, **kwargs
-                )
+                q0, qd0 = vector("q0", q0, n), vector("qd0", qd0, n)
+                out = native.simulate(q0, qd0, t_end, *options, self._backend)
         except _lagrangian.LagrangianError as err:
             # A failure during the run carries what was computed (see `Raises`).
             partial = err._partial
             if partial is not None:
-                err.solution = Solution._from_native(partial, names, event_names, str(err))
-                err.solution.stats["conserved"] = self._conserved(events)
+                err.solution = Solution._from_native(
+                    partial, self._names, event_names, self._conserved(events), str(err)
+                )
                 err._partial = None
             raise
-        sol = Solution._from_native(out, names, event_names)
-        sol.stats["conserved"] = self._conserved(events)
-        return sol
+        return Solution._from_native(out, self._names, event_names, self._conserved(events))
 
     def _conserved(self, events: Optional[Sequence[Event]]) -> bool:
         """Whether h = q̇·p − L is a constant of a run with these events (``stats["conserved"]``:
         its plot shows the drift then): a conservative model, and no reset."""
-        if not bool(self._native.conservative):
+        if not self._native.conservative:
             return False
         return events is None or not any(e.reset for e in events)
 

@@ -117,28 +117,35 @@ class Solution:
     def _from_native(
         cls,
         out: Tuple[Any, ...],
-        names: Sequence[str],
-        event_names: Sequence[str],
+        names: Tuple[str, ...],
+        event_names: Tuple[str, ...],
+        conserved: bool,
         failure: Optional[str] = None,
     ) -> "Solution":
         """The solution from the native tuple (t, q, qd, energy, stats, events, status,
-        message, dense); ``failure`` marks the partial solution of a failed run."""
+        message, dense), with the model's coordinate and event names (tuples of strings) and
+        ``stats["conserved"]``; ``failure`` marks the partial solution of a failed run. Its
+        fields set directly: a short run's fixed cost is most of what it costs."""
         t, q, qd, energy, stats, events, status, message, dense = out
-        if failure is not None:
-            status, message = -1, failure
-        return cls(
-            t,
-            q,
-            qd,
-            energy,
-            stats,  # a new dict from every native call: the solution owns it
-            names=names,
-            events=events,
-            event_names=event_names,
-            status=int(status),
-            message=str(message),
-            dense=dense,
-        )
+        sol = cls.__new__(cls)
+        sol.t, sol.q, sol.qd, sol.energy = t, q, qd, energy
+        stats["conserved"] = conserved  # a new dict from every native call: the solution owns it
+        sol.stats = stats
+        sol.names = names
+        if events:
+            sol.t_events = [np.asarray(te) for te, _, _ in events]
+            sol.q_events = [np.asarray(qe) for _, qe, _ in events]
+            sol.qd_events = [np.asarray(qde) for _, _, qde in events]
+        else:
+            sol.t_events, sol.q_events, sol.qd_events = [], [], []
+        sol.event_names = event_names
+        if failure is None:
+            sol.status, sol.message = int(status), str(message)
+        else:
+            sol.status, sol.message = -1, failure
+        sol._dense = dense
+        sol._y = None
+        return sol
 
     def __call__(self, t: Union[float, "npt.ArrayLike"]) -> Tuple[FloatArray, FloatArray]:
         """(q, q̇) at time(s) ``t`` anywhere in the span, from the method's own interpolant

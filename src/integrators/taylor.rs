@@ -3,14 +3,18 @@
 //! Each step expands the motion through the current state to order p by series arithmetic on
 //! the graph ([`crate::tape::TaylorProgram`]: M₀ q̈ₖ = fₖ − Σ Mⱼ q̈ₖ₋ⱼ, no symbolic inverse of
 //! M) and sums the series at the step h, adding the increment to the state with Kahan's
-//! compensated summation (the rounding of the state does not pile up over long runs). Following Jorba & Zou, the order comes from the
-//! tolerance, p = ⌈−ln ε / 2 + 1⌉, and the step from the last two coefficients,
-//! h = ρ / e² · e^(−0.7/(p−1)) with ρ = min((1/‖xₚ₋₁‖)^(1/(p−1)), (1/‖xₚ‖)^(1/p)): the
-//! coefficients of an analytic solution decay like ρ⁻ᵏ, so the truncation error is about ε.
-//! ε = min(rtol, atol), and each component's coefficients are measured against its own
-//! tolerance atol + rtol |yᵢ| ([`TaylorStepper::step_size`]). Steps are never rejected. The
-//! step's polynomial is its dense output, exact to the method's order anywhere in the step;
-//! events are found on it.
+//! compensated summation (the rounding of the state does not pile up over long runs).
+//! Following Jorba & Zou, the order comes from the tolerance, p = ⌈−ln ε / 2 + 1⌉, and the
+//! step from the last two coefficients, h = ρ / e² · e^(−0.7/(p−1)) with ρ =
+//! min((1/‖xₚ₋₁‖)^(1/(p−1)), (1/‖xₚ‖)^(1/p)): the coefficients of an analytic solution decay
+//! like ρ⁻ᵏ, so the truncation error is about ε. ε = min(rtol, atol), and each component's
+//! coefficients are measured against its own tolerance atol + rtol |yᵢ| (Jorba and Zou take
+//! one norm of the whole state, absolute or relative to ‖y‖∞: a coordinate that grows, such as
+//! an angle that winds, would loosen every other component's tolerance). The step is
+//! [`Expansion::step`]: once a model's expansion is compiled unrolled, the whole of it —
+//! expansion, step size and new state — is one call of machine code. Steps are never rejected.
+//! The step's polynomial is its dense output, exact to the method's order anywhere in the
+//! step; events are found on it.
 //!
 //! The method needs the model's graph: it serves models stated as expressions (Python's
 //! `lg.Model`, `tape::EomProgram`), not Rust types implementing the energy traits.
@@ -19,7 +23,7 @@ use super::dense::Interpolant;
 use super::{Flow, Integrator, Run, SegmentStepper};
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
-use crate::tape::Expansion;
+use crate::tape::{Expansion, StepRule};
 
 /// Jorba & Zou's order for the tolerance ε, p = ⌈−ln ε / 2 + 1⌉, capped where double precision
 /// has nothing left to gain (p = 40 is ε ≈ 1e-34).
@@ -91,11 +95,18 @@ impl Integrator for Taylor {
         let span = (run.t_end - run.t0).abs();
         Ok(Box::new(TaylorStepper {
             expansion: program.expansion(params, order),
+            rule: StepRule {
+                rtol,
+                atol,
+                h_max: run.options.max_step.unwrap_or(span).min(span),
+                min_step: run.options.min_step,
+                t_end: run.t_end,
+                dir: run.dir(),
+            },
             t: run.t0,
             y: run.y0.clone(),
             y_new: vec![0.0; run.y0.len()],
             lost: vec![0.0; run.y0.len()],
-            h_max: run.options.max_step.unwrap_or(span).min(span),
         }))
     }
 }
@@ -103,6 +114,7 @@ impl Integrator for Taylor {
 /// Where a Taylor run stands between steps.
 struct TaylorStepper {
     expansion: Expansion,
+    rule: StepRule,
     t: f64,
     y: Vec<f64>,
     y_new: Vec<f64>,
@@ -110,32 +122,10 @@ struct TaylorStepper {
     /// (Kahan's compensated summation of the increments): the state's rounding errors do not
     /// pile up step after step.
     lost: Vec<f64>,
-    h_max: f64,
-}
-
-impl TaylorStepper {
-    /// Jorba & Zou's step for the expansion at hand, with the coefficients of each component
-    /// measured against its own tolerance: component i's against sᵢ = (atol + rtol |yᵢ|) / ε,
-    /// ε = min(rtol, atol) the tolerance the order was chosen for. So the error is held to
-    /// atol + rtol |yᵢ| component by component, as the Runge–Kutta methods hold theirs (Jorba
-    /// and Zou take one norm of the whole state, absolute or relative to ‖y‖∞: a coordinate
-    /// that grows, such as an angle that winds, would loosen every other component's
-    /// tolerance).
-    fn step_size(&self, rtol: f64, atol: f64) -> f64 {
-        let p = self.expansion.order();
-        // ‖xₚ₋₁‖ and ‖xₚ‖, each component over its own tolerance.
-        let (below, top) = self.expansion.norms(&self.y, rtol, atol);
-        // ln ρ = min(−ln ‖xₚ₋₁‖ / (p − 1), −ln ‖xₚ‖ / p), and h = ρ e^(−2 − 0.7/(p−1)) as one
-        // exponential (a zero norm gives ρ = ∞: a polynomial solution, capped by the caller).
-        let (p1, p) = ((p - 1) as f64, p as f64);
-        let ln_rho = (-below.ln() / p1).min(-top.ln() / p);
-        (ln_rho - 2.0 - 0.7 / p1).exp()
-    }
 }
 
 impl<S: Dynamics + ?Sized> SegmentStepper<S> for TaylorStepper {
     fn step(&mut self, run: &mut Run<'_, S>) -> Result<Flow> {
-        let n = run.n;
         let opts = run.options;
         let attempts = run.stats.accepted_steps + run.stats.rejected_steps;
         if attempts >= opts.max_steps {
@@ -146,26 +136,11 @@ impl<S: Dynamics + ?Sized> SegmentStepper<S> for TaylorStepper {
         }
         run.poll(self.t)?;
         let t = self.t;
-        self.expansion.expand(t, &self.y[..n], &self.y[n..])?;
+        let (t_new, last) =
+            self.expansion
+                .step(t, &self.y, &self.rule, &mut self.lost, &mut self.y_new)?;
         // One pass of the recurrences per order, each about a graph evaluation or more.
         run.stats.rhs_evaluations += self.expansion.order();
-        let dir = run.dir();
-        let mut h = self.step_size(opts.rtol, opts.atol).min(self.h_max);
-        let floor = opts.min_step.max(10.0 * f64::EPSILON * t.abs());
-        // Infinite ρ (a polynomial solution) is capped above; a vanishing ρ is a singularity of
-        // the solution within reach (NaN is refused with it).
-        if h.partial_cmp(&floor) != Some(std::cmp::Ordering::Greater) {
-            return Err(Error::StepSizeTooSmall { t, h });
-        }
-        let last = (t + dir * 1.01 * h - run.t_end) * dir >= 0.0;
-        let t_new = if last { run.t_end } else { t + dir * h };
-        h = t_new - t;
-        if !(self.expansion).advance(h, &self.y, &mut self.lost, &mut self.y_new) {
-            return Err(Error::NonFinite {
-                what: "state",
-                t: t_new,
-            });
-        }
         run.stats.accepted_steps += 1;
         let step = run.needs_interpolant(t_new).then_some(Interpolant::Taylor {
             t,

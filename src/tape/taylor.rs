@@ -30,6 +30,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::eom_program::EomGraph;
 use super::graph::{Binary, Graph, Node, Unary, sign};
+#[cfg(feature = "jit")]
+use super::taylor_native::{Buffers, Status, Step, StepControl};
 use crate::eom;
 use crate::error::{Error, Result};
 use crate::linalg;
@@ -253,6 +255,7 @@ impl Op {
     /// its sums, its own row in a recursive one): the only rows whose coefficients must be kept
     /// past the order that computes them. The others are read at their own order only (and
     /// coefficient 0 of every row is computed apart, at order 0).
+    #[cfg(feature = "jit")]
     pub(super) fn history(&self) -> Vec<usize> {
         match *self {
             Op::Mul { a, b, .. } => vec![a, b],
@@ -860,13 +863,6 @@ impl TaylorProgram {
         }
     }
 
-    /// The expansion to `order` unrolled, if it is compiled already (it is not counted as an
-    /// expansion, nor compiled here).
-    #[cfg(feature = "jit")]
-    fn unrolled_now(&self, order: usize) -> Option<&super::taylor_native::ExpansionKernel> {
-        self.unrolled.get(order)?.get()?.as_ref()
-    }
-
     /// Recurrences run at each order ≥ 1 (the nodes that vary and their auxiliary rows).
     pub fn recurrences(&self) -> usize {
         self.varying.len()
@@ -942,9 +938,27 @@ impl TaylorProgram {
             m0_fixed: false,
             qdd: vec![0.0; self.dof * w],
             rhs: vec![0.0; self.dof],
+            #[cfg(feature = "jit")]
             reversed: Vec::new(),
         }
     }
+}
+
+/// What a Taylor step needs besides the expansion and the state ([`Expansion::step`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepRule {
+    /// The relative tolerance: the error is held to atol + rtol |yᵢ| per component.
+    pub rtol: f64,
+    /// The absolute tolerance.
+    pub atol: f64,
+    /// The largest step.
+    pub h_max: f64,
+    /// The smallest step before the run is given up (the floor is at least 10 ε |t|).
+    pub min_step: f64,
+    /// Where the run ends.
+    pub t_end: f64,
+    /// The direction of the run, ±1.
+    pub dir: f64,
 }
 
 /// The Taylor coefficients of one expansion and their work space.
@@ -967,6 +981,7 @@ pub struct Expansion {
     rhs: Vec<f64>,
     /// Work space of the unrolled expansion (the series it reads backwards, mirrored), sized
     /// at its first run.
+    #[cfg(feature = "jit")]
     reversed: Vec<f64>,
 }
 
@@ -1023,6 +1038,19 @@ impl Expansion {
     /// when a coefficient is not finite (a singularity of the model within reach, or a
     /// function at a point where its series does not exist, such as √x at x = 0).
     pub fn expand(&mut self, t0: f64, q0: &[f64], qd0: &[f64]) -> Result<()> {
+        #[cfg(feature = "jit")]
+        if let Some(status) = self.run_unrolled(t0, q0, qd0, None) {
+            return match status? {
+                Status::Expanded => Ok(()),
+                _ => Err(non_finite(t0)),
+            };
+        }
+        self.expand_interpreted(t0, q0, qd0)
+    }
+
+    /// [`Expansion::expand`] order by order (the interpreter or [`SeriesKernel`]'s
+    /// recurrences).
+    fn expand_interpreted(&mut self, t0: f64, q0: &[f64], qd0: &[f64]) -> Result<()> {
         let n = self.program.dof;
         let w = self.order + 1;
         self.q[..n].copy_from_slice(q0);
@@ -1030,29 +1058,6 @@ impl Expansion {
         if let Some(r) = self.program.time {
             // t's coefficients beyond 0 are fixed at creation.
             self.series[r * w] = t0;
-        }
-        #[cfg(feature = "jit")]
-        if let Some(kernel) = self.program.unrolled(self.order) {
-            let Self {
-                program: _,
-                series,
-                q,
-                v,
-                qdd,
-                m0,
-                m0_fixed,
-                reversed,
-                ..
-            } = self;
-            kernel.order0(series, q, v);
-            factor_m0(&self.program, series, w, m0, m0_fixed, t0, q0)?;
-            if reversed.len() < kernel.reversed_len() {
-                reversed.resize(kernel.reversed_len(), 0.0);
-            }
-            return match kernel.run(series, q, v, qdd, m0, reversed) {
-                true => Ok(()),
-                false => Err(non_finite(t0)),
-            };
         }
         self.order0();
         let Self {
@@ -1065,6 +1070,136 @@ impl Expansion {
         factor_m0(program, series, w, m0, m0_fixed, t0, q0)?;
         self.orders();
         self.check(t0)
+    }
+
+    /// The expansion through (t₀, q₀, q̇₀) unrolled (and the step with `step`): order 0, M₀, then
+    /// the rest in one call of the compiled code; `None` when the program has no unrolled
+    /// expansion to this order (yet: this counts as an expansion towards it).
+    #[cfg(feature = "jit")]
+    fn run_unrolled(
+        &mut self,
+        t0: f64,
+        q0: &[f64],
+        qd0: &[f64],
+        step: Option<Step<'_>>,
+    ) -> Option<Result<Status>> {
+        let Self {
+            program,
+            order,
+            series,
+            q,
+            v,
+            m0,
+            m0_fixed,
+            qdd,
+            reversed,
+            ..
+        } = self;
+        let kernel = program.unrolled(*order)?;
+        let w = *order + 1;
+        if let Some(r) = program.time {
+            // t's coefficients beyond 0 are fixed at creation.
+            series[r * w] = t0;
+        }
+        kernel.order0(series, q0, qd0, q, v);
+        if let Err(e) = factor_m0(program, series, w, m0, m0_fixed, t0, q0) {
+            return Some(Err(e));
+        }
+        if reversed.len() < kernel.reversed_len() {
+            reversed.resize(kernel.reversed_len(), 0.0);
+        }
+        let buffers = Buffers {
+            table: series,
+            q,
+            v,
+            qdd,
+            m0,
+            reversed,
+        };
+        Some(Ok(match step {
+            None => kernel.run(buffers),
+            Some(step) => kernel.step(buffers, step),
+        }))
+    }
+
+    /// Expand about the state y = (q, q̇) at t and take Jorba and Zou's step from it (the Taylor
+    /// method's step, `integrators::taylor`): h = ρ e^(−2 − 0.7/(p−1)) with ln ρ =
+    /// min(−ln ‖xₚ₋₁‖ / (p − 1), −ln ‖xₚ‖ / p) from [`Expansion::norms`], at most `rule.h_max`;
+    /// a step that would end within 1 % of `rule.t_end` ends on it; the new state by
+    /// [`Expansion::advance`]. The time reached, and whether it is t_end. Compiled with the
+    /// expansion once it is unrolled, the whole step is one call of machine code.
+    ///
+    /// # Errors
+    /// Those of [`Expansion::expand`]; [`Error::StepSizeTooSmall`] when h is not above
+    /// max(`rule.min_step`, 10 ε |t|) (a vanishing radius of convergence: a singularity of the
+    /// solution within reach); [`Error::NonFinite`] when a value of the new state is not finite.
+    ///
+    /// # Panics
+    /// If a buffer has fewer than 2 · dof entries.
+    pub fn step(
+        &mut self,
+        t: f64,
+        y: &[f64],
+        rule: &StepRule,
+        lost: &mut [f64],
+        y_new: &mut [f64],
+    ) -> Result<(f64, bool)> {
+        let n = self.program.dof;
+        let (q0, qd0) = y[..2 * n].split_at(n);
+        #[cfg(feature = "jit")]
+        {
+            let mut control = StepControl {
+                t,
+                rtol: rule.rtol,
+                atol: rule.atol,
+                h_max: rule.h_max,
+                min_step: rule.min_step,
+                t_end: rule.t_end,
+                dir: rule.dir,
+                ..StepControl::default()
+            };
+            let step = Step {
+                control: &mut control,
+                y: &y[..2 * n],
+                lost: &mut *lost,
+                y_new: &mut *y_new,
+            };
+            if let Some(status) = self.run_unrolled(t, q0, qd0, Some(step)) {
+                return match status? {
+                    Status::Step => Ok((control.t_new, false)),
+                    Status::Last => Ok((control.t_new, true)),
+                    Status::Coefficient => Err(non_finite(t)),
+                    Status::TooSmall => Err(Error::StepSizeTooSmall { t, h: control.h }),
+                    Status::State | Status::Expanded => Err(Error::NonFinite {
+                        what: "state",
+                        t: control.t_new,
+                    }),
+                };
+            }
+        }
+        self.expand_interpreted(t, q0, qd0)?;
+        let p = self.order;
+        let (below, top) = self.norms(y, rule.rtol, rule.atol);
+        // ln ρ = min(−ln ‖xₚ₋₁‖ / (p − 1), −ln ‖xₚ‖ / p), and h = ρ e^(−2 − 0.7/(p−1)) as one
+        // exponential (a zero norm gives ρ = ∞: a polynomial solution, capped by h_max).
+        let (p1, p) = ((p - 1) as f64, p as f64);
+        let ln_rho = (-below.ln() / p1).min(-top.ln() / p);
+        let h = (ln_rho - 2.0 - 0.7 / p1).exp().min(rule.h_max);
+        let floor = rule.min_step.max(10.0 * f64::EPSILON * t.abs());
+        // A vanishing ρ is a singularity of the solution within reach (NaN is refused with it).
+        if h.partial_cmp(&floor) != Some(std::cmp::Ordering::Greater) {
+            return Err(Error::StepSizeTooSmall { t, h });
+        }
+        let dir = rule.dir;
+        let last = (t + dir * 1.01 * h - rule.t_end) * dir >= 0.0;
+        let t_new = if last { rule.t_end } else { t + dir * h };
+        if !self.advance(t_new - t, y, lost, y_new) {
+            return Err(Error::NonFinite {
+                what: "state",
+                t: t_new,
+            });
+        }
+        Ok((t_new, last))
     }
 
     /// [`Error::NonFinite`] when a coefficient of q̈ is not finite.
@@ -1123,18 +1258,13 @@ impl Expansion {
     /// The scaled sup norms of the last two coefficients that Jorba and Zou's step size reads:
     /// (maxᵢ |xₚ₋₁,ᵢ| sᵢ, maxᵢ |xₚ,ᵢ| sᵢ) over the components i of y = (q, q̇), with sᵢ = ε /
     /// (atol + rtol |yᵢ|) and ε = min(rtol, atol), the tolerance the order is chosen for (each
-    /// component measured against its own tolerance). Compiled with the expansion once it is
-    /// unrolled.
+    /// component measured against its own tolerance).
     ///
     /// # Panics
     /// If `y` has fewer than 2 · dof entries.
     pub fn norms(&self, y: &[f64], rtol: f64, atol: f64) -> (f64, f64) {
         let (n, p) = (self.program.dof, self.order);
         let eps = rtol.min(atol);
-        #[cfg(feature = "jit")]
-        if let Some(kernel) = self.program.unrolled_now(p) {
-            return kernel.norms(&self.q, &self.v, y, [rtol, atol, eps]);
-        }
         let (mut below, mut top) = (0.0_f64, 0.0_f64);
         let (q, qd) = y[..2 * n].split_at(n);
         for (y, x, z) in [
@@ -1154,16 +1284,12 @@ impl Expansion {
     /// (q, q̇)ₖ hᵏ, the increment summed by Horner's rule and added to y with Kahan's
     /// compensated summation (`lost` holds what rounding took off the state in the last step,
     /// and is updated: the state's rounding errors do not pile up step after step). False when
-    /// a new value is not finite. Compiled with the expansion once it is unrolled.
+    /// a new value is not finite.
     ///
     /// # Panics
     /// If a buffer has fewer than 2 · dof entries.
     pub fn advance(&self, h: f64, y: &[f64], lost: &mut [f64], y_new: &mut [f64]) -> bool {
         let (n, p) = (self.program.dof, self.order);
-        #[cfg(feature = "jit")]
-        if let Some(kernel) = self.program.unrolled_now(p) {
-            return kernel.advance(&self.q, &self.v, h, y, lost, y_new);
-        }
         let coefficients = |k: usize, j: usize| {
             if j < n {
                 self.q[k * n + j]

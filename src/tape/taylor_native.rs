@@ -37,6 +37,17 @@ use std::collections::{HashMap, HashSet};
 /// calls compile in a fraction of the time (the 32-link chain: 84 ms against 4.3 s).
 const INLINE_UP_TO: usize = 400;
 
+/// scratch: experiment switch.
+pub static VARIANT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+/// scratch
+pub fn set_variant(v: u32) {
+    VARIANT.store(v, std::sync::atomic::Ordering::Relaxed);
+}
+#[allow(dead_code)]
+fn variant() -> u32 {
+    VARIANT.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 /// The compiled function: order k, row width w, the table.
 type Entry = unsafe extern "C" fn(i64, i64, *mut f64);
 
@@ -170,31 +181,81 @@ const UNROLL_UP_TO: usize = 100_000;
 pub(crate) const UNROLL_AFTER: usize = 10_000;
 
 /// The entry of an [`ExpansionKernel`]: the table, the coefficients of q and of q̇ (order k of
-/// coordinate i at k·n + i), of q̈ (coordinate i's order k at i·w + k), M₀ factored, and the
-/// work space of reversed series ([`ExpansionKernel::reversed_len`]).
-/// Nonzero when every coefficient of q̈ is finite.
-type ExpansionEntry =
-    unsafe extern "C" fn(*mut f64, *mut f64, *mut f64, *mut f64, *const f64, *mut f64) -> i32;
+/// coordinate i at k·n + i), of q̈ (coordinate i's order k at i·w + k), M₀ factored, the work
+/// space of reversed series ([`ExpansionKernel::reversed_len`]); then, for a step (a null
+/// `StepControl` for the expansion alone), the step's control, the state y, the compensation
+/// and the new state. It returns a [`Status`].
+type ExpansionEntry = unsafe extern "C" fn(
+    *mut f64,
+    *mut f64,
+    *mut f64,
+    *mut f64,
+    *const f64,
+    *mut f64,
+    *mut StepControl,
+    *const f64,
+    *mut f64,
+    *mut f64,
+) -> i32;
 
-/// The entry of an [`ExpansionKernel`]'s order 0: the table, q₀ and q̇₀.
-type Order0Entry = unsafe extern "C" fn(*mut f64, *const f64, *const f64);
-
-/// The entry of an [`ExpansionKernel`]'s norms: the coefficients of q and q̇, the state y =
-/// (q, q̇), (rtol, atol, ε), and where to write the two norms.
-type NormsEntry = unsafe extern "C" fn(*const f64, *const f64, *const f64, *const f64, *mut f64);
-
-/// The entry of an [`ExpansionKernel`]'s step: the coefficients of q and q̇, h, the state y, the
-/// compensation (read and written), the new state; nonzero when every new value is finite.
-type AdvanceEntry =
-    unsafe extern "C" fn(*const f64, *const f64, f64, *const f64, *mut f64, *mut f64) -> i32;
+/// The entry of an [`ExpansionKernel`]'s order 0: the table, q₀ and q̇₀, and the coefficient
+/// buffers of q and q̇ (their order 0 written there too).
+type Order0Entry = unsafe extern "C" fn(*mut f64, *const f64, *const f64, *mut f64, *mut f64);
 
 /// An [`ExpansionKernel`]'s functions.
 #[derive(Clone, Copy)]
 struct Entries {
     order0: Order0Entry,
     expansion: ExpansionEntry,
-    norms: NormsEntry,
-    advance: AdvanceEntry,
+}
+
+/// What a step needs besides the expansion and the state, read and written by the compiled
+/// step ([`ExpansionKernel::step`]) at the offsets of this layout: the rule of
+/// `Expansion::step`, then its outcome.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct StepControl {
+    /// The time of the state.
+    pub t: f64,
+    pub rtol: f64,
+    pub atol: f64,
+    pub h_max: f64,
+    pub min_step: f64,
+    pub t_end: f64,
+    /// ±1, the direction of integration.
+    pub dir: f64,
+    /// Written: the time the step reaches, and the step size (the one refused as too small).
+    pub t_new: f64,
+    pub h: f64,
+}
+
+/// What the compiled expansion returns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Status {
+    /// The expansion alone, done.
+    Expanded = 0,
+    /// A step, taken (`last`: to t_end).
+    Step = 1,
+    Last = 2,
+    /// A coefficient of q̈ is not finite.
+    Coefficient = 3,
+    /// The step size is not above the floor (refused, the step size in `StepControl::h`).
+    TooSmall = 4,
+    /// A value of the new state is not finite.
+    State = 5,
+}
+
+impl Status {
+    fn from_code(code: i32) -> Self {
+        [
+            Self::Expanded,
+            Self::Step,
+            Self::Last,
+            Self::Coefficient,
+            Self::TooSmall,
+            Self::State,
+        ][code as usize]
+    }
 }
 
 /// The whole expansion of a small [`TaylorProgram`] to one order p as straight-line machine code,
@@ -267,8 +328,6 @@ impl ExpansionKernel {
             Ok(Entries {
                 order0: define_order0(m, program, order)?,
                 expansion,
-                norms: define_norms(m, n, order)?,
-                advance: define_advance(m, n, order)?,
             })
         })?;
         Ok(Self {
@@ -281,21 +340,40 @@ impl ExpansionKernel {
     }
 
     /// Order 0 of every row the state sets, from q₀ and q̇₀ (`table` holds t₀ in t's row and the
-    /// rows fixed by the parameters).
+    /// rows fixed by the parameters); q₀ and q̇₀ into the coefficient buffers `q` and `v` too.
     ///
     /// # Panics
     /// If a buffer is shorter than the expansion's layout.
-    pub(crate) fn order0(&self, table: &mut [f64], q: &[f64], v: &[f64]) {
+    pub(crate) fn order0(
+        &self,
+        table: &mut [f64],
+        q0: &[f64],
+        qd0: &[f64],
+        q: &mut [f64],
+        v: &mut [f64],
+    ) {
         let (n, w) = (self.dof, self.order + 1);
         assert!(
-            table.len() >= self.rows * w && q.len() >= n && v.len() >= n,
+            table.len() >= self.rows * w
+                && q0.len() >= n
+                && qd0.len() >= n
+                && q.len() >= n
+                && v.len() >= n,
             "buffers too short for an expansion of {n} coordinates to order {}",
             self.order
         );
         // SAFETY: the code writes and reads table entries r·w with rows r < `rows` (checked at
-        // compilation) and reads q and q̇ entries below n, all inside the buffers by the assert;
-        // `self` keeps the code alive.
-        unsafe { (self.code.entry().order0)(table.as_mut_ptr(), q.as_ptr(), v.as_ptr()) }
+        // compilation), reads q₀ and q̇₀ entries below n and writes q and q̇ entries below n, all
+        // inside the buffers by the assert; `self` keeps the code alive.
+        unsafe {
+            (self.code.entry().order0)(
+                table.as_mut_ptr(),
+                q0.as_ptr(),
+                qd0.as_ptr(),
+                q.as_mut_ptr(),
+                v.as_mut_ptr(),
+            )
+        }
     }
 
     /// Entries of the work space [`run`](Self::run) mirrors series into (those it reads
@@ -306,209 +384,96 @@ impl ExpansionKernel {
 
     /// Run the expansion: `table` holds order 0 of every row, q and q̇ their order 0, `m0` M₀'s
     /// LDLᵀ factor; `reversed` is work space of [`reversed_len`](Self::reversed_len) entries.
-    /// Whether every coefficient of q̈ is finite.
+    /// [`Status::Expanded`], or [`Status::Coefficient`] when a coefficient of q̈ is not finite.
     ///
     /// # Panics
     /// If a buffer is shorter than the expansion's layout.
-    pub(crate) fn run(
-        &self,
-        table: &mut [f64],
-        q: &mut [f64],
-        v: &mut [f64],
-        qdd: &mut [f64],
-        m0: &[f64],
-        reversed: &mut [f64],
-    ) -> bool {
+    pub(crate) fn run(&self, buffers: Buffers<'_>) -> Status {
+        self.call(buffers, None)
+    }
+
+    /// Run the expansion and take the step `Expansion::step` takes from the state y with
+    /// `control`, writing the new state and compensation into `lost` and `y_new` (see
+    /// [`Status`] and [`StepControl`] for the outcome).
+    ///
+    /// # Panics
+    /// If a buffer is shorter than the expansion's layout.
+    pub(crate) fn step(&self, buffers: Buffers<'_>, step: Step<'_>) -> Status {
+        let n = self.dof;
+        assert!(
+            step.y.len() >= 2 * n && step.lost.len() >= 2 * n && step.y_new.len() >= 2 * n,
+            "buffers too short for a step of {n} coordinates"
+        );
+        self.call(buffers, Some(step))
+    }
+
+    fn call(&self, b: Buffers<'_>, step: Option<Step<'_>>) -> Status {
         let (n, w) = (self.dof, self.order + 1);
         assert!(
-            table.len() >= self.rows * w
-                && q.len() >= n * (w + 1)
-                && v.len() >= n * (w + 1)
-                && qdd.len() >= n * w
-                && m0.len() >= n * n
-                && reversed.len() >= self.reversed_len,
+            b.table.len() >= self.rows * w
+                && b.q.len() >= n * (w + 1)
+                && b.v.len() >= n * (w + 1)
+                && b.qdd.len() >= n * w
+                && b.m0.len() >= n * n
+                && b.reversed.len() >= self.reversed_len,
             "buffers too short for an expansion of {n} coordinates to order {}",
             self.order
         );
+        let (control, y, lost, y_new) = match step {
+            Some(s) => (
+                s.control as *mut StepControl,
+                s.y.as_ptr(),
+                s.lost.as_mut_ptr(),
+                s.y_new.as_mut_ptr(),
+            ),
+            None => (
+                std::ptr::null_mut(),
+                std::ptr::null(),
+                std::ptr::null_mut(),
+                std::ptr::null_mut(),
+            ),
+        };
         // SAFETY: the code reads and writes table entries r·w + j with rows r < `rows` (checked
         // at compilation) and j < w, q and q̇ entries below n·(w + 1), q̈ entries below n·w, M₀
         // entries below n² and `reversed` entries below `reversed_len` (a slot of w entries per
-        // series mirrored), all inside the buffers by the assert; `self` keeps the code alive.
-        let finite = unsafe {
+        // series mirrored), all inside the buffers by the assert; with a control (not null) it
+        // reads and writes its fields, reads y and reads and writes `lost` and `y_new` below 2n
+        // (asserted by `step`); `self` keeps the code alive.
+        let code = unsafe {
             (self.code.entry().expansion)(
-                table.as_mut_ptr(),
-                q.as_mut_ptr(),
-                v.as_mut_ptr(),
-                qdd.as_mut_ptr(),
-                m0.as_ptr(),
-                reversed.as_mut_ptr(),
+                b.table.as_mut_ptr(),
+                b.q.as_mut_ptr(),
+                b.v.as_mut_ptr(),
+                b.qdd.as_mut_ptr(),
+                b.m0.as_ptr(),
+                b.reversed.as_mut_ptr(),
+                control,
+                y,
+                lost,
+                y_new,
             )
         };
-        finite != 0
-    }
-
-    /// [`Expansion::norms`](super::Expansion::norms) of the coefficients `q`, `v` (laid out as
-    /// [`run`](Self::run) writes them) at the state `y`.
-    ///
-    /// # Panics
-    /// If a buffer is shorter than the expansion's layout.
-    pub(crate) fn norms(&self, q: &[f64], v: &[f64], y: &[f64], tol: [f64; 3]) -> (f64, f64) {
-        let (n, w) = (self.dof, self.order + 1);
-        assert!(
-            q.len() >= n * (w + 1) && v.len() >= n * (w + 1) && y.len() >= 2 * n,
-            "buffers too short for the norms of {n} coordinates to order {}",
-            self.order
-        );
-        let mut out = [0.0; 2];
-        // SAFETY: the code reads q and q̇ entries below n·(w + 1), y entries below 2n and the
-        // three tolerances, and writes `out`'s two entries, all inside the buffers by the
-        // assert; `self` keeps the code alive.
-        unsafe {
-            (self.code.entry().norms)(
-                q.as_ptr(),
-                v.as_ptr(),
-                y.as_ptr(),
-                tol.as_ptr(),
-                out.as_mut_ptr(),
-            )
-        };
-        (out[0], out[1])
-    }
-
-    /// [`Expansion::advance`](super::Expansion::advance) with the coefficients `q`, `v`.
-    ///
-    /// # Panics
-    /// If a buffer is shorter than the expansion's layout.
-    pub(crate) fn advance(
-        &self,
-        q: &[f64],
-        v: &[f64],
-        h: f64,
-        y: &[f64],
-        lost: &mut [f64],
-        y_new: &mut [f64],
-    ) -> bool {
-        let (n, w) = (self.dof, self.order + 1);
-        assert!(
-            q.len() >= n * (w + 1)
-                && v.len() >= n * (w + 1)
-                && y.len() >= 2 * n
-                && lost.len() >= 2 * n
-                && y_new.len() >= 2 * n,
-            "buffers too short for a step of {n} coordinates to order {}",
-            self.order
-        );
-        // SAFETY: the code reads q and q̇ entries below n·(w + 1) and y entries below 2n, and
-        // reads and writes `lost` and `y_new` entries below 2n, all inside the buffers by the
-        // assert; `self` keeps the code alive.
-        let finite = unsafe {
-            (self.code.entry().advance)(
-                q.as_ptr(),
-                v.as_ptr(),
-                h,
-                y.as_ptr(),
-                lost.as_mut_ptr(),
-                y_new.as_mut_ptr(),
-            )
-        };
-        finite != 0
+        Status::from_code(code)
     }
 }
 
-/// Generate, compile and link [`ExpansionKernel::norms`] for n coordinates to order p: for each
-/// component i of y = (q, q̇), sᵢ = ε / (atol + rtol |yᵢ|), and the largest |xₚ₋₁,ᵢ| sᵢ and
-/// |xₚ,ᵢ| sᵢ, in the order and with the operations of the loop of `Expansion::norms`.
-fn define_norms(module: &mut JITModule, n: usize, order: usize) -> Result<NormsEntry> {
-    let config = module.target_config();
-    let ptr = config.pointer_type();
-    let (id, mut ctx) = declare(module, "norms", &[ptr; 5])?;
-    let mut fctx = FunctionBuilderContext::new();
-    {
-        let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
-        let p = enter(&mut b);
-        let (qp, vp, yp, tol, out) = (p[0], p[1], p[2], p[3], p[4]);
-        let mut g = Gen::new(b, qp, Ix::Fixed(order + 1), None);
-        let (rtol, atol, eps) = (g.load_at(tol, 0), g.load_at(tol, 1), g.load_at(tol, 2));
-        let zero = g.f64(0.0);
-        let (mut below, mut top) = (zero, zero);
-        for (half, base) in [(0, qp), (1, vp)] {
-            for i in 0..n {
-                let y = g.load_at(yp, half * n + i);
-                let y = g.b.ins().fabs(y);
-                let d = g.b.ins().fmul(rtol, y);
-                let d = g.b.ins().fadd(atol, d);
-                let scale = g.b.ins().fdiv(eps, d);
-                for (k, norm) in [(order - 1, &mut below), (order, &mut top)] {
-                    let x = g.load_at(base, k * n + i);
-                    let x = g.b.ins().fabs(x);
-                    let x = g.b.ins().fmul(x, scale);
-                    *norm = g.max(*norm, x);
-                }
-            }
-        }
-        g.store_at(out, 0, below);
-        g.store_at(out, 1, top);
-        g.b.ins().return_(&[]);
-        g.b.finalize(config);
-    }
-    let code = link(module, id, &mut ctx)?;
-    // SAFETY: `code` is the function just defined with the signature of `NormsEntry` in the
-    // host's default calling convention, which is `extern "C"`.
-    Ok(unsafe { std::mem::transmute::<*const u8, NormsEntry>(code) })
+/// A step's control, the state it starts from, the compensation (read and written) and the new
+/// state, as [`ExpansionKernel::step`] reads and writes them.
+pub(crate) struct Step<'a> {
+    pub control: &'a mut StepControl,
+    pub y: &'a [f64],
+    pub lost: &'a mut [f64],
+    pub y_new: &'a mut [f64],
 }
 
-/// Generate, compile and link [`ExpansionKernel::advance`] for n coordinates to order p: the
-/// increment Σₖ₌₁..ₚ (q, q̇)ₖ hᵏ of each component by Horner's rule (the 2n sums side by side),
-/// added to y with Kahan's compensation, as `Expansion::advance` computes it; the result is
-/// nonzero when every new value is finite (Σᵢ (yᵢ − yᵢ) is 0 then, NaN otherwise).
-fn define_advance(module: &mut JITModule, n: usize, order: usize) -> Result<AdvanceEntry> {
-    let config = module.target_config();
-    let ptr = config.pointer_type();
-    let (id, mut ctx) = declare(module, "advance", &[ptr, ptr, types::F64, ptr, ptr, ptr])?;
-    ctx.func.signature.returns.push(AbiParam::new(types::I32));
-    let mut fctx = FunctionBuilderContext::new();
-    {
-        let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
-        let p = enter(&mut b);
-        let (qp, vp, h, yp, lostp, newp) = (p[0], p[1], p[2], p[3], p[4], p[5]);
-        let mut g = Gen::new(b, qp, Ix::Fixed(order + 1), None);
-        let components: Vec<(Value, usize)> = (0..n)
-            .map(|i| (qp, i))
-            .chain((0..n).map(|i| (vp, i)))
-            .collect();
-        let mut sums: Vec<Value> = components
-            .iter()
-            .map(|&(base, i)| g.load_at(base, order * n + i))
-            .collect();
-        for k in (1..order).rev() {
-            for (sum, &(base, i)) in sums.iter_mut().zip(&components) {
-                let c = g.load_at(base, k * n + i);
-                let x = g.b.ins().fmul(*sum, h);
-                *sum = g.b.ins().fadd(x, c);
-            }
-        }
-        let mut check = g.f64(0.0);
-        for (j, sum) in sums.into_iter().enumerate() {
-            let increment = g.b.ins().fmul(sum, h);
-            let (y, lost) = (g.load_at(yp, j), g.load_at(lostp, j));
-            let increment = g.b.ins().fsub(increment, lost);
-            let new = g.b.ins().fadd(y, increment);
-            let moved = g.b.ins().fsub(new, y);
-            let lost = g.b.ins().fsub(moved, increment);
-            g.store_at(newp, j, new);
-            g.store_at(lostp, j, lost);
-            let nothing = g.b.ins().fsub(new, new);
-            check = g.b.ins().fadd(check, nothing);
-        }
-        let finite = g.b.ins().fcmp(condcodes::FloatCC::Equal, check, check);
-        let finite = g.b.ins().uextend(types::I32, finite);
-        g.b.ins().return_(&[finite]);
-        g.b.finalize(config);
-    }
-    let code = link(module, id, &mut ctx)?;
-    // SAFETY: `code` is the function just defined with the signature of `AdvanceEntry` in the
-    // host's default calling convention, which is `extern "C"`.
-    Ok(unsafe { std::mem::transmute::<*const u8, AdvanceEntry>(code) })
+/// The work space of an expansion, as [`ExpansionKernel::run`] reads and writes it.
+pub(crate) struct Buffers<'a> {
+    pub table: &'a mut [f64],
+    pub q: &'a mut [f64],
+    pub v: &'a mut [f64],
+    pub qdd: &'a mut [f64],
+    pub m0: &'a [f64],
+    pub reversed: &'a mut [f64],
 }
 
 /// Generate, compile and link order 0 of the expansion: the leaves' rows, then `order0`'s
@@ -520,7 +485,7 @@ fn define_order0(
 ) -> Result<Order0Entry> {
     let config = module.target_config();
     let ptr = config.pointer_type();
-    let (id, mut ctx) = declare(module, "order0", &[ptr; 3])?;
+    let (id, mut ctx) = declare(module, "order0", &[ptr; 5])?;
     // The maths library's functions order 0 calls, imported.
     let mut names: Vec<&'static str> = program
         .order0
@@ -549,13 +514,14 @@ fn define_order0(
     {
         let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
         let p = enter(&mut b);
-        let (table, qp, vp) = (p[0], p[1], p[2]);
+        let (table, q0, qd0, qp, vp) = (p[0], p[1], p[2], p[3], p[4]);
         let mut g = Gen::new(b, table, Ix::Fixed(order + 1), None);
         g.libm = imports;
-        for (base, leaf) in [(qp, &program.coords), (vp, &program.velocities)] {
+        for (from, to, leaf) in [(q0, qp, &program.coords), (qd0, vp, &program.velocities)] {
             for (i, r) in leaf.iter().enumerate() {
+                let x = g.load_at(from, i);
+                g.store_at(to, i, x);
                 if let Some(r) = *r {
-                    let x = g.load_at(base, i);
                     g.store(r, Ix::Fixed(0), x);
                 }
             }
@@ -572,8 +538,8 @@ fn define_order0(
     Ok(unsafe { std::mem::transmute::<*const u8, Order0Entry>(code) })
 }
 
-/// Generate, compile and link the unrolled expansion; also the length of the buffer of reversed
-/// rows it needs ([`Gen::mirror`]).
+/// Generate, compile and link the unrolled expansion and step; also the length of the buffer of
+/// reversed rows it needs ([`Gen::mirror`]).
 fn define_expansion(
     module: &mut JITModule,
     program: &TaylorProgram,
@@ -581,15 +547,26 @@ fn define_expansion(
 ) -> Result<(ExpansionEntry, usize)> {
     let config = module.target_config();
     let ptr = config.pointer_type();
-    let (id, mut ctx) = declare(module, "expansion", &[ptr; 6])?;
+    let (id, mut ctx) = declare(module, "expansion", &[ptr; 10])?;
     ctx.func.signature.returns.push(AbiParam::new(types::I32));
+    // The step size is a logarithm and an exponential away from the last coefficients.
+    let mut libm = Vec::new();
+    for name in ["lagrangian_ln", "lagrangian_exp"] {
+        let mut sig = module.make_signature();
+        sig.params.push(AbiParam::new(types::F64));
+        sig.returns.push(AbiParam::new(types::F64));
+        let f = module
+            .declare_function(name, Linkage::Import, &sig)
+            .map_err(fail)?;
+        libm.push((name, module.declare_func_in_func(f, &mut ctx.func)));
+    }
     // A first pass, never compiled, finds the series the two-lane sums read backwards, so that
     // the second makes their mirrors at order 0, long before the first such read (made at the
     // first read, the copies were still on their way to memory when the loads came, and each
     // load waited for them).
     let mut first_pass = ctx.func.clone();
-    let backwards = emit_expansion(&mut first_pass, config, program, order, &[]);
-    let backwards = emit_expansion(&mut ctx.func, config, program, order, &backwards);
+    let backwards = emit_expansion(&mut first_pass, config, program, order, &libm, &[]);
+    let backwards = emit_expansion(&mut ctx.func, config, program, order, &libm, &backwards);
     let reversed_len = backwards.len() * (order + 1);
     let code = link(module, id, &mut ctx)?;
     // SAFETY: `code` is the function just defined with the signature of `ExpansionEntry` in the
@@ -598,15 +575,17 @@ fn define_expansion(
     Ok((entry, reversed_len))
 }
 
-/// The unrolled expansion's code, in `func`; the series mirrored backwards ([`Gen::mirror`]),
-/// in the order of their slots, each with whether the code computes its coefficients beyond 0
-/// (not so for t and the rows fixed at order 0). `backwards` are made at order 0 (the rest where
-/// first read): their coefficient 0, or every coefficient of a series the code does not compute.
+/// The unrolled expansion and step's code, in `func`; the series mirrored backwards
+/// ([`Gen::mirror`]), in the order of their slots, each with whether the code computes its
+/// coefficients beyond 0 (not so for t and the rows fixed at order 0). `backwards` are made at
+/// order 0 (the rest where first read): their coefficient 0, or every coefficient of a series
+/// the code does not compute.
 fn emit_expansion(
     func: &mut cranelift_codegen::ir::Function,
     config: cranelift_codegen::isa::TargetFrontendConfig,
     program: &TaylorProgram,
     order: usize,
+    libm: &[(&'static str, FuncRef)],
     backwards: &[(Operand, bool)],
 ) -> Vec<(Operand, bool)> {
     let mut fctx = FunctionBuilderContext::new();
@@ -614,8 +593,10 @@ fn emit_expansion(
         let mut b = FunctionBuilder::new(func, &mut fctx);
         let p = enter(&mut b);
         let (table, qp, vp, qddp, m0p, rev) = (p[0], p[1], p[2], p[3], p[4], p[5]);
+        let step = [p[6], p[7], p[8], p[9]];
         let (n, w) = (program.dof, order + 1);
         let mut g = Gen::new(b, table, Ix::Fixed(w), None);
+        g.libm = libm.to_vec();
         g.reversed = Some(rev);
         g.qdd = Some(qddp);
         for &(x, computed) in backwards {
@@ -709,9 +690,7 @@ fn emit_expansion(
                 g.store_at(vp, (k + 1) * n + i, vn);
             }
         }
-        let finite = g.b.ins().fcmp(condcodes::FloatCC::Equal, check, check);
-        let finite = g.b.ins().uextend(types::I32, finite);
-        g.b.ins().return_(&[finite]);
+        g.finish_step(check, step, (qp, vp), n, order);
         let mut slots: Vec<(Operand, usize)> = g.slots.into_iter().collect();
         slots.sort_by_key(|&(_, slot)| slot);
         g.b.finalize(config);
@@ -1111,6 +1090,165 @@ impl<'a> Gen<'a> {
         if self.straight {
             self.memory.insert((base, off), v);
         }
+    }
+
+    /// The end of the unrolled expansion: the status [`Status::Coefficient`] when `check` (the
+    /// sum of q̈ₖ − q̈ₖ) is not 0, else [`Status::Expanded`] without a step control (a null
+    /// `control`), else the step `Expansion::step` takes, with its operations in its order:
+    /// the norms of `Expansion::norms`, Jorba and Zou's step size, the floor and the end of the
+    /// span, then `Expansion::advance` from y into `y_new` and `lost`.
+    fn finish_step(
+        &mut self,
+        check: Value,
+        [control, yp, lostp, newp]: [Value; 4],
+        (qp, vp): (Value, Value),
+        n: usize,
+        order: usize,
+    ) {
+        use std::mem::offset_of;
+        let status = |g: &mut Self, s: Status| g.b.ins().iconst(types::I32, s as i64);
+        let done = self.b.create_block();
+        self.b.append_block_param(done, types::I32);
+        // A coefficient that is not finite, or the expansion alone.
+        let finite = self.b.ins().fcmp(condcodes::FloatCC::Equal, check, check);
+        let (expanded, stepping) = (self.b.create_block(), self.b.create_block());
+        let failed = status(self, Status::Coefficient);
+        self.b
+            .ins()
+            .brif(finite, expanded, &[], done, &[BlockArg::Value(failed)]);
+        self.b.switch_to_block(expanded);
+        self.b.seal_block(expanded);
+        let alone = status(self, Status::Expanded);
+        self.b
+            .ins()
+            .brif(control, stepping, &[], done, &[BlockArg::Value(alone)]);
+        self.b.switch_to_block(stepping);
+        self.b.seal_block(stepping);
+        let field = |offset: usize| Self::offset(offset / 8);
+        let get = |g: &mut Self, offset: usize| g.load_from(control, field(offset));
+        let t = get(self, offset_of!(StepControl, t));
+        let rtol = get(self, offset_of!(StepControl, rtol));
+        let atol = get(self, offset_of!(StepControl, atol));
+        let h_max = get(self, offset_of!(StepControl, h_max));
+        let min_step = get(self, offset_of!(StepControl, min_step));
+        let t_end = get(self, offset_of!(StepControl, t_end));
+        let dir = get(self, offset_of!(StepControl, dir));
+        // The norms: each component's coefficients p − 1 and p over its tolerance.
+        let eps = self.min(rtol, atol);
+        let zero = self.f64(0.0);
+        let (mut below, mut top) = (zero, zero);
+        for (half, base) in [(0, qp), (1, vp)] {
+            for i in 0..n {
+                let y = self.load_at(yp, half * n + i);
+                let y = self.b.ins().fabs(y);
+                let d = self.b.ins().fmul(rtol, y);
+                let d = self.b.ins().fadd(atol, d);
+                let scale = self.b.ins().fdiv(eps, d);
+                for (k, norm) in [(order - 1, &mut below), (order, &mut top)] {
+                    let x = self.load_at(base, k * n + i);
+                    let x = self.b.ins().fabs(x);
+                    let x = self.b.ins().fmul(x, scale);
+                    *norm = self.max(*norm, x);
+                }
+            }
+        }
+        // h = exp(min(−ln ‖xₚ₋₁‖ / (p − 1), −ln ‖xₚ‖ / p) − 2 − 0.7 / (p − 1)), at most h_max.
+        let (p1, p) = ((order - 1) as f64, order as f64);
+        let rho = [(below, p1), (top, p)].map(|(norm, d)| {
+            let ln = self.call("lagrangian_ln", &[norm]);
+            let ln = self.b.ins().fneg(ln);
+            let d = self.f64(d);
+            self.b.ins().fdiv(ln, d)
+        });
+        let ln_rho = self.min(rho[0], rho[1]);
+        let two = self.f64(2.0);
+        let x = self.b.ins().fsub(ln_rho, two);
+        let c = self.f64(0.7 / p1);
+        let x = self.b.ins().fsub(x, c);
+        let h = self.call("lagrangian_exp", &[x]);
+        let h = self.min(h, h_max);
+        // Above the floor max(min_step, 10 ε |t|), or refused.
+        let tiny = self.f64(10.0 * f64::EPSILON);
+        let at = self.b.ins().fabs(t);
+        let at = self.b.ins().fmul(tiny, at);
+        let floor = self.max(min_step, at);
+        let above = self.b.ins().fcmp(condcodes::FloatCC::GreaterThan, h, floor);
+        let (ahead, refused) = (self.b.create_block(), self.b.create_block());
+        self.b.ins().brif(above, ahead, &[], refused, &[]);
+        self.b.switch_to_block(refused);
+        self.b.seal_block(refused);
+        let at_h = field(offset_of!(StepControl, h));
+        self.b.ins().store(Self::flags(), h, control, at_h);
+        let s = status(self, Status::TooSmall);
+        self.b.ins().jump(done, &[BlockArg::Value(s)]);
+        self.b.switch_to_block(ahead);
+        self.b.seal_block(ahead);
+        // The last step ends on t_end: (t + dir 1.01 h − t_end) dir ≥ 0.
+        let onward = self.f64(1.01);
+        let x = self.b.ins().fmul(dir, onward);
+        let x = self.b.ins().fmul(x, h);
+        let x = self.b.ins().fadd(t, x);
+        let x = self.b.ins().fsub(x, t_end);
+        let x = self.b.ins().fmul(x, dir);
+        let last = self
+            .b
+            .ins()
+            .fcmp(condcodes::FloatCC::GreaterThanOrEqual, x, zero);
+        let x = self.b.ins().fmul(dir, h);
+        let x = self.b.ins().fadd(t, x);
+        let t_new = self.b.ins().select(last, t_end, x);
+        let at_t_new = field(offset_of!(StepControl, t_new));
+        self.b.ins().store(Self::flags(), t_new, control, at_t_new);
+        let h = self.b.ins().fsub(t_new, t);
+        // y + Σₖ₌₁..ₚ (q, q̇)ₖ hᵏ, the 2n sums of Horner's rule side by side, with Kahan's
+        // compensation; Σ (yᵢ − yᵢ) is 0 when every new value is finite.
+        let components: Vec<(Value, usize)> = (0..n)
+            .map(|i| (qp, i))
+            .chain((0..n).map(|i| (vp, i)))
+            .collect();
+        let mut sums: Vec<Value> = components
+            .iter()
+            .map(|&(base, i)| self.load_at(base, order * n + i))
+            .collect();
+        for k in (1..order).rev() {
+            for (sum, &(base, i)) in sums.iter_mut().zip(&components) {
+                let c = self.load_at(base, k * n + i);
+                let x = self.b.ins().fmul(*sum, h);
+                *sum = self.b.ins().fadd(x, c);
+            }
+        }
+        let mut check = zero;
+        for (j, sum) in sums.into_iter().enumerate() {
+            let increment = self.b.ins().fmul(sum, h);
+            let (y, lost) = (self.load_at(yp, j), self.load_at(lostp, j));
+            let increment = self.b.ins().fsub(increment, lost);
+            let new = self.b.ins().fadd(y, increment);
+            let moved = self.b.ins().fsub(new, y);
+            let lost = self.b.ins().fsub(moved, increment);
+            self.store_at(newp, j, new);
+            self.store_at(lostp, j, lost);
+            let nothing = self.b.ins().fsub(new, new);
+            check = self.b.ins().fadd(check, nothing);
+        }
+        let finite = self.b.ins().fcmp(condcodes::FloatCC::Equal, check, check);
+        let (step, last_step, state) = (
+            status(self, Status::Step),
+            status(self, Status::Last),
+            status(self, Status::State),
+        );
+        let taken = self.b.ins().select(last, last_step, step);
+        let s = self.b.ins().select(finite, taken, state);
+        self.b.ins().jump(done, &[BlockArg::Value(s)]);
+        self.b.switch_to_block(done);
+        self.b.seal_block(done);
+        let s = self.b.block_params(done)[0];
+        self.b.ins().return_(&[s]);
+    }
+
+    /// `f64::min(a, b)` for a and b that are not NaN: b where b < a, else a.
+    fn min(&mut self, a: Value, b: Value) -> Value {
+        let less = self.b.ins().fcmp(condcodes::FloatCC::LessThan, b, a);
+        self.b.ins().select(less, b, a)
     }
 
     /// `f64::max(m, x)` for an m that is not NaN: x where x > m, else m (so a NaN x is passed

@@ -9,7 +9,8 @@
 //! `src/tape/native.rs`; here the whole path — derivation, compilation, the LDLᵀ tail — is.
 
 use lagrangian::tape::{
-    Binary, Energies, EnergyModel, EomFunction, EomProgram, Function, Graph, Inputs, Tape, Unary,
+    Binary, Energies, EnergyModel, EomFunction, EomProgram, Function, Graph, Inputs, StepRule,
+    Tape, Unary,
 };
 use lagrangian::{Dynamics, Result};
 use std::sync::Arc;
@@ -411,7 +412,7 @@ fn compiled_eom_matches_energy_route_on_random_models() {
 #[test]
 fn taylor_kernel_matches_interpreter_on_random_models() {
     let mut rng = Rng(0x7a11_0516);
-    let (mut expanded, mut failed, mut unrolled) = (0, 0, 0);
+    let (mut expanded, mut failed, mut unrolled, mut stepped) = (0, 0, 0, 0);
     for case in 0..150 {
         let model = random_model(&mut rng, case % 2 == 0);
         let program = model.program();
@@ -451,33 +452,45 @@ fn taylor_kernel_matches_interpreter_on_random_models() {
                     assert!(same(*u, *v), "case {case}, order {k}: {u} against {v}");
                 }
             }
-            // A Taylor step from there: the norms its size is chosen from, and the new state
-            // with its compensation (compiled with the unrolled expansion).
+            // A Taylor step from there (one call of machine code once unrolled): the time it
+            // reaches, the new state and its compensation, or the error, alike.
             let state = [q.as_slice(), qd.as_slice()].concat();
-            let (rtol, atol) = (10f64.powf(-rng.uniform(3.0, 15.0)), 1e-12);
-            let (na, nb) = (x.norms(&state, rtol, atol), y.norms(&state, rtol, atol));
-            assert!(
-                same(na.0, nb.0) && same(na.1, nb.1),
-                "case {case}: {na:?} {nb:?}"
-            );
-            let h = rng.uniform(-0.3, 0.3);
+            let tol = 10f64.powf(-rng.uniform(3.0, 15.0));
+            let rule = StepRule {
+                rtol: tol,
+                atol: tol * rng.uniform(0.5, 2.0),
+                h_max: rng.uniform(0.01, 2.0),
+                min_step: 0.0,
+                t_end: t + rng.uniform(-1.0, 1.0),
+                dir: if rng.below(2) == 0 { 1.0 } else { -1.0 },
+            };
             let lost: Vec<f64> = (0..2 * n).map(|_| rng.uniform(-1e-17, 1e-17)).collect();
             let (mut la, mut lb) = (lost.clone(), lost);
             let (mut ya, mut yb) = (vec![0.0; 2 * n], vec![0.0; 2 * n]);
-            let fa = x.advance(h, &state, &mut la, &mut ya);
-            let fb = y.advance(h, &state, &mut lb, &mut yb);
-            assert_eq!(fa, fb, "case {case}");
-            for (u, v) in ya.iter().zip(&yb).chain(la.iter().zip(&lb)) {
-                assert!(same(*u, *v), "case {case}, step of {h}: {u} against {v}");
+            let sa = x.step(t, &state, &rule, &mut la, &mut ya);
+            let sb = y.step(t, &state, &rule, &mut lb, &mut yb);
+            match (sa, sb) {
+                (Ok((ta, ea)), Ok((tb, eb))) => {
+                    assert!(
+                        same(ta, tb) && ea == eb,
+                        "case {case}: {ta} {ea} against {tb} {eb}"
+                    );
+                    for (u, v) in ya.iter().zip(&yb).chain(la.iter().zip(&lb)) {
+                        assert!(same(*u, *v), "case {case}, step to {ta}: {u} against {v}");
+                    }
+                    stepped += 1;
+                }
+                (a, b) => assert_eq!(format!("{a:?}"), format!("{b:?}"), "case {case}"),
             }
         }
     }
     println!(
-        "{expanded} expansions equal bit for bit, {failed} failing alike, {unrolled} unrolled"
+        "{expanded} expansions equal bit for bit, {failed} failing alike, {unrolled} unrolled, \
+         {stepped} steps alike"
     );
     assert!(
-        expanded >= 300 && failed >= 10 && unrolled >= 25,
-        "{expanded} {failed} {unrolled}"
+        expanded >= 300 && failed >= 10 && unrolled >= 25 && stepped >= 200,
+        "{expanded} {failed} {unrolled} {stepped}"
     );
 }
 
