@@ -785,10 +785,19 @@ class Model:
         # lists of numbers; `None` otherwise), else it is converted and checked here first.
         # The native call takes its arguments by position (no keyword dictionary to build and
         # parse: a short run's fixed cost is most of what it costs).
-        if not isinstance(method, str):
-            raise TypeError(f"method must be a string such as 'dop853', got {method!r}")
-        t0 = real("t0", t0)
-        rtol, atol = number("rtol", rtol), number("atol", atol)
+        if type(method) is not str:
+            if not isinstance(method, str):
+                raise TypeError(f"method must be a string such as 'dop853', got {method!r}")
+        # Finite floats pass at the cost of a comparison (x − x is 0 unless x is not finite);
+        # anything else goes through the checks, which raise or convert.
+        if type(t0) is not float or t0 - t0 != 0.0:
+            t0 = real("t0", t0)
+        if type(t_end) is not float or t_end - t_end != 0.0:
+            t_end = real("t_end", t_end)
+        if type(rtol) is not float:
+            rtol = number("rtol", rtol)
+        if type(atol) is not float:
+            atol = number("atol", atol)
         if dt is not None:
             dt = number("dt", dt)
         times = None
@@ -798,7 +807,9 @@ class Model:
                 raise ValueError(f"t_eval must be one-dimensional, got shape {times.shape}")
         if max_steps is not None:
             max_steps = integer("max_steps", max_steps)
-        every = None if output_every is None else integer("output_every", output_every)
+        every = output_every
+        if every is not None and type(every) is not int:
+            every = integer("output_every", every)
         event_names: Tuple[str, ...] = ()
         specs: List[Any] = []
         if events is not None and not isinstance(events, Event):
@@ -806,9 +817,8 @@ class Model:
         if events is not None:
             specs = event_specs(events, self._coordinates, self._parameters)[0]
             event_names = tuple(e.name for e in events)
-        if not isinstance(dense, bool):
+        if dense is not False and dense is not True:
             raise TypeError(f"dense must be True or False, got {dense!r}")
-        t_end = real("t_end", t_end)
         options = (t0, method, dt, rtol, atol, times, max_steps, every, specs, dense)
         native = self._native
         try:

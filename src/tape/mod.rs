@@ -101,5 +101,3 @@ pub use native::{NativeFunction, NativeTape};
 pub use particles::TapeParticles;
 pub use sensitivity::input_matrix;
 pub use taylor::{Expansion, MAX_TAYLOR_ORDER, StepRule, TaylorProgram};
-#[cfg(feature = "jit")]
-pub use taylor_native::set_variant;

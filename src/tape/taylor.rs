@@ -21,7 +21,7 @@
 //! interpreted here and compiled to machine code by `taylor_native.rs` (feature `jit`), with the
 //! same operations in the same order, so both give the same coefficients bit for bit.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::sync::Arc;
 #[cfg(feature = "jit")]
 use std::sync::OnceLock;
@@ -39,7 +39,7 @@ use crate::linalg;
 /// One recurrence: coefficient k of row `out` (and of its partner rows) from the coefficients
 /// of its operands up to k and its own below k. Rows hold series; row r's coefficient j is at
 /// `r·w + j`, w = order + 1.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub(crate) enum Op {
     /// aₖ.
     Copy { out: usize, a: usize },
@@ -273,6 +273,49 @@ impl Op {
             | Op::DivC { .. }
             | Op::Abs { .. }
             | Op::Sign { .. } => Vec::new(),
+        }
+    }
+
+    /// The rows this recurrence reads that others write (not its own rows).
+    fn operands(&self) -> Vec<usize> {
+        match *self {
+            Op::Copy { a, .. }
+            | Op::Neg { a, .. }
+            | Op::Exp { a, .. }
+            | Op::Ln { a, .. }
+            | Op::Sqrt { a, .. }
+            | Op::Abs { a, .. }
+            | Op::Sign { a, .. }
+            | Op::SinCos { a, .. }
+            | Op::Tan { a, .. } => vec![a],
+            Op::Recip { b, .. } => vec![b],
+            Op::Add { a, b, .. } | Op::Sub { a, b, .. } | Op::Mul { a, b, .. } => vec![a, b],
+            Op::Div { a, b, .. } => vec![a, b],
+            Op::Scale { a, c, .. } | Op::DivC { a, c, .. } => vec![a, c],
+            Op::Atan2 { y, x, .. } => vec![y, x],
+        }
+    }
+
+    /// The rows this recurrence writes.
+    fn outputs(&self) -> Vec<usize> {
+        match *self {
+            Op::SinCos { s, c, .. } => vec![s, c],
+            Op::Tan { out, w, .. } => vec![out, w],
+            Op::Atan2 { out, d, r, .. } => vec![out, d, r],
+            Op::Copy { out, .. }
+            | Op::Neg { out, .. }
+            | Op::Add { out, .. }
+            | Op::Sub { out, .. }
+            | Op::Scale { out, .. }
+            | Op::Mul { out, .. }
+            | Op::DivC { out, .. }
+            | Op::Div { out, .. }
+            | Op::Recip { out, .. }
+            | Op::Exp { out, .. }
+            | Op::Ln { out, .. }
+            | Op::Sqrt { out, .. }
+            | Op::Abs { out, .. }
+            | Op::Sign { out, .. } => vec![out],
         }
     }
 
@@ -510,6 +553,142 @@ impl Lowering {
     }
 }
 
+impl Lowering {
+    /// Take the negations off every order where that changes no bit: a negation −a read by a
+    /// sum or a difference becomes its sign (x + (−a) = x − a and x − (−a) = x + a exactly),
+    /// read by a scaling it moves onto the constant ((−a) c = a (−c) exactly, −c computed once
+    /// per binding); one left unread (and not M or f, which `outside` holds) is dropped. The
+    /// derivatives of energies are full of them (∂U/∂q of −m g l cos θ, the signs of eq. 55).
+    fn fold_negations(&mut self, outside: &HashSet<usize>) {
+        let negated: HashMap<usize, usize> = (self.order0.iter())
+            .filter_map(|op| match *op {
+                Op::Neg { out, a } => Some((out, a)),
+                _ => None,
+            })
+            .collect();
+        if negated.is_empty() {
+            return;
+        }
+        // The negated constants, as rows fixed at binding (of constants fixed at binding: not
+        // of a row set at order 0 by the state, sign(x)).
+        let state: HashSet<usize> = self.order0.iter().flat_map(Op::outputs).collect();
+        let mut minus: HashMap<usize, usize> = HashMap::new();
+        let mut rewrite = |op: Op, rows: &mut usize, fixed: &mut Vec<Op>| -> Op {
+            match op {
+                Op::Add { out, a, b } if negated.contains_key(&b) && a != b => Op::Sub {
+                    out,
+                    a,
+                    b: negated[&b],
+                },
+                Op::Add { out, a, b } if negated.contains_key(&a) && a != b => Op::Sub {
+                    out,
+                    a: b,
+                    b: negated[&a],
+                },
+                Op::Sub { out, a, b } if negated.contains_key(&b) && a != b => Op::Add {
+                    out,
+                    a,
+                    b: negated[&b],
+                },
+                Op::Scale { out, a, c } if negated.contains_key(&a) && !state.contains(&c) => {
+                    let c = *minus.entry(c).or_insert_with(|| {
+                        *rows += 1;
+                        fixed.push(Op::Neg {
+                            out: *rows - 1,
+                            a: c,
+                        });
+                        *rows - 1
+                    });
+                    Op::Scale {
+                        out,
+                        a: negated[&a],
+                        c,
+                    }
+                }
+                op => op,
+            }
+        };
+        // Each operation is in `order0`, and the ones that vary in `varying` too: rewritten
+        // alike, by their output.
+        let mut rewritten: HashMap<Op, Op> = HashMap::new();
+        for op in &mut self.order0 {
+            let new = rewrite(*op, &mut self.rows, &mut self.fixed);
+            rewritten.insert(*op, new);
+            *op = new;
+        }
+        for op in &mut self.varying {
+            *op = rewritten[op];
+        }
+        let read: HashSet<usize> = (self.order0.iter())
+            .flat_map(Op::operands)
+            .chain(outside.iter().copied())
+            .collect();
+        let unread = |op: &Op| matches!(op, Op::Neg { out, .. } if !read.contains(out));
+        self.order0.retain(|op| !unread(op));
+        self.varying.retain(|op| !unread(op));
+    }
+}
+
+impl Lowering {
+    /// Fold a scaling of a scaling read nowhere else, (x c₁) c₂, into one, x (c₁ c₂), with
+    /// c₁ c₂ a row fixed at binding (of constants fixed at binding): one operation fewer at every
+    /// order. The derivatives of quadratic energies are full of them (∂U/∂x of ½ k (x₂ − x₁)²
+    /// is (x₂ − x₁) 2 · ½ k). The products round once where they rounded twice: the
+    /// coefficients move by an ulp or so, as the same model stated in another order would.
+    fn fold_scalings(&mut self, outside: &HashSet<usize>) {
+        let state: HashSet<usize> = self.order0.iter().flat_map(Op::outputs).collect();
+        loop {
+            let mut reads: HashMap<usize, usize> = HashMap::new();
+            for r in self.order0.iter().flat_map(Op::operands) {
+                *reads.entry(r).or_insert(0) += 1;
+            }
+            let inner: HashMap<usize, (usize, usize)> = (self.order0.iter())
+                .filter_map(|op| match *op {
+                    Op::Scale { out, a, c }
+                        if reads.get(&out) == Some(&1)
+                            && !outside.contains(&out)
+                            && !state.contains(&c) =>
+                    {
+                        Some((out, (a, c)))
+                    }
+                    _ => None,
+                })
+                .collect();
+            // The first scaling of an inner one, folded.
+            let Some((at, outer)) = self
+                .order0
+                .iter()
+                .enumerate()
+                .find_map(|(i, op)| match *op {
+                    Op::Scale { out, a, c } if inner.contains_key(&a) && !state.contains(&c) => {
+                        Some((i, (out, a, c)))
+                    }
+                    _ => None,
+                })
+            else {
+                return;
+            };
+            let (out, s, c2) = outer;
+            let (x, c1) = inner[&s];
+            let c12 = self.row();
+            self.fixed.push(Op::Scale {
+                out: c12,
+                a: c1,
+                c: c2,
+            });
+            let old = self.order0[at];
+            let new = Op::Scale { out, a: x, c: c12 };
+            let gone = |op: &Op| matches!(op, Op::Scale { out, .. } if *out == s);
+            for list in [&mut self.order0, &mut self.varying] {
+                for op in list.iter_mut().filter(|op| **op == old) {
+                    *op = new;
+                }
+                list.retain(|op| !gone(op));
+            }
+        }
+    }
+}
+
 impl TaylorProgram {
     /// The nodes of `graph` that `eom`'s M and f read, lowered to recurrences.
     pub fn new(graph: &Graph, eom: &EomGraph) -> Self {
@@ -724,6 +903,10 @@ impl TaylorProgram {
             }
         }
         let mass: Vec<usize> = eom.mass.iter().map(|&o| row[o]).collect();
+        let force: Vec<usize> = eom.force.iter().map(|&o| row[o]).collect();
+        let outside: HashSet<usize> = mass.iter().chain(&force).copied().collect();
+        low.fold_negations(&outside);
+        low.fold_scalings(&outside);
         // Row of M(r, c) from the upper triangle, row by row.
         let upper = |r: usize, c: usize| {
             let (i, l) = if r <= c { (r, c) } else { (c, r) };
@@ -739,7 +922,7 @@ impl TaylorProgram {
             dof,
             rows: low.rows,
             mass_constant: mass.iter().all(|&r| reach[r] == Reach::Fixed),
-            force: eom.force.iter().map(|&o| row[o]).collect(),
+            force,
             fixed: low.fixed,
             order0: low.order0,
             varying: low.varying,

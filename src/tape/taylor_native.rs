@@ -37,17 +37,6 @@ use std::collections::{HashMap, HashSet};
 /// calls compile in a fraction of the time (the 32-link chain: 84 ms against 4.3 s).
 const INLINE_UP_TO: usize = 400;
 
-/// scratch: experiment switch.
-pub static VARIANT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-/// scratch
-pub fn set_variant(v: u32) {
-    VARIANT.store(v, std::sync::atomic::Ordering::Relaxed);
-}
-#[allow(dead_code)]
-fn variant() -> u32 {
-    VARIANT.load(std::sync::atomic::Ordering::Relaxed)
-}
-
 /// The compiled function: order k, row width w, the table.
 type Entry = unsafe extern "C" fn(i64, i64, *mut f64);
 
@@ -677,6 +666,7 @@ fn emit_expansion(
             // them, they ran the double pendulum 1.2× slower: the registers ran out); what the
             // next order starts from is forwarded.
             g.memory.clear();
+            g.weighted.clear();
             // q̈ₖ; qₖ₊₁ = q̇ₖ · 1/(k + 1), q̇ₖ₊₁ = q̈ₖ · 1/(k + 1).
             let next = g.f64(1.0 / (k + 1) as f64);
             for (i, &a) in rhs.iter().enumerate() {
@@ -752,6 +742,9 @@ struct Gen<'a> {
     slots: HashMap<Operand, usize>,
     /// The series whose coefficients beyond 0 the unrolled expansion computes.
     computed: HashSet<Operand>,
+    /// The weighted operands j aⱼ of this order's sums (a pair for two lanes, or one), by their
+    /// place in the table: sin and cos of one argument both weigh its coefficients, once.
+    weighted: HashMap<(Value, i32, bool), Value>,
     /// In the unrolled expansion, the rows whose coefficients are read at later orders: only
     /// those are stored at orders k ≥ 1 (the others are forwarded within their order).
     history: Option<HashSet<usize>>,
@@ -780,6 +773,7 @@ impl<'a> Gen<'a> {
             reversed: None,
             slots: HashMap::new(),
             computed: HashSet::new(),
+            weighted: HashMap::new(),
             history: None,
         }
     }
@@ -982,12 +976,25 @@ impl<'a> Gen<'a> {
 
     /// [j] aⱼ b_(kk − j), in straight-line code (1 · x is x, bit for bit).
     fn term(&mut self, a: Operand, b: Operand, j: usize, kk: usize, weighted: bool) -> Value {
-        let x = self.coefficient(a, j);
-        let x = if weighted && j != 1 {
-            let jf = self.f64(j as f64);
-            self.b.ins().fmul(jf, x)
-        } else {
-            x
+        let key = match (a, self.w) {
+            (Operand::Row(r), Ix::Fixed(w)) => Some((self.table, Self::offset(r * w + j), false)),
+            _ => None,
+        };
+        let x = match key.and_then(|key| self.weighted.get(&key)) {
+            Some(&x) if weighted && j != 1 => x,
+            _ => {
+                let x = self.coefficient(a, j);
+                if weighted && j != 1 {
+                    let jf = self.f64(j as f64);
+                    let x = self.b.ins().fmul(jf, x);
+                    if let Some(key) = key {
+                        self.weighted.insert(key, x);
+                    }
+                    x
+                } else {
+                    x
+                }
+            }
         };
         let y = self.coefficient(b, kk - j);
         self.b.ins().fmul(x, y)
@@ -1013,20 +1020,28 @@ impl<'a> Gen<'a> {
         let mut pair = [zeros; 2];
         let full = count / LANES * LANES;
         for i in (0..full).step_by(2) {
-            let x = self
-                .b
-                .ins()
-                .load(types::F64X2, flags, a_base, Self::offset(a_at + i));
-            let x = match weights {
-                Some(j0) => {
-                    let j = (j0 + i) as f64;
-                    let bytes: Vec<u8> =
-                        [j, j + 1.0].iter().flat_map(|x| x.to_le_bytes()).collect();
-                    let c = self.b.func.dfg.constants.insert(bytes.into());
-                    let j = self.b.ins().vconst(types::F64X2, c);
-                    self.b.ins().fmul(j, x)
+            let key = (a_base, Self::offset(a_at + i), true);
+            let x = match (weights, self.weighted.get(&key)) {
+                (Some(_), Some(&x)) => x,
+                _ => {
+                    let x = self
+                        .b
+                        .ins()
+                        .load(types::F64X2, flags, a_base, Self::offset(a_at + i));
+                    match weights {
+                        Some(j0) => {
+                            let j = (j0 + i) as f64;
+                            let bytes: Vec<u8> =
+                                [j, j + 1.0].iter().flat_map(|x| x.to_le_bytes()).collect();
+                            let c = self.b.func.dfg.constants.insert(bytes.into());
+                            let j = self.b.ins().vconst(types::F64X2, c);
+                            let x = self.b.ins().fmul(j, x);
+                            self.weighted.insert(key, x);
+                            x
+                        }
+                        None => x,
+                    }
                 }
-                None => x,
             };
             let y = self
                 .b
