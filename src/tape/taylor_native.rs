@@ -2,8 +2,8 @@
 //!
 //! - [`ExpansionKernel`]: for a small program, the whole expansion to one order p — every
 //!   order's recurrences, fₖ − Σⱼ Mⱼ q̈ₖ₋ⱼ, the solve with M₀ and the coefficients of q and q̇
-//!   — as straight-line code with every index a constant, compiled once per order a run asks
-//!   for.
+//!   — and the Taylor step from it, as straight-line code with every index a constant, its sums
+//!   in two-lane vectors, compiled once per order a run asks for.
 //! - [`SeriesKernel`]: for any program, coefficient k ≥ 1 of every row that varies, for any
 //!   order k and row width w given at the call. Each convolution is a loop in the code (small
 //!   programs) or a call of the interpreter's own sum (large ones, [`INLINE_UP_TO`]), so the
@@ -206,15 +206,16 @@ struct Entries {
 pub(crate) struct StepControl {
     /// The time of the state.
     pub t: f64,
+    /// The fields of `StepRule`.
     pub rtol: f64,
     pub atol: f64,
     pub h_max: f64,
     pub min_step: f64,
     pub t_end: f64,
-    /// ±1, the direction of integration.
     pub dir: f64,
-    /// Written: the time the step reaches, and the step size (the one refused as too small).
+    /// Written: the time the step reaches.
     pub t_new: f64,
+    /// Written: the step size refused as too small.
     pub h: f64,
 }
 
@@ -247,15 +248,17 @@ impl Status {
     }
 }
 
-/// The whole expansion of a small [`TaylorProgram`] to one order p as straight-line machine code,
-/// in two functions either side of the factorization of M₀ (which may fail, and is reported
-/// from Rust): order 0 of every row from q₀ and q̇₀ (the maths library's functions called as
-/// the interpreter calls them), then, given M₀ factored, orders k = 0, …, p − 1 of q̈ — the
-/// leaves' row coefficients, the recurrences, fₖ − Σⱼ Mⱼ q̈ₖ₋ⱼ, the LDLᵀ solve — and orders
-/// 1, …, p of q and q̇. Every index is a constant: no loop, no bound to test at run time. The
-/// operations and their order are those of `Expansion::expand` with the interpreter (the sums
-/// in the lanes of `conv`, the solve of `linalg::ldlt_solve`), so the coefficients are the same
-/// bits.
+/// The whole expansion of a small [`TaylorProgram`] to one order p, and the Taylor step from it,
+/// as straight-line machine code in two functions either side of the factorization of M₀
+/// (which may fail, and is reported from Rust): order 0 of every row from q₀ and q̇₀ (the maths
+/// library's functions called as the interpreter calls them), then, given M₀ factored, orders
+/// k = 0, …, p − 1 of q̈ — the leaves' row coefficients, the recurrences, fₖ − Σⱼ Mⱼ q̈ₖ₋ⱼ, the
+/// LDLᵀ solve — and orders 1, …, p of q and q̇, and with a [`StepControl`] the step of
+/// `Expansion::step` (its size from the last two orders, the new state). Every index is a
+/// constant: no loop, no bound to test at run time. The operations and their order are those of
+/// `Expansion::expand` and `Expansion::step` with the interpreter (the sums in the lanes of
+/// `conv`, two at a time in two-lane vectors; the solve of `linalg::ldlt_solve`), so the
+/// coefficients and the steps are the same bits.
 pub(crate) struct ExpansionKernel {
     code: Code<Entries>,
     rows: usize,
