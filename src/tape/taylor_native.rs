@@ -162,9 +162,11 @@ const UNROLL_UP_TO: usize = 100_000;
 
 /// Expansions to one order a program runs with [`SeriesKernel`] before its [`ExpansionKernel`]
 /// for that order is compiled: about the break-even, as compiling and the time it saves per
-/// expansion both grow with the program. Measured (2-core machine, release): the double
-/// pendulum at order 12 compiles in 19 ms and expands in 1.1 against 3.0 µs (break-even after
-/// 10 000 expansions), the 4-link chain at order 12 in 107 ms, 7.9 against 15.1 µs (15 000).
+/// expansion both grow with the program. Measured (2-core machine, release, 2026-11-27, at
+/// order 13): the double pendulum compiles in 16 ms and expands in 0.67 against 1.55 µs
+/// (break-even after 18 000 expansions), the 4-link chain in 150 ms, 4.8 against 13.8 µs
+/// (17 000), the forced two-mass in 3.2 ms, 0.13 against 0.68 µs (6 000), Kepler in 9.6 ms,
+/// 0.40 against 1.12 µs (13 000).
 /// Waiting for the break-even keeps a short run from paying for code it would not repay (at
 /// worst a run then costs about twice what the better choice in hindsight would have).
 pub(crate) const UNROLL_AFTER: usize = 10_000;
