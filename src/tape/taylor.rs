@@ -68,13 +68,17 @@ pub(crate) enum Op {
     /// s = sin a, c = cos a (`hyperbolic`: sinh, cosh): sₖ = Σⱼ₌₁..ₖ j aⱼ cₖ₋ⱼ / k and
     /// cₖ = ∓Σⱼ₌₁..ₖ j aⱼ sₖ₋ⱼ / k (− for sin and cos). When a is a polynomial in t of degree
     /// d (`degree`: ωt + φ, a forcing's phase, has d = 1), aⱼ = 0 beyond d and the sums stop
-    /// at j = min(k, d): each order costs O(d), not O(k).
+    /// at j = min(k, d): each order costs O(d), not O(k). When a′ is a row of its own (`da`: a
+    /// coordinate's is its velocity, θ₁ − θ₂'s is θ̇₁ − θ̇₂, ωt's is ω), the weights go: j aⱼ
+    /// is a′ⱼ₋₁, and sₖ = Σₘ₌₀..ₖ₋₁ a′ₘ cₖ₋₁₋ₘ / k, cₖ = ∓Σₘ a′ₘ sₖ₋₁₋ₘ / k, sums that read no
+    /// coefficient of order k at all.
     SinCos {
         s: usize,
         c: usize,
         a: usize,
         hyperbolic: bool,
         degree: Option<usize>,
+        da: Option<usize>,
     },
     /// t = tan a with w = 1 + t² (`hyperbolic`: tanh, w = 1 − t²): tₖ = Σⱼ₌₁..ₖ j aⱼ wₖ₋ⱼ / k,
     /// wₖ = ±Σⱼ₌₀..ₖ tⱼ tₖ₋ⱼ.
@@ -262,7 +266,7 @@ impl Op {
             Op::Div { out, b, .. } | Op::Recip { out, b } => vec![out, b],
             Op::Exp { out, a } | Op::Ln { out, a } => vec![out, a],
             Op::Sqrt { out, .. } => vec![out],
-            Op::SinCos { s, c, a, .. } => vec![s, c, a],
+            Op::SinCos { s, c, a, da, .. } => vec![s, c, da.unwrap_or(a)],
             Op::Tan { out, w, a, .. } => vec![out, w, a],
             Op::Atan2 { y, x, d, r, .. } => vec![y, x, d, r],
             Op::Copy { .. }
@@ -279,6 +283,9 @@ impl Op {
     /// The rows this recurrence reads that others write (not its own rows).
     fn operands(&self) -> Vec<usize> {
         match *self {
+            Op::SinCos {
+                a, da: Some(da), ..
+            } => vec![a, da],
             Op::Copy { a, .. }
             | Op::Neg { a, .. }
             | Op::Exp { a, .. }
@@ -384,6 +391,7 @@ impl Op {
                 a,
                 hyperbolic,
                 degree,
+                da,
             } => {
                 let (sv, cv) = if k == 0 {
                     let x = at(s, a, 0);
@@ -392,6 +400,11 @@ impl Op {
                     } else {
                         x.sin_cos()
                     }
+                } else if let Some(da) = da {
+                    let hi = degree.map_or(k - 1, |d| d.saturating_sub(1).min(k - 1));
+                    let sv = conv(s, w, da, cr, 0, hi, k - 1, k, false) * inv_k;
+                    let cv = conv(s, w, da, sr, 0, hi, k - 1, k, false) * inv_k;
+                    (sv, if hyperbolic { cv } else { -cv })
                 } else {
                     let hi = degree.map_or(k, |d| d.min(k));
                     let sv = conv(s, w, a, cr, 1, hi, k, k, true) * inv_k;
@@ -689,6 +702,118 @@ impl Lowering {
     }
 }
 
+/// The derivative of a node's series, as a row: d/dt of what it is ([`Derivatives::of`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Derivative {
+    /// Zero: a number or a parameter.
+    Zero,
+    Row(usize),
+}
+
+/// Rows for the derivatives a′ of the arguments of sin and cos where they are linear in the
+/// velocities and t, so that `Op::SinCos` sums a′ₘ instead of weighing j aⱼ (made during the
+/// lowering, whose state it borrows).
+struct Derivatives<'a> {
+    all: &'a [Node],
+    row: &'a [usize],
+    reach: &'a [Reach],
+    velocity_rows: &'a [Option<usize>],
+    low: &'a mut Lowering,
+    numbers: &'a mut Vec<(usize, f64)>,
+    velocities: &'a mut Vec<Option<usize>>,
+    done: &'a mut HashMap<usize, Option<(Derivative, Reach)>>,
+}
+
+impl Derivatives<'_> {
+    /// d/dt of node k's series and how far the derivative's series reaches: qᵢ′ is q̇ᵢ's row
+    /// (made, and written with the other velocities, if the graph reads none), t′ a row of 1,
+    /// a number's 0, and sums, differences, negations and products and quotients by constants
+    /// follow; `None` for anything else (its series has no row of its derivative).
+    fn of(&mut self, k: usize) -> Option<(Derivative, Reach)> {
+        if let Some(&known) = self.done.get(&k) {
+            return known;
+        }
+        // Fixed by the parameters (or, sign(x), by the state at order 0): nothing beyond order 0.
+        if self.reach[self.row[k]] != Reach::Varying {
+            return Some((Derivative::Zero, Reach::Fixed));
+        }
+        let fixed = |g: &Self, x: usize| g.reach[g.row[x]] != Reach::Varying;
+        let derivative = match self.all[k] {
+            Node::Const(_) | Node::Param(_) => Some((Derivative::Zero, Reach::Fixed)),
+            Node::Coord(i) => {
+                let r = match self.velocity_rows[i].or(self.velocities[i]) {
+                    Some(r) => r,
+                    None => {
+                        let r = self.low.row();
+                        self.velocities[i] = Some(r);
+                        r
+                    }
+                };
+                Some((Derivative::Row(r), Reach::Varying))
+            }
+            Node::Time => {
+                let r = self.low.row();
+                self.numbers.push((r, 1.0));
+                Some((Derivative::Row(r), Reach::Fixed))
+            }
+            Node::Unary(Unary::Neg, a) => match self.of(a)? {
+                (Derivative::Zero, reach) => Some((Derivative::Zero, reach)),
+                (Derivative::Row(a), reach) => Some(self.push(|out| Op::Neg { out, a }, reach)),
+            },
+            Node::Binary(f @ (Binary::Add | Binary::Sub), a, b) => {
+                match (self.of(a)?, self.of(b)?) {
+                    ((Derivative::Zero, _), (Derivative::Zero, _)) => {
+                        Some((Derivative::Zero, Reach::Fixed))
+                    }
+                    (x, (Derivative::Zero, _)) => Some(x),
+                    ((Derivative::Zero, _), (Derivative::Row(b), reach)) => match f {
+                        Binary::Add => Some((Derivative::Row(b), reach)),
+                        _ => Some(self.push(|out| Op::Neg { out, a: b }, reach)),
+                    },
+                    ((Derivative::Row(a), ra), (Derivative::Row(b), rb)) => {
+                        let reach = ra.max(rb);
+                        Some(match f {
+                            Binary::Add => self.push(|out| Op::Add { out, a, b }, reach),
+                            _ => self.push(|out| Op::Sub { out, a, b }, reach),
+                        })
+                    }
+                }
+            }
+            Node::Binary(Binary::Mul, a, b) if fixed(self, a) || fixed(self, b) => {
+                let (x, c) = if fixed(self, a) { (b, a) } else { (a, b) };
+                let c = self.row[c];
+                match self.of(x)? {
+                    (Derivative::Zero, reach) => Some((Derivative::Zero, reach)),
+                    (Derivative::Row(a), reach) => {
+                        let reach = reach.max(self.reach[c]);
+                        Some(self.push(|out| Op::Scale { out, a, c }, reach))
+                    }
+                }
+            }
+            Node::Binary(Binary::Div, a, b) if fixed(self, b) => {
+                let c = self.row[b];
+                match self.of(a)? {
+                    (Derivative::Zero, reach) => Some((Derivative::Zero, reach)),
+                    (Derivative::Row(a), reach) => {
+                        let reach = reach.max(self.reach[c]);
+                        Some(self.push(|out| Op::DivC { out, a, c }, reach))
+                    }
+                }
+            }
+            _ => None,
+        };
+        self.done.insert(k, derivative);
+        derivative
+    }
+
+    /// A new row computed by `op`, reaching as far as `reach`.
+    fn push(&mut self, op: impl FnOnce(usize) -> Op, reach: Reach) -> (Derivative, Reach) {
+        let out = self.low.row();
+        self.low.push(op(out), reach);
+        (Derivative::Row(out), reach)
+    }
+}
+
 impl TaylorProgram {
     /// The nodes of `graph` that `eom`'s M and f read, lowered to recurrences.
     pub fn new(graph: &Graph, eom: &EomGraph) -> Self {
@@ -727,6 +852,12 @@ impl TaylorProgram {
         let (mut numbers, mut params) = (Vec::new(), Vec::new());
         let (mut time, mut coords, mut velocities) = (None, vec![None; dof], vec![None; dof]);
         let mut reach = vec![Reach::Fixed; kept.len()];
+        // The rows of the velocities the graph reads, and the derivatives of the arguments of sin
+        // and cos made so far, by node.
+        let velocity_rows: Vec<Option<usize>> = (0..dof)
+            .map(|i| (kept.iter()).position(|&k| matches!(all[k], Node::Velocity(j) if j == i)))
+            .collect();
+        let mut derivatives: HashMap<usize, Option<(Derivative, Reach)>> = HashMap::new();
         // The degree of each node row's series when it is a polynomial in t (numbers 0, t 1),
         // None when it is not (the state's rows, and what they reach).
         let mut degree = vec![Some(0); kept.len()];
@@ -788,12 +919,27 @@ impl TaylorProgram {
                                 let partner = low.row();
                                 let (s, c) = if sine { (out, partner) } else { (partner, out) };
                                 trig.insert((a, hyperbolic), (s, c));
+                                let mut d = Derivatives {
+                                    all,
+                                    row: &row,
+                                    reach: &reach,
+                                    velocity_rows: &velocity_rows,
+                                    low: &mut low,
+                                    numbers: &mut numbers,
+                                    velocities: &mut velocities,
+                                    done: &mut derivatives,
+                                };
+                                let da = match d.of(kept[a]) {
+                                    Some((Derivative::Row(r), _)) => Some(r),
+                                    _ => None,
+                                };
                                 Op::SinCos {
                                     s,
                                     c,
                                     a,
                                     hyperbolic,
                                     degree: degree[a],
+                                    da,
                                 }
                             }
                         }

@@ -70,7 +70,7 @@ fn rows_of(op: &Op) -> Vec<usize> {
         | Op::Mul { out, a, b }
         | Op::Div { out, a, b } => vec![out, a, b],
         Op::Scale { out, a, c } | Op::DivC { out, a, c } => vec![out, a, c],
-        Op::SinCos { s, c, a, .. } => vec![s, c, a],
+        Op::SinCos { s, c, a, da, .. } => [s, c, a].into_iter().chain(da).collect(),
         Op::Tan { out, w, a, .. } => vec![out, w, a],
         Op::Atan2 { out, y, x, d, r } => vec![out, y, x, d, r],
     }
@@ -710,6 +710,8 @@ enum Top {
     Below,
     /// min(k, d): the sum over a polynomial of degree d (its last term reads order k while k ≤ d).
     Degree(usize),
+    /// min(k − 1, d): a sum over a polynomial of degree d up to k − 1.
+    BelowDegree(usize),
 }
 
 /// A series a sum reads: a row of the table, or coordinate c's q̈ (in the unrolled expansion).
@@ -1327,6 +1329,7 @@ impl<'a> Gen<'a> {
                 Top::K => k,
                 Top::Below => k - 1,
                 Top::Degree(d) => d.min(k),
+                Top::BelowDegree(d) => d.min(k - 1),
             };
             return self.sum(Operand::Row(a), Operand::Row(b), lo, hi, kk, weighted);
         }
@@ -1342,6 +1345,11 @@ impl<'a> Gen<'a> {
                     let d = self.b.ins().iconst(types::I64, d as i64);
                     self.b.ins().umin(k, d)
                 }
+                Top::BelowDegree(d) => {
+                    let km1 = self.b.ins().iadd_imm_s(k, -1);
+                    let d = self.b.ins().iconst(types::I64, d as i64);
+                    self.b.ins().umin(km1, d)
+                }
             };
             let (pa, pb) = (self.row(a), self.row(b));
             let lo = self.b.ins().iconst(types::I64, lo as i64);
@@ -1352,14 +1360,14 @@ impl<'a> Gen<'a> {
                 .call(conv_fn, &[pa, pb, lo, hi, kkv, k, weighted]);
             return self.b.inst_results(call)[0];
         }
-        // Orders k ≥ 1 here: the j = 0 term of a sum from 0 reads b_k (kk = k in every such
-        // sum), and the j = k term of a sum up to k reads a_k.
-        debug_assert!(lo > 0 || (kk == self.k && !weighted));
-        let first = lo == 0;
+        // Orders k ≥ 1 here: the j = 0 term of a sum from 0 with kk = k reads b_k, and the
+        // j = k term of a sum up to k reads a_k.
+        debug_assert!(lo > 0 || !weighted);
+        let first = lo == 0 && kk == self.k;
         let km1 = self.b.ins().iadd_imm_s(k, -1);
         let old_hi = match top {
             Top::K | Top::Below => km1,
-            Top::Degree(d) => {
+            Top::Degree(d) | Top::BelowDegree(d) => {
                 let d = self.b.ins().iconst(types::I64, d as i64);
                 self.b.ins().umin(km1, d)
             }
@@ -1696,12 +1704,28 @@ impl<'a> Gen<'a> {
                 a,
                 hyperbolic,
                 degree,
+                da,
             } => {
-                // j ≤ min(k, degree): a polynomial argument's series ends at its degree.
-                let top = degree.map_or(Top::K, Top::Degree);
-                let sv = self.conv(a, c, 1, top, k, true);
+                // j ≤ min(k, degree): a polynomial argument's series ends at its degree; with a′
+                // a row, Σₘ₌₀..ₖ₋₁ a′ₘ cₖ₋₁₋ₘ (up to its degree, one less).
+                let (sv, cv) = match da {
+                    Some(da) => {
+                        let top = degree.map_or(Top::Below, |d| Top::BelowDegree(d - 1));
+                        let km1 = self.km1();
+                        (
+                            self.conv(da, c, 0, top, km1, false),
+                            self.conv(da, s, 0, top, km1, false),
+                        )
+                    }
+                    None => {
+                        let top = degree.map_or(Top::K, Top::Degree);
+                        (
+                            self.conv(a, c, 1, top, k, true),
+                            self.conv(a, s, 1, top, k, true),
+                        )
+                    }
+                };
                 let sv = self.b.ins().fmul(sv, inv_k);
-                let cv = self.conv(a, s, 1, top, k, true);
                 let cv = self.b.ins().fmul(cv, inv_k);
                 let cv = if hyperbolic {
                     cv
