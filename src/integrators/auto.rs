@@ -127,10 +127,11 @@ pub(super) fn choose<S: Dynamics + ?Sized>(
 /// 2026-11-25 with the expansion's cheaper recurrences (which the instruction estimate follows):
 /// within about 35 %, and the choice the faster method in 45 of the 48 pairs; the other three
 /// keep DOP853 where Taylor was 1–34 % faster (Kepler at 1e-12 a tie). Re-measured on
-/// 2026-11-27 (the unrolled step, folded negations and scalings): the same 45 of 48, the three
-/// others keeping DOP853 where Taylor was 9–34 % faster (Kepler, the driven pivot and the
-/// elastic pendulum at 1e-12). Once compiled unrolled (after 10⁴ expansions, which this
-/// estimate never counts on) Taylor is 1.1–25× faster than DOP853 on the small models.
+/// 2026-11-27 (the unrolled step, folded negations and scalings, sin and cos summing their
+/// argument's derivative): 44–45 of 48 in two runs, the others keeping DOP853 where Taylor was
+/// 9–34 % faster (Kepler and the elastic pendulum at 1e-12 in both runs). Once compiled
+/// unrolled (after 10⁴ expansions, which this estimate never counts on) Taylor is 1.1–23×
+/// faster than DOP853 on the small models.
 struct TaylorEstimate {
     order: usize,
     /// Estimated nanoseconds per step.

@@ -163,10 +163,10 @@ const UNROLL_UP_TO: usize = 100_000;
 /// Expansions to one order a program runs with [`SeriesKernel`] before its [`ExpansionKernel`]
 /// for that order is compiled: about the break-even, as compiling and the time it saves per
 /// expansion both grow with the program. Measured (2-core machine, release, 2026-11-27, at
-/// order 13): the double pendulum compiles in 16 ms and expands in 0.67 against 1.55 µs
-/// (break-even after 18 000 expansions), the 4-link chain in 150 ms, 4.8 against 13.8 µs
-/// (17 000), the forced two-mass in 3.2 ms, 0.13 against 0.68 µs (6 000), Kepler in 9.6 ms,
-/// 0.40 against 1.12 µs (13 000).
+/// order 13): the double pendulum compiles in 16–22 ms and expands in 0.64–0.67 against
+/// 1.47–1.55 µs (break-even after 18 000–24 000 expansions), the 4-link chain in 0.15–0.25 s,
+/// 4.8 against 13.6–13.8 µs (17 000–24 000), the forced two-mass in 3.2–3.7 ms, 0.13 against
+/// 0.67 µs (6 000–6 500), Kepler in 10–14 ms, 0.40 against 1.12 µs (13 000–19 000).
 /// Waiting for the break-even keeps a short run from paying for code it would not repay (at
 /// worst a run then costs about twice what the better choice in hindsight would have).
 pub(crate) const UNROLL_AFTER: usize = 10_000;
