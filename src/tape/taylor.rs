@@ -309,6 +309,14 @@ impl Op {
             Op::SinCos { s, c, .. } => vec![s, c],
             Op::Tan { out, w, .. } => vec![out, w],
             Op::Atan2 { out, d, r, .. } => vec![out, d, r],
+            _ => vec![self.out()],
+        }
+    }
+
+    /// The row of this recurrence's value (sin's of `SinCos`, tan's of `Tan`).
+    fn out(&self) -> usize {
+        match *self {
+            Op::SinCos { s, .. } => s,
             Op::Copy { out, .. }
             | Op::Neg { out, .. }
             | Op::Add { out, .. }
@@ -322,7 +330,9 @@ impl Op {
             | Op::Ln { out, .. }
             | Op::Sqrt { out, .. }
             | Op::Abs { out, .. }
-            | Op::Sign { out, .. } => vec![out],
+            | Op::Sign { out, .. }
+            | Op::Tan { out, .. }
+            | Op::Atan2 { out, .. } => out,
         }
     }
 
@@ -463,25 +473,8 @@ impl Op {
                 }
             }
         };
-        let out = match *self {
-            Op::Copy { out, .. }
-            | Op::Neg { out, .. }
-            | Op::Add { out, .. }
-            | Op::Sub { out, .. }
-            | Op::Scale { out, .. }
-            | Op::Mul { out, .. }
-            | Op::DivC { out, .. }
-            | Op::Div { out, .. }
-            | Op::Recip { out, .. }
-            | Op::Exp { out, .. }
-            | Op::Ln { out, .. }
-            | Op::Sqrt { out, .. }
-            | Op::Abs { out, .. }
-            | Op::Sign { out, .. }
-            | Op::Atan2 { out, .. } => out,
-            Op::SinCos { .. } | Op::Tan { .. } => unreachable!("written above"),
-        };
-        s[out * w + k] = value;
+        // (SinCos and Tan write their two rows above.)
+        s[self.out() * w + k] = value;
     }
 }
 
@@ -1273,8 +1266,10 @@ impl TaylorProgram {
     }
 }
 
-/// What a Taylor step needs besides the expansion and the state ([`Expansion::step`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// What a Taylor step needs besides the expansion and the state ([`Expansion::step`]); the
+/// compiled step reads it at the offsets of this layout.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StepRule {
     /// The relative tolerance: the error is held to atol + rtol |yᵢ| per component.
     pub rtol: f64,
@@ -1479,12 +1474,7 @@ impl Expansion {
         {
             let mut control = StepControl {
                 t,
-                rtol: rule.rtol,
-                atol: rule.atol,
-                h_max: rule.h_max,
-                min_step: rule.min_step,
-                t_end: rule.t_end,
-                dir: rule.dir,
+                rule: *rule,
                 ..StepControl::default()
             };
             let step = Step {

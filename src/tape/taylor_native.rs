@@ -208,13 +208,7 @@ struct Entries {
 pub(crate) struct StepControl {
     /// The time of the state.
     pub t: f64,
-    /// The fields of `StepRule`.
-    pub rtol: f64,
-    pub atol: f64,
-    pub h_max: f64,
-    pub min_step: f64,
-    pub t_end: f64,
-    pub dir: f64,
+    pub rule: super::StepRule,
     /// Written: the time the step reaches.
     pub t_new: f64,
     /// Written: the step size refused as too small.
@@ -1149,12 +1143,12 @@ impl<'a> Gen<'a> {
         let field = |offset: usize| Self::offset(offset / 8);
         let get = |g: &mut Self, offset: usize| g.load_from(control, field(offset));
         let t = get(self, offset_of!(StepControl, t));
-        let rtol = get(self, offset_of!(StepControl, rtol));
-        let atol = get(self, offset_of!(StepControl, atol));
-        let h_max = get(self, offset_of!(StepControl, h_max));
-        let min_step = get(self, offset_of!(StepControl, min_step));
-        let t_end = get(self, offset_of!(StepControl, t_end));
-        let dir = get(self, offset_of!(StepControl, dir));
+        let rtol = get(self, offset_of!(StepControl, rule.rtol));
+        let atol = get(self, offset_of!(StepControl, rule.atol));
+        let h_max = get(self, offset_of!(StepControl, rule.h_max));
+        let min_step = get(self, offset_of!(StepControl, rule.min_step));
+        let t_end = get(self, offset_of!(StepControl, rule.t_end));
+        let dir = get(self, offset_of!(StepControl, rule.dir));
         // The norms: each component's coefficients p − 1 and p over its tolerance.
         let eps = self.min(rtol, atol);
         let zero = self.f64(0.0);

@@ -188,6 +188,17 @@ impl Model {
         EomProgram::new(&mut g, self.dof, self.params.len(), &self.parts).unwrap()
     }
 
+    /// The program bound to the parameters, compiled and interpreted; `None` when binding
+    /// fails (a parameter outside a function's domain).
+    fn bound_both_ways(&self) -> Option<(EomFunction, EomFunction)> {
+        let program = self.program();
+        let reference = program.clone().interpreted();
+        Some((
+            program.bind(&self.params).ok()?,
+            reference.bind(&self.params).ok()?,
+        ))
+    }
+
     /// The same energies through the tapes' dual-number passes.
     fn energy_model(&self) -> Result<EnergyModel> {
         let np = self.params.len();
@@ -415,11 +426,7 @@ fn taylor_kernel_matches_interpreter_on_random_models() {
     let (mut expanded, mut failed, mut unrolled, mut stepped) = (0, 0, 0, 0);
     for case in 0..150 {
         let model = random_model(&mut rng, case % 2 == 0);
-        let program = model.program();
-        let reference = program.clone().interpreted();
-        let (Ok(native), Ok(interpreted)) =
-            (program.bind(&model.params), reference.bind(&model.params))
-        else {
+        let Some((native, interpreted)) = model.bound_both_ways() else {
             continue;
         };
         let (a, params) = native.taylor();
@@ -503,11 +510,7 @@ fn unrolled_expansion_at_high_orders_matches_interpreter() {
     let (mut compared, mut cases) = (0, 0);
     while cases < 4 {
         let model = random_model(&mut rng, true);
-        let program = model.program();
-        let reference = program.clone().interpreted();
-        let (Ok(native), Ok(interpreted)) =
-            (program.bind(&model.params), reference.bind(&model.params))
-        else {
+        let Some((native, interpreted)) = model.bound_both_ways() else {
             continue;
         };
         cases += 1;
