@@ -376,6 +376,9 @@ pub(crate) struct Run<'a, S: ?Sized> {
     stop: Option<Stop>,
     /// A state buffer for the recorder's dense output.
     buf: Vec<f64>,
+    /// Whether a stepper may take several steps per call ([`Run::quiet_steps`]): in a whole
+    /// run, not when [`Solver::step`] hands them out one at a time.
+    batched: bool,
 }
 
 /// What follows an accepted step.
@@ -419,6 +422,16 @@ impl<S: Dynamics + ?Sized> Run<'_, S> {
         } else {
             self.t0 + (self.t_end - self.t0) * (i as f64 / steps as f64)
         }
+    }
+
+    /// How many steps a stepper may take before the next one it hands to [`Run::accept`]
+    /// (counting each with [`Recorder::skip`]): steps that nothing watches (no event searched,
+    /// no interpolant kept, no output recorded) in a whole run ([`Run::batched`]).
+    pub(crate) fn quiet_steps(&self) -> usize {
+        if !self.batched || self.events.active() || self.dense.is_some() {
+            return 0;
+        }
+        self.out.unkept_steps()
     }
 
     /// Whether the step ending at `t_new` needs its interpolant: a requested output time lies
@@ -619,6 +632,7 @@ fn solve_inner<'a, S: Dynamics + ?Sized>(
         interrupt,
         check_stability,
     )?;
+    solver.run.batched = true;
     loop {
         match solver.step() {
             Ok(StepOutcome::Finished | StepOutcome::Terminated { .. }) => {
@@ -777,6 +791,7 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
             dense: options.dense.then(|| Dense::new(2 * n, dir)),
             stop: None,
             buf: vec![0.0; 2 * n],
+            batched: false,
         };
         run.out.start(t0, &run.y0);
         run.events.start(t0, &run.y0)?;

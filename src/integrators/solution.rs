@@ -259,6 +259,31 @@ impl Recorder {
         }
     }
 
+    /// Steps to come that keep nothing: before the next one [`Output::Every`] keeps, or every
+    /// step but the last with [`Output::Final`] (a step that ends the run is kept regardless).
+    /// None with [`Output::Steps`] and [`Output::Times`] (whose steps are kept or searched for
+    /// the requested times).
+    pub(crate) fn unkept_steps(&self) -> usize {
+        match self.output {
+            Output::Every(k) => k - 1 - self.steps % k,
+            Output::Final => usize::MAX,
+            Output::Steps | Output::Times(_) => 0,
+        }
+    }
+
+    /// A step that keeps nothing ([`Recorder::unkept_steps`]) and is not the last, counted but
+    /// not recorded as the last accepted state: [`Recorder::reached`] records it when the run
+    /// fails before the next recorded step.
+    pub(crate) fn skip(&mut self) {
+        self.steps += 1;
+    }
+
+    /// The last accepted time and state y = (q, q̇), after steps [`Recorder::skip`] counted.
+    pub(crate) fn reached(&mut self, t: f64, y: &[f64]) {
+        self.last_t = t;
+        self.last_y.copy_from_slice(y);
+    }
+
     /// The last accepted time and state y = (q, q̇) (after a reset, the state after it).
     pub(crate) fn last(&self) -> (f64, &[f64]) {
         (self.last_t, &self.last_y)

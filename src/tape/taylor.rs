@@ -22,11 +22,11 @@
 //! same operations in the same order, so both give the same coefficients bit for bit.
 
 use std::collections::{HashMap, HashSet};
-use std::sync::Arc;
 #[cfg(feature = "jit")]
 use std::sync::OnceLock;
 #[cfg(feature = "jit")]
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
 
 use super::eom_program::EomGraph;
 use super::graph::{Binary, Graph, Node, Unary, sign};
@@ -520,6 +520,8 @@ pub struct TaylorProgram {
     expansions: Box<[AtomicUsize]>,
     #[cfg(feature = "jit")]
     allow_native: bool,
+    /// Work spaces of dropped expansions, for the next ones ([`Workspace`]).
+    spares: Mutex<Vec<Workspace>>,
 }
 
 /// How far a row's series reaches.
@@ -1080,6 +1082,7 @@ impl TaylorProgram {
                 .collect(),
             #[cfg(feature = "jit")]
             allow_native: true,
+            spares: Mutex::new(Vec::new()),
         }
     }
 
@@ -1113,6 +1116,7 @@ impl TaylorProgram {
             expansions: Box::new([]),
             #[cfg(feature = "jit")]
             allow_native: false,
+            spares: Mutex::new(Vec::new()),
         }
     }
 
@@ -1231,38 +1235,76 @@ impl TaylorProgram {
         false
     }
 
-    /// Work space for expansions up to `order` with these parameter values.
+    /// Work space for expansions up to `order` with these parameter values: a spare one when
+    /// an expansion to `order` was dropped before (rebound if its parameters differ).
     ///
     /// # Panics
     /// If `params` is shorter than the parameters the program reads.
     pub fn expansion(self: &Arc<Self>, params: &[f64], order: usize) -> Expansion {
-        let w = order + 1;
-        let mut series = vec![0.0; self.rows * w];
+        let same = |a: &[f64]| {
+            a.len() == params.len()
+                && a.iter()
+                    .zip(params)
+                    .all(|(x, y)| x.to_bits() == y.to_bits())
+        };
+        let spare = {
+            let mut spares = self.spares.lock().unwrap_or_else(|p| p.into_inner());
+            let at = (spares.iter())
+                .position(|w| w.order == order && same(&w.params))
+                .or_else(|| spares.iter().position(|w| w.order == order));
+            at.map(|i| spares.swap_remove(i))
+        };
+        let work = match spare {
+            Some(work) if same(&work.params) => work,
+            Some(mut work) => {
+                self.bind(&mut work, params);
+                work
+            }
+            None => {
+                let (n, w) = (self.dof, order + 1);
+                let mut work = Workspace {
+                    order,
+                    params: Vec::new(),
+                    series: vec![0.0; self.rows * w],
+                    q: vec![0.0; n * (w + 1)],
+                    v: vec![0.0; n * (w + 1)],
+                    m0: vec![0.0; n * n],
+                    m0_fixed: false,
+                    qdd: vec![0.0; n * w],
+                    rhs: vec![0.0; n],
+                    #[cfg(feature = "jit")]
+                    reversed: Vec::new(),
+                };
+                self.bind(&mut work, params);
+                work
+            }
+        };
+        Expansion {
+            program: self.clone(),
+            work,
+        }
+    }
+
+    /// Order 0 of the rows of the numbers and parameters and of those fixed by them (and t's
+    /// coefficient 1), into `work`'s table: no expansion writes them.
+    fn bind(&self, work: &mut Workspace, params: &[f64]) {
+        let w = work.order + 1;
+        let series = &mut work.series;
         for &(r, x) in &self.numbers {
             series[r * w] = x;
         }
         for &(r, p) in &self.params {
             series[r * w] = params[p];
         }
-        if let (Some(r), true) = (self.time, order >= 1) {
+        if let (Some(r), true) = (self.time, work.order >= 1) {
             series[r * w + 1] = 1.0;
         }
         for op in &self.fixed {
-            op.apply(&mut series, w, 0);
+            op.apply(series, w, 0);
         }
-        Expansion {
-            program: self.clone(),
-            order,
-            series,
-            q: vec![0.0; self.dof * (w + 1)],
-            v: vec![0.0; self.dof * (w + 1)],
-            m0: vec![0.0; self.dof * self.dof],
-            m0_fixed: false,
-            qdd: vec![0.0; self.dof * w],
-            rhs: vec![0.0; self.dof],
-            #[cfg(feature = "jit")]
-            reversed: Vec::new(),
-        }
+        work.params.clear();
+        work.params.extend_from_slice(params);
+        work.m0_fixed = false;
     }
 }
 
@@ -1289,7 +1331,17 @@ pub struct StepRule {
 #[derive(Debug, Clone)]
 pub struct Expansion {
     program: Arc<TaylorProgram>,
+    work: Workspace,
+}
+
+/// An expansion's buffers: back to its program's spares when the expansion is dropped, for the
+/// next one to the same order (a short run's fixed cost was mostly their allocation, zeroing
+/// and binding).
+#[derive(Debug, Clone, Default)]
+struct Workspace {
     order: usize,
+    /// The parameter values bound (order 0 of their rows and of the rows fixed by them).
+    params: Vec<f64>,
     /// The table of series: row r's coefficient k at `r * (order + 1) + k`.
     series: Vec<f64>,
     /// Coefficients of q and q̇: order k of coordinate i at `k * dof + i`, k = 0..=order.
@@ -1309,49 +1361,67 @@ pub struct Expansion {
     reversed: Vec<f64>,
 }
 
+/// Spare work spaces a program keeps at most (more than the threads of a parallel ensemble on
+/// most machines, few enough to bound the memory they hold).
+const SPARES: usize = 8;
+
+impl Drop for Expansion {
+    fn drop(&mut self) {
+        let work = std::mem::take(&mut self.work);
+        let mut spares = self
+            .program
+            .spares
+            .lock()
+            .unwrap_or_else(|p| p.into_inner());
+        if spares.len() < SPARES {
+            spares.push(work);
+        }
+    }
+}
+
 impl Expansion {
     /// The highest order computed.
     pub fn order(&self) -> usize {
-        self.order
+        self.work.order
     }
 
     /// Coefficient k of q (k = 0..=order).
     pub fn q(&self, k: usize) -> &[f64] {
         let n = self.program.dof;
-        &self.q[k * n..(k + 1) * n]
+        &self.work.q[k * n..(k + 1) * n]
     }
 
     /// Coefficient k of q̇ (k = 0..=order).
     pub fn qd(&self, k: usize) -> &[f64] {
         let n = self.program.dof;
-        &self.v[k * n..(k + 1) * n]
+        &self.work.v[k * n..(k + 1) * n]
     }
 
     /// Write coefficient k of q's and q̇'s rows.
     fn leaves(&mut self, k: usize) {
-        let (p, w, n) = (&self.program, self.order + 1, self.program.dof);
+        let (p, w, n) = (&self.program, self.work.order + 1, self.program.dof);
         for (i, r) in p.coords.iter().enumerate() {
             if let Some(r) = *r {
-                self.series[r * w + k] = self.q[k * n + i];
+                self.work.series[r * w + k] = self.work.q[k * n + i];
             }
         }
         for (i, r) in p.velocities.iter().enumerate() {
             if let Some(r) = *r {
-                self.series[r * w + k] = self.v[k * n + i];
+                self.work.series[r * w + k] = self.work.v[k * n + i];
             }
         }
     }
 
     /// Coefficient k ≥ 1 of every row that varies.
     fn recurrences(&mut self, k: usize) {
-        let w = self.order + 1;
+        let w = self.work.order + 1;
         #[cfg(feature = "jit")]
         if let Some(kernel) = self.program.kernel() {
-            kernel.run(&mut self.series, w, k);
+            kernel.run(&mut self.work.series, w, k);
             return;
         }
         for op in &self.program.varying {
-            op.apply(&mut self.series, w, k);
+            op.apply(&mut self.work.series, w, k);
         }
     }
 
@@ -1376,22 +1446,21 @@ impl Expansion {
     /// recurrences).
     fn expand_interpreted(&mut self, t0: f64, q0: &[f64], qd0: &[f64]) -> Result<()> {
         let n = self.program.dof;
-        let w = self.order + 1;
-        self.q[..n].copy_from_slice(q0);
-        self.v[..n].copy_from_slice(qd0);
+        let w = self.work.order + 1;
+        self.work.q[..n].copy_from_slice(q0);
+        self.work.v[..n].copy_from_slice(qd0);
         if let Some(r) = self.program.time {
             // t's coefficients beyond 0 are fixed at creation.
-            self.series[r * w] = t0;
+            self.work.series[r * w] = t0;
         }
         self.order0();
-        let Self {
-            program,
+        let Workspace {
             series,
             m0,
             m0_fixed,
             ..
-        } = self;
-        factor_m0(program, series, w, m0, m0_fixed, t0, q0)?;
+        } = &mut self.work;
+        factor_m0(&self.program, series, w, m0, m0_fixed, t0, q0)?;
         self.orders();
         self.check(t0)
     }
@@ -1409,15 +1478,18 @@ impl Expansion {
     ) -> Option<Result<Status>> {
         let Self {
             program,
-            order,
-            series,
-            q,
-            v,
-            m0,
-            m0_fixed,
-            qdd,
-            reversed,
-            ..
+            work:
+                Workspace {
+                    order,
+                    series,
+                    q,
+                    v,
+                    m0,
+                    m0_fixed,
+                    qdd,
+                    reversed,
+                    ..
+                },
         } = self;
         let kernel = program.unrolled(*order)?;
         let w = *order + 1;
@@ -1497,7 +1569,7 @@ impl Expansion {
             }
         }
         self.expand_interpreted(t, q0, qd0)?;
-        let p = self.order;
+        let p = self.work.order;
         let (below, top) = self.norms(y, rule.rtol, rule.atol);
         // ln ρ = min(−ln ‖xₚ₋₁‖ / (p − 1), −ln ‖xₚ‖ / p), and h = ρ e^(−2 − 0.7/(p−1)) as one
         // exponential (a zero norm gives ρ = ∞: a polynomial solution, capped by h_max).
@@ -1523,7 +1595,7 @@ impl Expansion {
 
     /// [`Error::NonFinite`] when a coefficient of q̈ is not finite.
     fn check(&self, t0: f64) -> Result<()> {
-        match self.qdd.iter().all(|x| x.is_finite()) {
+        match self.work.qdd.iter().all(|x| x.is_finite()) {
             true => Ok(()),
             false => Err(non_finite(t0)),
         }
@@ -1532,9 +1604,9 @@ impl Expansion {
     /// Order 0 of every row the state sets: what the unrolled kernel's order 0 computes.
     fn order0(&mut self) {
         self.leaves(0);
-        let w = self.order + 1;
+        let w = self.work.order + 1;
         for op in &self.program.order0 {
-            op.apply(&mut self.series, w, 0);
+            op.apply(&mut self.work.series, w, 0);
         }
     }
 
@@ -1543,33 +1615,33 @@ impl Expansion {
     /// order.
     fn orders(&mut self) {
         let program = self.program.clone();
-        let (n, w) = (program.dof, self.order + 1);
-        for k in 0..self.order {
+        let (n, w) = (program.dof, self.work.order + 1);
+        for k in 0..self.work.order {
             if k > 0 {
                 self.leaves(k);
                 self.recurrences(k);
             }
             // M₀ q̈ₖ = fₖ − Σ_c Σⱼ₌₁..ₖ M_rc,ⱼ q̈_c,ₖ₋ⱼ: a convolution per entry of M that varies.
             for r in 0..n {
-                let f = self.series[program.force[r] * w + k];
+                let f = self.work.series[program.force[r] * w + k];
                 let varying = &program.mass_varying[r * n..(r + 1) * n];
-                self.rhs[r] = if k > 0 && varying.contains(&true) {
+                self.work.rhs[r] = if k > 0 && varying.contains(&true) {
                     let mut s = 0.0;
                     for c in (0..n).filter(|&c| varying[c]) {
-                        let m = &self.series[program.mass_full[r * n + c] * w..][..w];
-                        s += conv_rows(m, &self.qdd[c * w..][..w], 1, k, k, k, false);
+                        let m = &self.work.series[program.mass_full[r * n + c] * w..][..w];
+                        s += conv_rows(m, &self.work.qdd[c * w..][..w], 1, k, k, k, false);
                     }
                     f - s
                 } else {
                     f
                 };
             }
-            linalg::ldlt_solve(&self.m0, n, &mut self.rhs);
+            linalg::ldlt_solve(&self.work.m0, n, &mut self.work.rhs);
             let next = 1.0 / (k + 1) as f64;
             for i in 0..n {
-                self.qdd[i * w + k] = self.rhs[i];
-                self.q[(k + 1) * n + i] = self.v[k * n + i] * next;
-                self.v[(k + 1) * n + i] = self.rhs[i] * next;
+                self.work.qdd[i * w + k] = self.work.rhs[i];
+                self.work.q[(k + 1) * n + i] = self.work.v[k * n + i] * next;
+                self.work.v[(k + 1) * n + i] = self.work.rhs[i] * next;
             }
         }
     }
@@ -1582,7 +1654,7 @@ impl Expansion {
     /// # Panics
     /// If `y` has fewer than 2 · dof entries.
     pub fn norms(&self, y: &[f64], rtol: f64, atol: f64) -> (f64, f64) {
-        let (n, p) = (self.program.dof, self.order);
+        let (n, p) = (self.program.dof, self.work.order);
         let eps = rtol.min(atol);
         let (mut below, mut top) = (0.0_f64, 0.0_f64);
         let (q, qd) = y[..2 * n].split_at(n);
@@ -1608,12 +1680,12 @@ impl Expansion {
     /// # Panics
     /// If a buffer has fewer than 2 · dof entries.
     pub fn advance(&self, h: f64, y: &[f64], lost: &mut [f64], y_new: &mut [f64]) -> bool {
-        let (n, p) = (self.program.dof, self.order);
+        let (n, p) = (self.program.dof, self.work.order);
         let coefficients = |k: usize, j: usize| {
             if j < n {
-                self.q[k * n + j]
+                self.work.q[k * n + j]
             } else {
-                self.v[k * n + j - n]
+                self.work.v[k * n + j - n]
             }
         };
         let mut finite = true;
@@ -1635,9 +1707,9 @@ impl Expansion {
         let n = self.program.dof;
         for i in 0..n {
             let (mut q, mut v) = (0.0, 0.0);
-            for k in (0..=self.order).rev() {
-                q = q * h + self.q[k * n + i];
-                v = v * h + self.v[k * n + i];
+            for k in (0..=self.work.order).rev() {
+                q = q * h + self.work.q[k * n + i];
+                v = v * h + self.work.v[k * n + i];
             }
             out[i] = q;
             out[n + i] = v;
@@ -1829,13 +1901,16 @@ mod tests {
         // The interpreter and the compiled expansion, unrolled, give the same bits.
         let mut interpreted = Arc::new(program.interpreted()).expansion(&[], order);
         interpreted.expand(t0, &[0.2], &[-0.1]).unwrap();
-        assert_eq!((&interpreted.q, &interpreted.v), (&e.q, &e.v));
+        assert_eq!(
+            (&interpreted.work.q, &interpreted.work.v),
+            (&e.work.q, &e.work.v)
+        );
         #[cfg(feature = "jit")]
         {
             assert!(program.unroll(order));
             let mut native = program.expansion(&[], order);
             native.expand(t0, &[0.2], &[-0.1]).unwrap();
-            assert_eq!((&native.q, &native.v), (&e.q, &e.v));
+            assert_eq!((&native.work.q, &native.work.v), (&e.work.q, &e.work.v));
         }
     }
 
@@ -1960,5 +2035,57 @@ mod tests {
             assert!((y[i] - q[i]).abs() < 1e-13, "{y:?} vs {q:?}");
             assert!((y[2 + i] - qd[i]).abs() < 1e-12, "{y:?} vs {qd:?}");
         }
+    }
+
+    /// A dropped expansion's work space serves the next one to its order, rebound when the
+    /// parameters differ: T = ½ m ẋ², U = ½ k x² from (1, 0) has x₂ = −k / 2m, and M = m is
+    /// factored once per binding (a stale factor would keep the old m).
+    #[test]
+    fn spare_work_spaces_are_rebound_to_new_parameters() {
+        let mut g = Graph::new();
+        let (x, v, half) = (g.coord(0), g.velocity(0), g.constant(0.5));
+        let (m, k) = (g.param(0), g.param(1));
+        let v2 = g.powi(v, 2).unwrap();
+        let x2 = g.powi(x, 2).unwrap();
+        let (mv2, kx2) = (
+            g.binary(Binary::Mul, m, v2).unwrap(),
+            g.binary(Binary::Mul, k, x2).unwrap(),
+        );
+        let parts = Energies {
+            kinetic: g.binary(Binary::Mul, half, mv2).unwrap(),
+            potential: Some(g.binary(Binary::Mul, half, kx2).unwrap()),
+            dissipation: None,
+            forces: None,
+        };
+        let (program, _) = setup(&mut g, 1, &parts, &[1.0, 1.0]);
+        let program = Arc::new(program);
+        let spares = |p: &TaylorProgram| p.spares.lock().unwrap().len();
+        for (m, k) in [(1.0, 1.0), (4.0, 1.0), (4.0, 9.0), (1.0, 1.0), (4.0, 9.0)] {
+            let mut e = program.expansion(&[m, k], 6);
+            e.expand(0.0, &[1.0], &[0.0]).unwrap();
+            let x2: f64 = -k / (2.0 * m);
+            assert!(
+                (e.q(2)[0] - x2).abs() < 1e-15,
+                "m = {m}, k = {k}: {:?}",
+                e.q(2)
+            );
+            let fresh = {
+                let mut e = Arc::new(program.interpreted()).expansion(&[m, k], 6);
+                e.expand(0.0, &[1.0], &[0.0]).unwrap();
+                (0..=6).map(|j| e.q(j)[0].to_bits()).collect::<Vec<_>>()
+            };
+            let reused: Vec<_> = (0..=6).map(|j| e.q(j)[0].to_bits()).collect();
+            assert_eq!(reused, fresh, "m = {m}, k = {k}");
+            assert_eq!(spares(&program), 0, "the spare is in use");
+            drop(e);
+            assert_eq!(spares(&program), 1, "one work space, back after each run");
+        }
+        // Two at once: the second is new; both are kept.
+        let (a, b) = (
+            program.expansion(&[1.0, 1.0], 6),
+            program.expansion(&[1.0, 1.0], 6),
+        );
+        drop((a, b));
+        assert_eq!(spares(&program), 2);
     }
 }

@@ -4,7 +4,7 @@
 //! polynomial; a long run switching to the unrolled expansion bit for bit; the errors it gives
 //! for what it cannot do.
 
-use lagrangian::integrators::{Event, Method, Options, solve};
+use lagrangian::integrators::{Event, Method, Options, Output, solve, solve_partial};
 use lagrangian::scenes::ForcedTwoMass;
 use lagrangian::tape::{Binary, Energies, EnergyModel, EomProgram, Function, Graph, Inputs, Tape};
 use lagrangian::{Dynamics, Error};
@@ -399,6 +399,105 @@ fn bouncing_ball_impacts_and_stepping() {
         }
     }
     assert_eq!(solver.solution(), whole);
+}
+
+/// A whole run takes the steps that nothing watches (output kept every k-th step, or at the
+/// end only) in a row without handing each out: the same steps, bit for bit, as a run keeping
+/// every one; and a run that fails among them names the state it reached (the step budget
+/// spent on Kepler's orbit; ẍ = x², which blows up at t = √6 from x = 1, ẋ = √(2/3)).
+#[test]
+fn runs_keeping_fewer_steps_take_the_same_steps() {
+    let e: f64 = 0.6;
+    let (q0, v0) = (
+        [1.0 - e, 0.0],
+        [0.0, (1.0 - e * e).sqrt() / ((1.0 - e) * (1.0 - e))],
+    );
+    let orbit = kepler();
+    let options = |output: Output| Options::adaptive(1e-10, 1e-10).with_output(output);
+    let span = (0.0, 4.0 * std::f64::consts::PI);
+    let run = |o: &Options| {
+        solve_partial(&orbit, &q0, &v0, span, Method::Taylor, o, None).map_err(Box::new)
+    };
+    let all = run(&options(Output::Steps)).unwrap();
+    let steps = all.stats.accepted_steps;
+    assert!(steps > 60, "{steps} steps");
+    let row = |sol: &lagrangian::integrators::Solution, i: usize| {
+        [vec![sol.t[i]], sol.q_at(i).to_vec(), sol.qd_at(i).to_vec()].concat()
+    };
+    for (output, kept) in [
+        (Output::Every(1), (0..=steps).collect::<Vec<_>>()),
+        (
+            Output::Every(7),
+            (0..=steps).filter(|i| i % 7 == 0 || *i == steps).collect(),
+        ),
+        (Output::Every(usize::MAX), vec![0, steps]),
+        (Output::Final, vec![steps]),
+    ] {
+        let sol = run(&options(output.clone())).unwrap();
+        assert_eq!(sol.stats.accepted_steps, steps, "{output:?}");
+        assert_eq!(sol.len(), kept.len(), "{output:?}");
+        for (j, &i) in kept.iter().enumerate() {
+            let (a, b) = (row(&sol, j), row(&all, i));
+            let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(
+                bits(&a),
+                bits(&b),
+                "{output:?}, step {i}: {a:?} against {b:?}"
+            );
+        }
+    }
+    // The budget of 50 steps spent: the failure names the 50th step's state, whatever is kept.
+    let limited = |output: Output| options(output).with_max_steps(50);
+    for output in [Output::Steps, Output::Every(7), Output::Final] {
+        let failed = run(&limited(output.clone())).unwrap_err();
+        assert!(
+            matches!(failed.error, Error::TooManySteps { steps: 50, .. }),
+            "{:?}",
+            failed.error
+        );
+        let (t, q, qd) = failed.last.unwrap();
+        assert_eq!([vec![t], q, qd].concat(), row(&all, 50), "{output:?}");
+        let partial = failed.partial.unwrap();
+        assert_eq!(
+            row(&partial, partial.len() - 1),
+            row(&all, 50),
+            "{output:?}"
+        );
+    }
+    // ẍ = x² (T = ½ẋ², U = −x³/3): x = 6 / (√6 − t)². Every run stops at the same state, at
+    // the blow-up.
+    let mut g = Graph::new();
+    let (x, v) = (g.coord(0), g.velocity(0));
+    let (half, third) = (g.constant(0.5), g.constant(-1.0 / 3.0));
+    let (v2, x3) = (g.powi(v, 2).unwrap(), g.powi(x, 3).unwrap());
+    let parts = Energies {
+        kinetic: g.binary(Binary::Mul, half, v2).unwrap(),
+        potential: Some(g.binary(Binary::Mul, third, x3).unwrap()),
+        dissipation: None,
+        forces: None,
+    };
+    let blowup = model(g, 1, &parts, &[]);
+    let stops: Vec<_> = [Output::Steps, Output::Every(7), Output::Final]
+        .into_iter()
+        .map(|output| {
+            let o = options(output);
+            let failed = solve_partial(
+                &blowup,
+                &[1.0],
+                &[(2.0_f64 / 3.0).sqrt()],
+                (0.0, 3.0),
+                Method::Taylor,
+                &o,
+                None,
+            )
+            .unwrap_err();
+            let (t, q, qd) = failed.last.unwrap();
+            (format!("{:?}", failed.error), [vec![t], q, qd].concat())
+        })
+        .collect();
+    let (t, x) = (stops[0].1[0], stops[0].1[1]);
+    assert!((t - 6.0_f64.sqrt()).abs() < 1e-9 && x > 1e20, "{stops:?}");
+    assert!(stops.iter().all(|s| *s == stops[0]), "{stops:?}");
 }
 
 /// Backwards in time: Kepler's orbit from t = 5π back to 0 returns to the pericentre.
