@@ -129,9 +129,11 @@ pub(super) fn choose<S: Dynamics + ?Sized>(
 /// keep DOP853 where Taylor was 1–34 % faster (Kepler at 1e-12 a tie). Re-measured on
 /// 2026-11-27 (the unrolled step, folded negations and scalings, sin and cos summing their
 /// argument's derivative): 44–45 of 48 in two runs, the others keeping DOP853 where Taylor was
-/// 9–34 % faster (Kepler and the elastic pendulum at 1e-12 in both runs). Once compiled
-/// unrolled (after 10⁴ expansions, which this estimate never counts on) Taylor is 1.1–23×
-/// faster than DOP853 on the small models.
+/// 9–34 % faster (Kepler and the elastic pendulum at 1e-12 in both runs); after the work
+/// spaces kept between runs and the steps taken in a row, 43 of 48, the five others keeping
+/// DOP853 where Taylor was 1–35 % faster (Taylor got faster, the estimate was not refitted).
+/// Once compiled unrolled (after 10⁴ expansions, which this estimate never counts on) Taylor is
+/// 1.1–20× faster than DOP853 on the small models.
 struct TaylorEstimate {
     order: usize,
     /// Estimated nanoseconds per step.

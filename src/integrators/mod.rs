@@ -139,7 +139,8 @@ pub(crate) trait Integrator {
 /// One method integrating one segment, a step at a time: what [`Solver::step`] drives.
 pub(crate) trait SegmentStepper<S: Dynamics + ?Sized> {
     /// Take one accepted step (rejected attempts are retried inside) and hand it to
-    /// [`Run::accept`].
+    /// [`Run::accept`]; before it, a stepper may take the [`Run::quiet_steps`] and only count
+    /// them.
     fn step(&mut self, run: &mut Run<'_, S>) -> Result<Flow>;
 }
 
