@@ -271,11 +271,11 @@ impl Recorder {
         }
     }
 
-    /// A step that keeps nothing ([`Recorder::unkept_steps`]) and is not the last, counted but
-    /// not recorded as the last accepted state: [`Recorder::reached`] records it when the run
+    /// Steps that keep nothing ([`Recorder::unkept_steps`]) and are not the last, counted but
+    /// not recorded as the last accepted state: [`Recorder::reached`] records the last when the run
     /// fails before the next recorded step.
-    pub(crate) fn skip(&mut self) {
-        self.steps += 1;
+    pub(crate) fn skip(&mut self, steps: usize) {
+        self.steps += steps;
     }
 
     /// The last accepted time and state y = (q, q̇), after steps [`Recorder::skip`] counted.

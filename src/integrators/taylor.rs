@@ -23,6 +23,8 @@ use super::dense::Interpolant;
 use super::{Flow, Integrator, Run, SegmentStepper};
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
+#[cfg(feature = "jit")]
+use crate::tape::RowEnd;
 use crate::tape::{Expansion, StepRule};
 
 /// Jorba & Zou's order for the tolerance ε, p = ⌈−ln ε / 2 + 1⌉, capped where double precision
@@ -124,9 +126,14 @@ struct TaylorStepper {
     lost: Vec<f64>,
 }
 
+/// Quiet steps a row of compiled steps takes at most ([`Expansion::steps`]): the run's
+/// interrupt check is polled between rows, every few milliseconds at most.
+#[cfg(feature = "jit")]
+const ROW: usize = 64;
+
 impl TaylorStepper {
-    /// One step from (t, y) into `y_new`, counted: where it ends, and whether the run does.
-    fn take<S: Dynamics + ?Sized>(&mut self, run: &mut Run<'_, S>) -> Result<(f64, bool)> {
+    /// Steps the run may still take from here, after its interrupt check.
+    fn allowed<S: Dynamics + ?Sized>(&self, run: &Run<'_, S>) -> Result<usize> {
         let attempts = run.stats.accepted_steps + run.stats.rejected_steps;
         if attempts >= run.options.max_steps {
             return Err(Error::TooManySteps {
@@ -135,25 +142,67 @@ impl TaylorStepper {
             });
         }
         run.poll(self.t)?;
-        let (t_new, last) =
-            self.expansion
-                .step(self.t, &self.y, &self.rule, &mut self.lost, &mut self.y_new)?;
+        Ok(run.options.max_steps - attempts)
+    }
+
+    /// `steps` taken, counted.
+    fn count<S: Dynamics + ?Sized>(&self, run: &mut Run<'_, S>, steps: usize) {
         // One pass of the recurrences per order, each about a graph evaluation or more.
-        run.stats.rhs_evaluations += self.expansion.order();
-        run.stats.accepted_steps += 1;
-        Ok((t_new, last))
+        run.stats.rhs_evaluations += steps * self.expansion.order();
+        run.stats.accepted_steps += steps;
+    }
+
+    /// The next step from (t, y) into `y_new`, counted: where it ends, and whether the run
+    /// does. With `quiet` steps that nothing watches to go, those before it may first be taken
+    /// in a row of compiled code, which moves (t, y) (and counts them, and takes them off
+    /// `quiet`): `None` when the row ended without a next step to hand on.
+    fn take<S: Dynamics + ?Sized>(
+        &mut self,
+        run: &mut Run<'_, S>,
+        quiet: &mut usize,
+    ) -> Result<Option<(f64, bool)>> {
+        let allowed = self.allowed(run)?;
+        #[cfg(feature = "jit")]
+        if *quiet > 0 {
+            let limit = (*quiet).min(allowed).min(ROW);
+            let state = (&mut self.t, &mut self.y[..]);
+            if let Some((taken, end)) =
+                (self.expansion).steps(state, &self.rule, &mut self.lost, &mut self.y_new, limit)
+            {
+                self.count(run, taken);
+                run.out.skip(taken);
+                *quiet -= taken;
+                match end {
+                    RowEnd::Limit => return Ok(None),
+                    RowEnd::Next(end) => {
+                        let end = end?;
+                        self.count(run, 1);
+                        return Ok(Some(end));
+                    }
+                    // Fewer than `limit` ≤ `allowed` were taken: the step may be.
+                    RowEnd::Unfactored => {}
+                }
+            }
+        }
+        #[cfg(not(feature = "jit"))]
+        let _ = (allowed, quiet);
+        let end =
+            (self.expansion).step(self.t, &self.y, &self.rule, &mut self.lost, &mut self.y_new)?;
+        self.count(run, 1);
+        Ok(Some(end))
     }
 }
 
 impl<S: Dynamics + ?Sized> SegmentStepper<S> for TaylorStepper {
     fn step(&mut self, run: &mut Run<'_, S>) -> Result<Flow> {
-        // The steps that nothing watches go in a row, without `Run::accept`: its bookkeeping was
-        // a tenth of a small model's step (the forced two-mass: 1 919 instructions, 1 753 now).
+        // The steps that nothing watches go in a row, without `Run::accept` (its bookkeeping was
+        // a tenth of a small model's step), in compiled code where the expansion is (the Rust
+        // around each call was a fifth).
         let mut quiet = run.quiet_steps();
         loop {
-            let t = self.t;
-            let (t_new, last) = match self.take(run) {
-                Ok(end) => end,
+            let (t_new, last) = match self.take(run, &mut quiet) {
+                Ok(Some(end)) => end,
+                Ok(None) => continue,
                 Err(e) => {
                     // The failure names the last accepted state, from which this step started.
                     run.out.reached(self.t, &self.y);
@@ -162,11 +211,12 @@ impl<S: Dynamics + ?Sized> SegmentStepper<S> for TaylorStepper {
             };
             if quiet > 0 && !last {
                 quiet -= 1;
-                run.out.skip();
+                run.out.skip(1);
                 std::mem::swap(&mut self.y, &mut self.y_new);
                 self.t = t_new;
                 continue;
             }
+            let t = self.t;
             let step = run.needs_interpolant(t_new).then_some(Interpolant::Taylor {
                 t,
                 expansion: &self.expansion,

@@ -100,4 +100,6 @@ pub use graph::{Binary, Graph, Node, Unary};
 pub use native::{NativeFunction, NativeTape};
 pub use particles::TapeParticles;
 pub use sensitivity::input_matrix;
+#[cfg(feature = "jit")]
+pub(crate) use taylor::RowEnd;
 pub use taylor::{Expansion, MAX_TAYLOR_ORDER, StepRule, TaylorProgram};

@@ -144,6 +144,7 @@ macro_rules! wrappers {
             jit.symbol("lagrangian_powi", lagrangian_powi as *const u8);
             jit.symbol("lagrangian_sin_cos", lagrangian_sin_cos as *const u8);
             jit.symbol("lagrangian_conv", super::taylor::lagrangian_conv as *const u8);
+            jit.symbol("lagrangian_ldlt", super::taylor_native::lagrangian_ldlt as *const u8);
         }
     };
 }

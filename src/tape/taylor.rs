@@ -494,7 +494,7 @@ pub struct TaylorProgram {
     numbers: Vec<(usize, f64)>,
     params: Vec<(usize, usize)>,
     /// Rows of t and of each qᵢ, q̇ᵢ the model reads.
-    time: Option<usize>,
+    pub(super) time: Option<usize>,
     pub(super) coords: Vec<Option<usize>>,
     pub(super) velocities: Vec<Option<usize>>,
     /// Rows of f.
@@ -506,7 +506,7 @@ pub struct TaylorProgram {
     pub(super) mass_varying: Vec<bool>,
     /// Whether M depends on the parameters alone (then M₀ is factored once per expansion's
     /// work space).
-    mass_constant: bool,
+    pub(super) mass_constant: bool,
     /// The recurrences as machine code, compiled at the first expansion (`None`: not allowed,
     /// or Cranelift could not compile them, and the interpreter runs).
     #[cfg(feature = "jit")]
@@ -1151,6 +1151,12 @@ impl TaylorProgram {
         self.compile_unrolled(order)
     }
 
+    /// The expansion to `order` unrolled, if it is compiled (not counted as an expansion).
+    #[cfg(feature = "jit")]
+    fn compiled(&self, order: usize) -> Option<&super::taylor_native::ExpansionKernel> {
+        self.unrolled.get(order)?.get()?.as_ref()
+    }
+
     #[cfg(feature = "jit")]
     fn compile_unrolled(&self, order: usize) -> Option<&super::taylor_native::ExpansionKernel> {
         self.unrolled
@@ -1556,16 +1562,7 @@ impl Expansion {
                 y_new: &mut *y_new,
             };
             if let Some(status) = self.run_unrolled(t, q0, qd0, Some(step)) {
-                return match status? {
-                    Status::Step => Ok((control.t_new, false)),
-                    Status::Last => Ok((control.t_new, true)),
-                    Status::Coefficient => Err(non_finite(t)),
-                    Status::TooSmall => Err(Error::StepSizeTooSmall { t, h: control.h }),
-                    Status::State | Status::Expanded => Err(Error::NonFinite {
-                        what: "state",
-                        t: control.t_new,
-                    }),
-                };
+                return stepped(status?, &control);
             }
         }
         self.expand_interpreted(t, q0, qd0)?;
@@ -1591,6 +1588,69 @@ impl Expansion {
             });
         }
         Ok((t_new, last))
+    }
+
+    /// Steps from (t, y) as [`Expansion::step`] takes them, in a row, by one call of the
+    /// compiled code: at most `limit`, until one is the last of the run or fails. Each step
+    /// of the row that is neither moves (t, y) to its end (`y_new` and `lost` as
+    /// [`Expansion::step`] leaves them). `None` when the expansion is not compiled unrolled
+    /// (or a mass matrix fixed by the parameters is yet to be factored): take the step with
+    /// [`Expansion::step`]. Otherwise how many steps moved (t, y), and what ended the row.
+    ///
+    /// # Panics
+    /// If a buffer has fewer than 2 · dof entries, or `limit` is 0.
+    #[cfg(feature = "jit")]
+    pub(crate) fn steps(
+        &mut self,
+        (t, y): (&mut f64, &mut [f64]),
+        rule: &StepRule,
+        lost: &mut [f64],
+        y_new: &mut [f64],
+        limit: usize,
+    ) -> Option<(usize, RowEnd)> {
+        let Self {
+            program,
+            work:
+                Workspace {
+                    order,
+                    series,
+                    q,
+                    v,
+                    m0,
+                    m0_fixed,
+                    qdd,
+                    reversed,
+                    ..
+                },
+        } = self;
+        let kernel = program.compiled(*order)?;
+        if program.mass_constant && !*m0_fixed {
+            return None;
+        }
+        if reversed.len() < kernel.reversed_len() {
+            reversed.resize(kernel.reversed_len(), 0.0);
+        }
+        let mut control = StepControl {
+            t: *t,
+            rule: *rule,
+            ..StepControl::default()
+        };
+        let buffers = Buffers {
+            table: series,
+            q,
+            v,
+            qdd,
+            m0,
+            reversed,
+        };
+        let (status, taken) = kernel.steps(buffers, &mut control, [y, lost, y_new], limit);
+        *t = control.t;
+        let end = match status {
+            Status::Step => RowEnd::Limit,
+            Status::Unfactored => RowEnd::Unfactored,
+            status => RowEnd::Next(stepped(status, &control)),
+        };
+        Some((taken, end))
     }
 
     /// [`Error::NonFinite`] when a coefficient of q̈ is not finite.
@@ -1713,6 +1773,38 @@ impl Expansion {
             }
             out[i] = q;
             out[n + i] = v;
+        }
+    }
+}
+
+/// What ended a row of steps ([`Expansion::steps`]).
+#[cfg(feature = "jit")]
+#[derive(Debug)]
+pub(crate) enum RowEnd {
+    /// The row's `limit` of steps, taken.
+    Limit,
+    /// The next step: the last of the run (its time), or its failure.
+    Next(Result<(f64, bool)>),
+    /// M₀ did not factor at the next step: take it with [`Expansion::step`], whose error says
+    /// why.
+    Unfactored,
+}
+
+/// The outcome of the compiled step from t that ended with `status` and `control`.
+#[cfg(feature = "jit")]
+fn stepped(status: Status, control: &StepControl) -> Result<(f64, bool)> {
+    let t = control.t;
+    match status {
+        Status::Step => Ok((control.t_new, false)),
+        Status::Last => Ok((control.t_new, true)),
+        Status::Coefficient => Err(non_finite(t)),
+        Status::TooSmall => Err(Error::StepSizeTooSmall { t, h: control.h }),
+        Status::State => Err(Error::NonFinite {
+            what: "state",
+            t: control.t_new,
+        }),
+        Status::Expanded | Status::Unfactored => {
+            unreachable!("a step's status, not an expansion's or a factor's")
         }
     }
 }

@@ -193,11 +193,31 @@ type ExpansionEntry = unsafe extern "C" fn(
 /// buffers of q and q̇ (their order 0 written there too).
 type Order0Entry = unsafe extern "C" fn(*mut f64, *const f64, *const f64, *mut f64, *mut f64);
 
+/// The entry of an [`ExpansionKernel`]'s row of steps ([`ExpansionKernel::steps`]): the
+/// arguments of [`ExpansionEntry`] (M₀'s factor written, y read and written), then the most
+/// steps to take and where to write how many were taken. It returns the [`Status`] of the step
+/// that ended the row.
+type StepsEntry = unsafe extern "C" fn(
+    *mut f64,
+    *mut f64,
+    *mut f64,
+    *mut f64,
+    *mut f64,
+    *mut f64,
+    *mut StepControl,
+    *mut f64,
+    *mut f64,
+    *mut f64,
+    usize,
+    *mut usize,
+) -> i32;
+
 /// An [`ExpansionKernel`]'s functions.
 #[derive(Clone, Copy)]
 struct Entries {
     order0: Order0Entry,
     expansion: ExpansionEntry,
+    steps: StepsEntry,
 }
 
 /// What a step needs besides the expansion and the state, read and written by the compiled
@@ -229,6 +249,9 @@ pub(crate) enum Status {
     TooSmall = 4,
     /// A value of the new state is not finite.
     State = 5,
+    /// M₀ did not factor (only from [`ExpansionKernel::steps`], which does not say why: the
+    /// step is to be taken again by `Expansion::step`, whose error names the failure).
+    Unfactored = 6,
 }
 
 impl Status {
@@ -240,6 +263,7 @@ impl Status {
             Self::Coefficient,
             Self::TooSmall,
             Self::State,
+            Self::Unfactored,
         ][code as usize]
     }
 }
@@ -313,9 +337,11 @@ impl ExpansionKernel {
         let code = Code::new(module, |m| {
             let (expansion, reversed) = define_expansion(m, program, order)?;
             reversed_len = reversed;
+            let order0 = define_order0(m, program, order)?;
             Ok(Entries {
-                order0: define_order0(m, program, order)?,
+                order0,
                 expansion,
+                steps: define_steps(m, program, order, order0, expansion)?,
             })
         })?;
         Ok(Self {
@@ -395,7 +421,56 @@ impl ExpansionKernel {
         self.call(buffers, Some(step))
     }
 
-    fn call(&self, b: Buffers<'_>, step: Option<Step<'_>>) -> Status {
+    /// Take steps from the state y at `control.t` in a row, until one is the last of the run
+    /// or fails, or `limit` have been taken: each one's order 0 (from y, t in its row), M₀'s
+    /// factor (where M varies: otherwise `buffers.m0` holds M's factor for good), then
+    /// [`step`](Self::step) from y; a step that is neither the last nor failed moves y to its
+    /// new state and `control.t` to its time. The status of the step that ended the row
+    /// ([`Status::Step`] when `limit` were taken, [`Status::Unfactored`] when M₀ did not
+    /// factor), and how many steps were taken before it (all `limit` for [`Status::Step`]).
+    /// The same steps, bit for bit, as that many calls of order 0, `Expansion`'s factor and
+    /// [`step`](Self::step).
+    ///
+    /// # Panics
+    /// If a buffer is shorter than the expansion's layout, or `limit` is 0.
+    pub(crate) fn steps(
+        &self,
+        b: Buffers<'_>,
+        control: &mut StepControl,
+        [y, lost, y_new]: [&mut [f64]; 3],
+        limit: usize,
+    ) -> (Status, usize) {
+        let n = self.dof;
+        self.check(&b);
+        assert!(
+            y.len() >= 2 * n && lost.len() >= 2 * n && y_new.len() >= 2 * n && limit > 0,
+            "buffers too short for a step of {n} coordinates, or no step to take"
+        );
+        let mut taken = 0;
+        // SAFETY: as for `call`, and order 0 reads y's entries below 2n and writes M₀'s below
+        // n², inside the buffers by the asserts; the row writes y's entries below 2n and
+        // `taken`.
+        let code = unsafe {
+            (self.code.entry().steps)(
+                b.table.as_mut_ptr(),
+                b.q.as_mut_ptr(),
+                b.v.as_mut_ptr(),
+                b.qdd.as_mut_ptr(),
+                b.m0.as_mut_ptr(),
+                b.reversed.as_mut_ptr(),
+                control,
+                y.as_mut_ptr(),
+                lost.as_mut_ptr(),
+                y_new.as_mut_ptr(),
+                limit,
+                &mut taken,
+            )
+        };
+        (Status::from_code(code), taken)
+    }
+
+    /// That the buffers hold an expansion of this kernel's layout.
+    fn check(&self, b: &Buffers<'_>) {
         let (n, w) = (self.dof, self.order + 1);
         assert!(
             b.table.len() >= self.rows * w
@@ -407,6 +482,10 @@ impl ExpansionKernel {
             "buffers too short for an expansion of {n} coordinates to order {}",
             self.order
         );
+    }
+
+    fn call(&self, b: Buffers<'_>, step: Option<Step<'_>>) -> Status {
+        self.check(&b);
         let (control, y, lost, y_new) = match step {
             Some(s) => (
                 s.control as *mut StepControl,
@@ -460,7 +539,7 @@ pub(crate) struct Buffers<'a> {
     pub q: &'a mut [f64],
     pub v: &'a mut [f64],
     pub qdd: &'a mut [f64],
-    pub m0: &'a [f64],
+    pub m0: &'a mut [f64],
     pub reversed: &'a mut [f64],
 }
 
@@ -561,6 +640,146 @@ fn define_expansion(
     // host's default calling convention, which is `extern "C"`.
     let entry = unsafe { std::mem::transmute::<*const u8, ExpansionEntry>(code) };
     Ok((entry, reversed_len))
+}
+
+/// Generate, compile and link the row of steps ([`ExpansionKernel::steps`]): a loop that calls
+/// the kernel's `order0` and `expansion` (linked before it) and, where M varies, copies M₀ out
+/// of the table and factors it with `linalg::ldlt_in_place` itself (`lagrangian_ldlt`), so the
+/// steps are those of the calls made one by one from Rust, without the Rust around each.
+fn define_steps(
+    module: &mut JITModule,
+    program: &TaylorProgram,
+    order: usize,
+    order0: Order0Entry,
+    expansion: ExpansionEntry,
+) -> Result<StepsEntry> {
+    let config = module.target_config();
+    let ptr = config.pointer_type();
+    let (id, mut ctx) = declare(module, "steps", &[ptr; 12])?;
+    ctx.func.signature.returns.push(AbiParam::new(types::I32));
+    let mut order0_sig = module.make_signature();
+    order0_sig.params = vec![AbiParam::new(ptr); 5];
+    let mut expansion_sig = module.make_signature();
+    expansion_sig.params = vec![AbiParam::new(ptr); 10];
+    expansion_sig.returns.push(AbiParam::new(types::I32));
+    let ldlt = if program.mass_constant {
+        None
+    } else {
+        let mut sig = module.make_signature();
+        sig.params = vec![AbiParam::new(ptr); 2];
+        sig.returns.push(AbiParam::new(types::I32));
+        let f = module
+            .declare_function("lagrangian_ldlt", Linkage::Import, &sig)
+            .map_err(fail)?;
+        Some(module.declare_func_in_func(f, &mut ctx.func))
+    };
+    let order0_sig = ctx.func.import_signature(order0_sig);
+    let expansion_sig = ctx.func.import_signature(expansion_sig);
+    let mut fctx = FunctionBuilderContext::new();
+    {
+        let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
+        let p = enter(&mut b);
+        let (table, m0, control, y, new, limit, taken) =
+            (p[0], p[4], p[6], p[7], p[9], p[10], p[11]);
+        let (n, w) = (program.dof, order + 1);
+        let flags = Gen::flags();
+        let f64_at = |i: usize| i32::try_from(8 * i).expect("checked at compilation");
+        let (head, exit) = (b.create_block(), b.create_block());
+        b.append_block_param(head, ptr);
+        b.append_block_param(exit, types::I32);
+        b.append_block_param(exit, ptr);
+        let zero = b.ins().iconst(ptr, 0);
+        b.ins().jump(head, &[BlockArg::Value(zero)]);
+        b.switch_to_block(head);
+        let count = b.block_params(head)[0];
+        use std::mem::offset_of;
+        let at_t = f64_at(offset_of!(StepControl, t) / 8);
+        if let Some(r) = program.time {
+            let t = b.ins().load(types::F64, flags, control, at_t);
+            b.ins().store(flags, t, table, f64_at(r * w));
+        }
+        let qd0 = b.ins().iadd_imm_s(y, 8 * n as i64);
+        let callee = b.ins().iconst(ptr, order0 as usize as i64);
+        b.ins()
+            .call_indirect(order0_sig, callee, &[table, y, qd0, p[1], p[2]]);
+        if let Some(ldlt) = ldlt {
+            for (e, &r) in program.mass_full.iter().enumerate() {
+                let m = b.ins().load(types::F64, flags, table, f64_at(r * w));
+                b.ins().store(flags, m, m0, f64_at(e));
+            }
+            let dof = b.ins().iconst(ptr, n as i64);
+            let call = b.ins().call(ldlt, &[m0, dof]);
+            let failed = b.inst_results(call)[0];
+            let factored = b.create_block();
+            let unfactored = b.ins().iconst(types::I32, Status::Unfactored as i64);
+            b.ins().brif(
+                failed,
+                exit,
+                &[BlockArg::Value(unfactored), BlockArg::Value(count)],
+                factored,
+                &[],
+            );
+            b.switch_to_block(factored);
+            b.seal_block(factored);
+        }
+        let callee = b.ins().iconst(ptr, expansion as usize as i64);
+        let call = b.ins().call_indirect(expansion_sig, callee, &p[..10]);
+        let status = b.inst_results(call)[0];
+        let step = b
+            .ins()
+            .icmp_imm_s(condcodes::IntCC::Equal, status, Status::Step as i64);
+        let commit = b.create_block();
+        b.ins().brif(
+            step,
+            commit,
+            &[],
+            exit,
+            &[BlockArg::Value(status), BlockArg::Value(count)],
+        );
+        // Neither the last step nor failed: y and t move on.
+        b.switch_to_block(commit);
+        b.seal_block(commit);
+        for j in 0..2 * n {
+            let x = b.ins().load(types::F64, flags, new, f64_at(j));
+            b.ins().store(flags, x, y, f64_at(j));
+        }
+        let at_t_new = f64_at(offset_of!(StepControl, t_new) / 8);
+        let t_new = b.ins().load(types::F64, flags, control, at_t_new);
+        b.ins().store(flags, t_new, control, at_t);
+        let count = b.ins().iadd_imm_s(count, 1);
+        let more = b
+            .ins()
+            .icmp(condcodes::IntCC::UnsignedLessThan, count, limit);
+        b.ins().brif(
+            more,
+            head,
+            &[BlockArg::Value(count)],
+            exit,
+            &[BlockArg::Value(status), BlockArg::Value(count)],
+        );
+        b.seal_block(head);
+        b.switch_to_block(exit);
+        b.seal_block(exit);
+        let (status, count) = (b.block_params(exit)[0], b.block_params(exit)[1]);
+        b.ins().store(flags, count, taken, 0);
+        b.ins().return_(&[status]);
+        b.finalize(config);
+    }
+    let code = link(module, id, &mut ctx)?;
+    // SAFETY: `code` is the function just defined with the signature of `StepsEntry` in the
+    // host's default calling convention, which is `extern "C"`.
+    Ok(unsafe { std::mem::transmute::<*const u8, StepsEntry>(code) })
+}
+
+/// `linalg::ldlt_in_place` on the n × n matrix at `m`, for the compiled row of steps: 0 when it
+/// factored, 1 when it did not (`Expansion::step` then takes the step again, and names why).
+///
+/// # Safety
+/// `m` is valid for reads and writes of n² `f64`.
+pub(super) unsafe extern "C" fn lagrangian_ldlt(m: *mut f64, n: usize) -> i32 {
+    // SAFETY: by the caller's contract.
+    let m = unsafe { std::slice::from_raw_parts_mut(m, n * n) };
+    i32::from(crate::linalg::ldlt_in_place(m, n).is_err())
 }
 
 /// The unrolled expansion and step's code, in `func`; the series mirrored backwards

@@ -204,11 +204,9 @@ fn long_run_switches_to_the_unrolled_expansion_bit_for_bit() {
     assert!(de < 1e-5 && dh < 1e-5, "{de:e} {dh:e}");
 }
 
-#[test]
-fn forced_two_mass_to_the_tolerance() {
-    // Seed eq. 41–44: T = ½ m₁ẋ₁² + ½ m₂ẋ₂², U = ½ k₁x₁² + ½ k₂(x₂ − x₁)², Q″ = F cos Ωt.
-    let (m1, m2, k1, k2, f1, f2, omega) = (1.0, 2.0, 3.0, 1.5, 0.5, 0.2, 1.3);
-    let scene = ForcedTwoMass::new(m1, m2, k1, k2).with_forcing(f1, f2, omega);
+/// Seed eq. 41–44 as expressions: T = ½ m₁ẋ₁² + ½ m₂ẋ₂², U = ½ k₁x₁² + ½ k₂(x₂ − x₁)², Q″ =
+/// F cos Ωt, with the parameters (m₁, m₂, k₁, k₂, F₁, F₂, Ω).
+fn forced_two_mass(params: [f64; 7]) -> EnergyModel {
     let mut g = Graph::new();
     let p: Vec<usize> = (0..7).map(|i| g.param(i)).collect();
     let (x1, x2, v1, v2, t) = (
@@ -243,7 +241,14 @@ fn forced_two_mass_to_the_tolerance() {
         dissipation: None,
         forces: Some(forces),
     };
-    let model = model(g, 2, &parts, &[m1, m2, k1, k2, f1, f2, omega]);
+    model(g, 2, &parts, &params)
+}
+
+#[test]
+fn forced_two_mass_to_the_tolerance() {
+    let (m1, m2, k1, k2, f1, f2, omega) = (1.0, 2.0, 3.0, 1.5, 0.5, 0.2, 1.3);
+    let scene = ForcedTwoMass::new(m1, m2, k1, k2).with_forcing(f1, f2, omega);
+    let model = forced_two_mass([m1, m2, k1, k2, f1, f2, omega]);
     let (x0, v0) = ([0.3, -0.2], [0.1, 0.4]);
     let t_end = 20.0;
     let [x, v] = scene.exact_solution(x0, v0, t_end).unwrap();
@@ -402,70 +407,84 @@ fn bouncing_ball_impacts_and_stepping() {
 }
 
 /// A whole run takes the steps that nothing watches (output kept every k-th step, or at the
-/// end only) in a row without handing each out: the same steps, bit for bit, as a run keeping
-/// every one; and a run that fails among them names the state it reached (the step budget
-/// spent on Kepler's orbit; ẍ = x², which blows up at t = √6 from x = 1, ẋ = √(2/3)).
+/// end only) in a row without handing each out, and once its expansion is compiled unrolled,
+/// in rows of compiled code: the same steps, bit for bit, as a run keeping every one with the
+/// expansion interpreted, on Kepler's orbit (M varies: factored in the row) and the forced
+/// two-mass system (t read: its row set in the row); and a run that fails among them names the
+/// state it reached (the step budget spent on Kepler's orbit; ẍ = x², which blows up at t = √6
+/// from x = 1, ẋ = √(2/3)).
 #[test]
 fn runs_keeping_fewer_steps_take_the_same_steps() {
     let e: f64 = 0.6;
-    let (q0, v0) = (
-        [1.0 - e, 0.0],
-        [0.0, (1.0 - e * e).sqrt() / ((1.0 - e) * (1.0 - e))],
+    let kepler_start = (
+        vec![1.0 - e, 0.0],
+        vec![0.0, (1.0 - e * e).sqrt() / ((1.0 - e) * (1.0 - e))],
     );
+    let forced = forced_two_mass([1.0, 2.0, 3.0, 1.5, 0.5, 0.2, 1.3]);
+    let forced_start = (vec![0.3, -0.2], vec![0.1, 0.4]);
     let orbit = kepler();
     let options = |output: Output| Options::adaptive(1e-10, 1e-10).with_output(output);
-    let span = (0.0, 4.0 * std::f64::consts::PI);
-    let run = |o: &Options| {
-        solve_partial(&orbit, &q0, &v0, span, Method::Taylor, o, None).map_err(Box::new)
+    // p = ⌈ln 10¹⁰ / 2 + 1⌉ = 13.
+    let unroll = |model: &EnergyModel| {
+        let program = model.derived_program().unwrap().taylor().0;
+        assert_eq!(program.unroll(13), cfg!(feature = "jit"));
     };
-    let all = run(&options(Output::Steps)).unwrap();
-    let steps = all.stats.accepted_steps;
-    assert!(steps > 60, "{steps} steps");
     let row = |sol: &lagrangian::integrators::Solution, i: usize| {
         [vec![sol.t[i]], sol.q_at(i).to_vec(), sol.qd_at(i).to_vec()].concat()
     };
-    for (output, kept) in [
-        (Output::Every(1), (0..=steps).collect::<Vec<_>>()),
-        (
-            Output::Every(7),
-            (0..=steps).filter(|i| i % 7 == 0 || *i == steps).collect(),
-        ),
-        (Output::Every(usize::MAX), vec![0, steps]),
-        (Output::Final, vec![steps]),
+    let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    for (model, (q0, v0), span) in [
+        (&orbit, &kepler_start, (0.0, 4.0 * std::f64::consts::PI)),
+        (&forced, &forced_start, (0.0, 40.0)),
     ] {
-        let sol = run(&options(output.clone())).unwrap();
-        assert_eq!(sol.stats.accepted_steps, steps, "{output:?}");
-        assert_eq!(sol.len(), kept.len(), "{output:?}");
-        for (j, &i) in kept.iter().enumerate() {
-            let (a, b) = (row(&sol, j), row(&all, i));
-            let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
-            assert_eq!(
-                bits(&a),
-                bits(&b),
-                "{output:?}, step {i}: {a:?} against {b:?}"
-            );
+        let run = |o: &Options| {
+            solve_partial(model, q0, v0, span, Method::Taylor, o, None).map_err(Box::new)
+        };
+        let all = run(&options(Output::Steps)).unwrap();
+        let steps = all.stats.accepted_steps;
+        assert!(steps > 60, "{steps} steps");
+        for unrolled in [false, true] {
+            if unrolled {
+                unroll(model);
+            }
+            for (output, kept) in [
+                (Output::Every(1), (0..=steps).collect::<Vec<_>>()),
+                (
+                    Output::Every(7),
+                    (0..=steps).filter(|i| i % 7 == 0 || *i == steps).collect(),
+                ),
+                (Output::Every(usize::MAX), vec![0, steps]),
+                (Output::Final, vec![steps]),
+            ] {
+                let sol = run(&options(output.clone())).unwrap();
+                let case = format!("{output:?}, unrolled {unrolled}");
+                assert_eq!(sol.stats.accepted_steps, steps, "{case}");
+                assert_eq!(sol.len(), kept.len(), "{case}");
+                for (j, &i) in kept.iter().enumerate() {
+                    let (a, b) = (row(&sol, j), row(&all, i));
+                    assert_eq!(bits(&a), bits(&b), "{case}, step {i}: {a:?} against {b:?}");
+                }
+            }
+            // The budget of 50 steps spent: the failure names the 50th step's state, whatever
+            // is kept.
+            let limited = |output: Output| options(output).with_max_steps(50);
+            for output in [Output::Steps, Output::Every(7), Output::Final] {
+                let failed = run(&limited(output.clone())).unwrap_err();
+                let case = format!("{output:?}, unrolled {unrolled}");
+                assert!(
+                    matches!(failed.error, Error::TooManySteps { steps: 50, .. }),
+                    "{case}: {:?}",
+                    failed.error
+                );
+                let (t, q, qd) = failed.last.unwrap();
+                assert_eq!([vec![t], q, qd].concat(), row(&all, 50), "{case}");
+                let partial = failed.partial.unwrap();
+                assert_eq!(row(&partial, partial.len() - 1), row(&all, 50), "{case}");
+            }
         }
     }
-    // The budget of 50 steps spent: the failure names the 50th step's state, whatever is kept.
-    let limited = |output: Output| options(output).with_max_steps(50);
-    for output in [Output::Steps, Output::Every(7), Output::Final] {
-        let failed = run(&limited(output.clone())).unwrap_err();
-        assert!(
-            matches!(failed.error, Error::TooManySteps { steps: 50, .. }),
-            "{:?}",
-            failed.error
-        );
-        let (t, q, qd) = failed.last.unwrap();
-        assert_eq!([vec![t], q, qd].concat(), row(&all, 50), "{output:?}");
-        let partial = failed.partial.unwrap();
-        assert_eq!(
-            row(&partial, partial.len() - 1),
-            row(&all, 50),
-            "{output:?}"
-        );
-    }
     // ẍ = x² (T = ½ẋ², U = −x³/3): x = 6 / (√6 − t)². Every run stops at the same state, at
-    // the blow-up.
+    // the blow-up, unrolled or not.
     let mut g = Graph::new();
     let (x, v) = (g.coord(0), g.velocity(0));
     let (half, third) = (g.constant(0.5), g.constant(-1.0 / 3.0));
@@ -477,9 +496,12 @@ fn runs_keeping_fewer_steps_take_the_same_steps() {
         forces: None,
     };
     let blowup = model(g, 1, &parts, &[]);
-    let stops: Vec<_> = [Output::Steps, Output::Every(7), Output::Final]
-        .into_iter()
-        .map(|output| {
+    let mut stops = Vec::new();
+    for unrolled in [false, true] {
+        if unrolled {
+            unroll(&blowup);
+        }
+        for output in [Output::Steps, Output::Every(7), Output::Final] {
             let o = options(output);
             let failed = solve_partial(
                 &blowup,
@@ -492,12 +514,57 @@ fn runs_keeping_fewer_steps_take_the_same_steps() {
             )
             .unwrap_err();
             let (t, q, qd) = failed.last.unwrap();
-            (format!("{:?}", failed.error), [vec![t], q, qd].concat())
-        })
-        .collect();
+            stops.push((format!("{:?}", failed.error), [vec![t], q, qd].concat()));
+        }
+    }
     let (t, x) = (stops[0].1[0], stops[0].1[1]);
     assert!((t - 6.0_f64.sqrt()).abs() < 1e-9 && x > 1e20, "{stops:?}");
     assert!(stops.iter().all(|s| *s == stops[0]), "{stops:?}");
+}
+
+/// A mass matrix that does not factor at the start is a typed error naming the state, whether
+/// the step is taken alone or in a row of compiled steps (T = ½ x² ẋ² at x = 0: M = x² = 0).
+#[test]
+fn a_singular_mass_matrix_stops_the_run_with_its_error() {
+    let mut g = Graph::new();
+    let (x, v) = (g.coord(0), g.velocity(0));
+    let half = g.constant(0.5);
+    let xv = g.binary(Binary::Mul, x, v).unwrap();
+    let xv2 = g.powi(xv, 2).unwrap();
+    let parts = Energies {
+        kinetic: g.binary(Binary::Mul, half, xv2).unwrap(),
+        potential: None,
+        dissipation: None,
+        forces: None,
+    };
+    let singular = model(g, 1, &parts, &[]);
+    for unrolled in [false, true] {
+        if unrolled {
+            let program = singular.derived_program().unwrap().taylor().0;
+            assert_eq!(program.unroll(8), cfg!(feature = "jit"));
+        }
+        for output in [Output::Steps, Output::Final] {
+            let o = Options::adaptive(1e-6, 1e-6).with_output(output.clone());
+            let failed = solve_partial(
+                &singular,
+                &[0.0],
+                &[1.0],
+                (0.0, 1.0),
+                Method::Taylor,
+                &o,
+                None,
+            )
+            .unwrap_err();
+            let case = format!("{output:?}, unrolled {unrolled}");
+            match &failed.error {
+                Error::SingularMassMatrix { t, q, .. } => {
+                    assert_eq!((*t, q.as_slice()), (0.0, &[0.0][..]), "{case}")
+                }
+                other => panic!("{case}: {other:?}"),
+            }
+            assert_eq!(failed.last.unwrap(), (0.0, vec![0.0], vec![1.0]), "{case}");
+        }
+    }
 }
 
 /// Backwards in time: Kepler's orbit from t = 5π back to 0 returns to the pericentre.
