@@ -29,7 +29,7 @@ impl FactorFailure {
 }
 
 /// Pivots below this fraction of the largest diagonal entry count as zero.
-const RELATIVE_PIVOT_FLOOR: f64 = 1e-13;
+pub(crate) const RELATIVE_PIVOT_FLOOR: f64 = 1e-13;
 
 /// Whether [`ldlt_in_place`] accepts a matrix with this `diagonal` whose factorization has these
 /// `pivots` d_j: every entry finite, every pivot positive and above the floor. For a solve

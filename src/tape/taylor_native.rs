@@ -707,9 +707,13 @@ fn define_steps(
                 let m = b.ins().load(types::F64, flags, table, f64_at(r * w));
                 b.ins().store(flags, m, m0, f64_at(e));
             }
-            let dof = b.ins().iconst(ptr, n as i64);
-            let call = b.ins().call(ldlt, &[m0, dof]);
-            let failed = b.inst_results(call)[0];
+            let failed = if n <= 2 {
+                factor_small(&mut b, m0, n)
+            } else {
+                let dof = b.ins().iconst(ptr, n as i64);
+                let call = b.ins().call(ldlt, &[m0, dof]);
+                b.inst_results(call)[0]
+            };
             let factored = b.create_block();
             let unfactored = b.ins().iconst(types::I32, Status::Unfactored as i64);
             b.ins().brif(
@@ -769,6 +773,60 @@ fn define_steps(
     // SAFETY: `code` is the function just defined with the signature of `StepsEntry` in the
     // host's default calling convention, which is `extern "C"`.
     Ok(unsafe { std::mem::transmute::<*const u8, StepsEntry>(code) })
+}
+
+/// `linalg::ldlt_in_place` for n ≤ 2 in the code, on the n × n matrix at `m`: the same factor,
+/// bit for bit, where it succeeds (the call of the general one cost Kepler's orbit 123
+/// instructions a step). A nonzero i32 where it does not: where `ldlt_in_place` fails, and
+/// maybe where it does not (each test is one comparison that NaN fails), since the step is then
+/// taken again through it.
+fn factor_small(b: &mut FunctionBuilder<'_>, m: Value, n: usize) -> Value {
+    use condcodes::FloatCC::{GreaterThan, LessThan};
+    let flags = Gen::flags();
+    let at = |i: usize| 8 * i as i32;
+    let (one, infinity) = (b.ins().f64const(1.0), b.ins().f64const(f64::INFINITY));
+    let a00 = b.ins().load(types::F64, flags, m, at(0));
+    // For n = 1 it succeeds exactly where the pivot is finite and above 0; `ldlt_2x2` where a₀₀
+    // and d₁ = det / a₀₀ are finite and above the floor relative to the larger diagonal entry.
+    let (pivot, floor) = if n == 1 {
+        (a00, b.ins().f64const(0.0))
+    } else {
+        let a10 = b.ins().load(types::F64, flags, m, at(2));
+        let a11 = b.ins().load(types::F64, flags, m, at(3));
+        let (x, y) = (b.ins().fabs(a00), b.ins().fabs(a11));
+        let scale = b.ins().fmax(x, y);
+        let relative = b.ins().f64const(crate::linalg::RELATIVE_PIVOT_FLOOR);
+        let floor = b.ins().fmul(relative, scale);
+        let (p, q) = (b.ins().fmul(a00, a11), b.ins().fmul(a10, a10));
+        let det = b.ins().fsub(p, q);
+        let d1 = b.ins().fdiv(det, a00);
+        let r1 = b.ins().fdiv(a00, det);
+        let r0 = b.ins().fdiv(one, a00);
+        let l = b.ins().fmul(a10, r0);
+        b.ins().store(flags, a10, m, at(1));
+        b.ins().store(flags, l, m, at(2));
+        b.ins().store(flags, r1, m, at(3));
+        b.ins().store(flags, r0, m, at(0));
+        let first = b.ins().fcmp(GreaterThan, a00, floor);
+        let finite = b.ins().fcmp(LessThan, scale, infinity);
+        let ok = b.ins().band(first, finite);
+        return fails(b, ok, d1, floor, infinity);
+    };
+    let r0 = b.ins().fdiv(one, a00);
+    b.ins().store(flags, r0, m, at(0));
+    let ok = b.ins().iconst(types::I8, 1);
+    fails(b, ok, pivot, floor, infinity)
+}
+
+/// 0 where `ok` holds and the pivot d is finite and above the floor, else 1.
+fn fails(b: &mut FunctionBuilder<'_>, ok: Value, d: Value, floor: Value, infinity: Value) -> Value {
+    use condcodes::FloatCC::{GreaterThan, LessThan};
+    let above = b.ins().fcmp(GreaterThan, d, floor);
+    let finite = b.ins().fcmp(LessThan, d, infinity);
+    let ok = b.ins().band(ok, above);
+    let ok = b.ins().band(ok, finite);
+    let failed = b.ins().bxor_imm_s(ok, 1);
+    b.ins().uextend(types::I32, failed)
 }
 
 /// `linalg::ldlt_in_place` on the n × n matrix at `m`, for the compiled row of steps: 0 when it

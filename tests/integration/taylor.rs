@@ -409,8 +409,8 @@ fn bouncing_ball_impacts_and_stepping() {
 /// A whole run takes the steps that nothing watches (output kept every k-th step, or at the
 /// end only) in a row without handing each out, and once its expansion is compiled unrolled,
 /// in rows of compiled code: the same steps, bit for bit, as a run keeping every one with the
-/// expansion interpreted, on Kepler's orbit (M varies: factored in the row) and the forced
-/// two-mass system (t read: its row set in the row); and a run that fails among them names the
+/// expansion interpreted, on Kepler's orbit and the double pendulum (M varies: factored in the
+/// row), and the forced two-mass system (t read: its row set in the row); and a run that fails among them names the
 /// state it reached (the step budget spent on Kepler's orbit; ẍ = x², which blows up at t = √6
 /// from x = 1, ẋ = √(2/3)).
 #[test]
@@ -423,6 +423,10 @@ fn runs_keeping_fewer_steps_take_the_same_steps() {
     let forced = forced_two_mass([1.0, 2.0, 3.0, 1.5, 0.5, 0.2, 1.3]);
     let forced_start = (vec![0.3, -0.2], vec![0.1, 0.4]);
     let orbit = kepler();
+    let mut g = Graph::new();
+    let parts = lagrangian::tape::models::double_pendulum(&mut g).unwrap();
+    let pendulum = model(g, 2, &parts, &[1.0, 2.0, 1.5, 0.7, 9.81]);
+    let pendulum_start = (vec![1.0, -0.5], vec![0.3, 2.0]);
     let options = |output: Output| Options::adaptive(1e-10, 1e-10).with_output(output);
     // p = ⌈ln 10¹⁰ / 2 + 1⌉ = 13.
     let unroll = |model: &EnergyModel| {
@@ -436,6 +440,7 @@ fn runs_keeping_fewer_steps_take_the_same_steps() {
     for (model, (q0, v0), span) in [
         (&orbit, &kepler_start, (0.0, 4.0 * std::f64::consts::PI)),
         (&forced, &forced_start, (0.0, 40.0)),
+        (&pendulum, &pendulum_start, (0.0, 5.0)),
     ] {
         let run = |o: &Options| {
             solve_partial(model, q0, v0, span, Method::Taylor, o, None).map_err(Box::new)
@@ -523,46 +528,52 @@ fn runs_keeping_fewer_steps_take_the_same_steps() {
 }
 
 /// A mass matrix that does not factor at the start is a typed error naming the state, whether
-/// the step is taken alone or in a row of compiled steps (T = ½ x² ẋ² at x = 0: M = x² = 0).
+/// the step is taken alone or in a row of compiled steps: T = ½ x² ẋ² (M = x²), and T = ½ (x² ẋ²
+/// + ẏ²) (M = diag(x², 1)), at x = 0.
 #[test]
 fn a_singular_mass_matrix_stops_the_run_with_its_error() {
-    let mut g = Graph::new();
-    let (x, v) = (g.coord(0), g.velocity(0));
-    let half = g.constant(0.5);
-    let xv = g.binary(Binary::Mul, x, v).unwrap();
-    let xv2 = g.powi(xv, 2).unwrap();
-    let parts = Energies {
-        kinetic: g.binary(Binary::Mul, half, xv2).unwrap(),
-        potential: None,
-        dissipation: None,
-        forces: None,
-    };
-    let singular = model(g, 1, &parts, &[]);
-    for unrolled in [false, true] {
-        if unrolled {
-            let program = singular.derived_program().unwrap().taylor().0;
-            assert_eq!(program.unroll(8), cfg!(feature = "jit"));
+    for dof in [1, 2] {
+        let mut g = Graph::new();
+        let (x, v) = (g.coord(0), g.velocity(0));
+        let half = g.constant(0.5);
+        let xv = g.binary(Binary::Mul, x, v).unwrap();
+        let mut twice = g.powi(xv, 2).unwrap();
+        if dof == 2 {
+            let (_, w) = (g.coord(1), g.velocity(1));
+            let w2 = g.powi(w, 2).unwrap();
+            twice = g.binary(Binary::Add, twice, w2).unwrap();
         }
-        for output in [Output::Steps, Output::Final] {
-            let o = Options::adaptive(1e-6, 1e-6).with_output(output.clone());
-            let failed = solve_partial(
-                &singular,
-                &[0.0],
-                &[1.0],
-                (0.0, 1.0),
-                Method::Taylor,
-                &o,
-                None,
-            )
-            .unwrap_err();
-            let case = format!("{output:?}, unrolled {unrolled}");
-            match &failed.error {
-                Error::SingularMassMatrix { t, q, .. } => {
-                    assert_eq!((*t, q.as_slice()), (0.0, &[0.0][..]), "{case}")
-                }
-                other => panic!("{case}: {other:?}"),
+        let parts = Energies {
+            kinetic: g.binary(Binary::Mul, half, twice).unwrap(),
+            potential: None,
+            dissipation: None,
+            forces: None,
+        };
+        let singular = model(g, dof, &parts, &[]);
+        let (q0, v0) = (&[0.0, 0.3][..dof], &[1.0, 0.5][..dof]);
+        for unrolled in [false, true] {
+            if unrolled {
+                let program = singular.derived_program().unwrap().taylor().0;
+                assert_eq!(program.unroll(8), cfg!(feature = "jit"));
             }
-            assert_eq!(failed.last.unwrap(), (0.0, vec![0.0], vec![1.0]), "{case}");
+            for output in [Output::Steps, Output::Final] {
+                let o = Options::adaptive(1e-6, 1e-6).with_output(output.clone());
+                let span = (0.0, 1.0);
+                let failed =
+                    solve_partial(&singular, q0, v0, span, Method::Taylor, &o, None).unwrap_err();
+                let case = format!("{dof} coordinates, {output:?}, unrolled {unrolled}");
+                match &failed.error {
+                    Error::SingularMassMatrix { t, q, .. } => {
+                        assert_eq!((*t, q.as_slice()), (0.0, q0), "{case}")
+                    }
+                    other => panic!("{case}: {other:?}"),
+                }
+                assert_eq!(
+                    failed.last.unwrap(),
+                    (0.0, q0.to_vec(), v0.to_vec()),
+                    "{case}"
+                );
+            }
         }
     }
 }
