@@ -282,7 +282,13 @@ impl Op {
 
     /// The rows this recurrence reads that others write (not its own rows).
     fn operands(&self) -> Vec<usize> {
-        match *self {
+        let mut op = *self;
+        op.operands_mut().into_iter().map(|r| *r).collect()
+    }
+
+    /// [`Op::operands`], to rewrite.
+    fn operands_mut(&mut self) -> Vec<&mut usize> {
+        match self {
             Op::SinCos {
                 a, da: Some(da), ..
             } => vec![a, da],
@@ -697,6 +703,52 @@ impl Lowering {
     }
 }
 
+impl Lowering {
+    /// Read the row a copy copies, or a scaling by exactly 1 scales, in place of theirs, and drop
+    /// them (in M and f, `outside`, too): no bit changes, and an operation fewer at every order.
+    /// Powers make copies (x² is the product x x, copied into the node's row), and so does sin
+    /// beside cos of one argument; the derivatives of ½ m v² scale by ½ · 2. Which numbers are 1
+    /// is known here, where the rows fixed by numbers alone are computed once (`numbers`; the
+    /// parameters' rows are unknown).
+    fn alias_rows(&mut self, numbers: &[(usize, f64)], outside: [&mut [usize]; 2]) {
+        let mut known = vec![f64::NAN; self.rows];
+        for &(r, x) in numbers {
+            known[r] = x;
+        }
+        for op in &self.fixed {
+            op.apply(&mut known, 1, 0);
+        }
+        let alias: HashMap<usize, usize> = (self.order0.iter())
+            .filter_map(|op| match *op {
+                Op::Copy { out, a } => Some((out, a)),
+                Op::Scale { out, a, c } if known[c] == 1.0 => Some((out, a)),
+                _ => None,
+            })
+            .collect();
+        if alias.is_empty() {
+            return;
+        }
+        // A row an alias reads may be an alias itself (chains end: each reads an earlier row).
+        let resolve = |mut r: usize| {
+            while let Some(&a) = alias.get(&r) {
+                r = a;
+            }
+            r
+        };
+        for list in [&mut self.order0, &mut self.varying] {
+            list.retain(|op| !alias.contains_key(&op.out()));
+            for op in list.iter_mut() {
+                for r in op.operands_mut() {
+                    *r = resolve(*r);
+                }
+            }
+        }
+        for r in outside.into_iter().flatten() {
+            *r = resolve(*r);
+        }
+    }
+}
+
 /// The derivative of a node's series, as a row: d/dt of what it is ([`Derivatives::of`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Derivative {
@@ -1043,26 +1095,30 @@ impl TaylorProgram {
                 low.push(op, var);
             }
         }
-        let mass: Vec<usize> = eom.mass.iter().map(|&o| row[o]).collect();
-        let force: Vec<usize> = eom.force.iter().map(|&o| row[o]).collect();
+        let mut mass: Vec<usize> = eom.mass.iter().map(|&o| row[o]).collect();
+        let mut force: Vec<usize> = eom.force.iter().map(|&o| row[o]).collect();
         let outside: HashSet<usize> = mass.iter().chain(&force).copied().collect();
         low.fold_negations(&outside);
         low.fold_scalings(&outside);
-        // Row of M(r, c) from the upper triangle, row by row.
+        // M's reach is its node rows' (the rows they may read through after `alias_rows` are
+        // auxiliary rows of the same reach).
+        let mass_reach: Vec<Reach> = mass.iter().map(|&r| reach[r]).collect();
+        low.alias_rows(&numbers, [&mut mass, &mut force]);
+        // Entry of M(r, c) from the upper triangle, row by row.
         let upper = |r: usize, c: usize| {
             let (i, l) = if r <= c { (r, c) } else { (c, r) };
-            mass[i * dof - i * (i + 1) / 2 + l]
+            i * dof - i * (i + 1) / 2 + l
         };
-        let mass_full: Vec<usize> = (0..dof * dof).map(|e| upper(e / dof, e % dof)).collect();
+        let entries = (0..dof * dof).map(|e| upper(e / dof, e % dof));
         Self {
-            mass_varying: mass_full
-                .iter()
-                .map(|&r| reach[r] == Reach::Varying)
+            mass_varying: entries
+                .clone()
+                .map(|e| mass_reach[e] == Reach::Varying)
                 .collect(),
-            mass_full,
+            mass_full: entries.map(|e| mass[e]).collect(),
             dof,
             rows: low.rows,
-            mass_constant: mass.iter().all(|&r| reach[r] == Reach::Fixed),
+            mass_constant: mass_reach.iter().all(|&r| r == Reach::Fixed),
             force,
             fixed: low.fixed,
             order0: low.order0,
@@ -1842,6 +1898,7 @@ fn factor_m0(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dynamics::Dynamics;
     use crate::integrators::{Method, Options, solve};
     use crate::tape::{Energies, EnergyModel, Function, Inputs, Tape, eom_graph, models};
     use std::sync::Arc;
@@ -1875,6 +1932,77 @@ mod tests {
         )
         .unwrap();
         (program, model)
+    }
+
+    /// Copies and scalings by exactly 1 are read through and dropped, in M too: T = ½ (ṙ² +
+    /// r² θ̇²), U = sin θ cos θ − μ/r has x² as a product copied into the power's row, sin
+    /// beside cos, and M₁₁ = r² scaled by ½ · 2. What remains still expands as the dual
+    /// numbers of the tapes differentiate (q̈ at order 0, against the accelerations).
+    #[test]
+    fn copies_and_unit_scalings_are_read_through() {
+        let mut g = Graph::new();
+        let (r, th, rd, thd, mu) = (
+            g.coord(0),
+            g.coord(1),
+            g.velocity(0),
+            g.velocity(1),
+            g.param(0),
+        );
+        let half = g.constant(0.5);
+        let (rd2, r2, thd2) = (
+            g.powi(rd, 2).unwrap(),
+            g.powi(r, 2).unwrap(),
+            g.powi(thd, 2).unwrap(),
+        );
+        let rt = g.binary(Binary::Mul, r2, thd2).unwrap();
+        let sum = g.binary(Binary::Add, rd2, rt).unwrap();
+        let (s, c) = (
+            g.unary(Unary::Sin, th).unwrap(),
+            g.unary(Unary::Cos, th).unwrap(),
+        );
+        let sc = g.binary(Binary::Mul, s, c).unwrap();
+        let over = g.binary(Binary::Div, mu, r).unwrap();
+        let parts = Energies {
+            kinetic: g.binary(Binary::Mul, half, sum).unwrap(),
+            potential: Some(g.binary(Binary::Sub, sc, over).unwrap()),
+            dissipation: None,
+            forces: None,
+        };
+        let (program, model) = setup(&mut g, 2, &parts, &[1.3]);
+        assert!(
+            !program
+                .order0
+                .iter()
+                .any(|op| matches!(op, Op::Copy { .. })),
+            "{:?}",
+            program.order0
+        );
+        // M₁₁ is the product r r itself; M₀₀ = ½ · 2 a number.
+        let r_row = program.coords[0].unwrap();
+        let m11 = program.mass_full[3];
+        assert!(
+            program.varying.contains(&Op::Mul {
+                out: m11,
+                a: r_row,
+                b: r_row
+            }),
+            "{:?}",
+            program.varying
+        );
+        assert!(program.mass_varying == [false, false, false, true]);
+        let program = Arc::new(program);
+        let (q, v) = ([0.7, 0.4], [0.2, -1.1]);
+        let mut e = program.expansion(&[1.3], 6);
+        e.expand(0.0, &q, &v).unwrap();
+        let mut qdd = [0.0; 2];
+        model.accelerations_into(0.0, &q, &v, &mut qdd).unwrap();
+        for i in 0..2 {
+            // q̇'s coefficient 1 is q̈₀.
+            assert!(
+                (e.qd(1)[i] - qdd[i]).abs() < 1e-14 * qdd[i].abs().max(1.0),
+                "{i}"
+            );
+        }
     }
 
     /// x = cos t from (1, 0) under T = ½ẋ², U = ½x²: xₖ = cos⁽ᵏ⁾(0)/k!.
