@@ -112,7 +112,7 @@ pub(super) fn choose<S: Dynamics + ?Sized>(
 /// at rtol = atol = 1e-6 … 1e-15, Taylor's expansions before they are compiled unrolled, so a
 /// choice never counts on code it has not compiled): in nanoseconds,
 ///
-/// - a Taylor step ≈ 300 + U/4 + 13 O, U the estimated instructions of the expansion to the
+/// - a Taylor step ≈ 250 + U/4.8 + 11 O, U the estimated instructions of the expansion to the
 ///   order ([`TaylorProgram::expansion_instructions`](crate::tape::TaylorProgram)), O the
 ///   operations of order 0;
 /// - a DOP853 step ≈ 620 + 3.5 R + 100 C, R the instructions of one evaluation of the
@@ -132,7 +132,11 @@ pub(super) fn choose<S: Dynamics + ?Sized>(
 /// 9–34 % faster (Kepler and the elastic pendulum at 1e-12 in both runs); after the work
 /// spaces kept between runs and the steps taken in a row, 43 of 48, the five others keeping
 /// DOP853 where Taylor was 1–35 % faster (Taylor got faster, the estimate was not refitted).
-/// Once compiled unrolled (after 10⁴ expansions, which this estimate never counts on) Taylor is
+/// Refitted on 2026-11-27 after that: over the 48 pairs Taylor's measured cost ratio was 0.84 of
+/// the estimate's (median; geometric mean 0.86), so its step's constants were scaled by 0.84
+/// (300, U/4, 13 O before); on that run's measurements the choice is then the faster method in
+/// 47 of 48 (44 before), the other keeping DOP853 on the driven pivot at 1e-12 (Taylor 0.86 of
+/// its time, estimated 1.27). Once compiled unrolled (after 10⁴ expansions, which this estimate never counts on) Taylor is
 /// 1.1–20× faster than DOP853 on the small models.
 struct TaylorEstimate {
     order: usize,
@@ -161,9 +165,9 @@ impl TaylorEstimate {
         let (operations, calls) = program.order0_operations();
         Some(Self {
             order,
-            taylor_step: 300.0
-                + program.expansion_instructions(order) as f64 / 4.0
-                + 13.0 * operations as f64,
+            taylor_step: 250.0
+                + program.expansion_instructions(order) as f64 / 4.8
+                + 11.0 * operations as f64,
             dop853_step: 620.0
                 + 3.5 * eom.acceleration_instructions() as f64
                 + 100.0 * calls as f64,

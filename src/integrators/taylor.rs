@@ -12,7 +12,9 @@
 //! one norm of the whole state, absolute or relative to ‖y‖∞: a coordinate that grows, such as
 //! an angle that winds, would loosen every other component's tolerance). The step is
 //! [`Expansion::step`]: once a model's expansion is compiled unrolled, the whole of it —
-//! expansion, step size and new state — is one call of machine code. Steps are never rejected.
+//! expansion, step size and new state — is one call of machine code, and the steps nothing
+//! watches go in rows of such steps, one call a row (`Expansion::steps`). Steps are never
+//! rejected.
 //! The step's polynomial is its dense output, exact to the method's order anywhere in the
 //! step; events are found on it.
 //!
@@ -126,7 +128,7 @@ struct TaylorStepper {
     lost: Vec<f64>,
 }
 
-/// Quiet steps a row of compiled steps takes at most ([`Expansion::steps`]): the run's
+/// Quiet steps a row of compiled steps takes at most (`Expansion::steps`): the run's
 /// interrupt check is polled between rows, every few milliseconds at most.
 #[cfg(feature = "jit")]
 const ROW: usize = 64;

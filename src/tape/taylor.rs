@@ -53,6 +53,9 @@ pub(crate) enum Op {
     Scale { out: usize, a: usize, c: usize },
     /// Σⱼ₌₀..ₖ aⱼ bₖ₋ⱼ.
     Mul { out: usize, a: usize, b: usize },
+    /// a²: 2 Σⱼ₌₀..ₕ aⱼ aₖ₋ⱼ with h = ⌊(k − 1)/2⌋, plus a²ₖ/₂ for even k (a₀² at order 0): the
+    /// product a a in half its terms.
+    Square { out: usize, a: usize },
     /// aₖ / c₀, c constant.
     DivC { out: usize, a: usize, c: usize },
     /// (aₖ − Σⱼ₌₁..ₖ bⱼ outₖ₋ⱼ) / b₀.
@@ -263,6 +266,7 @@ impl Op {
     pub(super) fn history(&self) -> Vec<usize> {
         match *self {
             Op::Mul { a, b, .. } => vec![a, b],
+            Op::Square { a, .. } => vec![a],
             Op::Div { out, b, .. } | Op::Recip { out, b } => vec![out, b],
             Op::Exp { out, a } | Op::Ln { out, a } => vec![out, a],
             Op::Sqrt { out, .. } => vec![out],
@@ -294,6 +298,7 @@ impl Op {
             } => vec![a, da],
             Op::Copy { a, .. }
             | Op::Neg { a, .. }
+            | Op::Square { a, .. }
             | Op::Exp { a, .. }
             | Op::Ln { a, .. }
             | Op::Sqrt { a, .. }
@@ -329,6 +334,7 @@ impl Op {
             | Op::Sub { out, .. }
             | Op::Scale { out, .. }
             | Op::Mul { out, .. }
+            | Op::Square { out, .. }
             | Op::DivC { out, .. }
             | Op::Div { out, .. }
             | Op::Recip { out, .. }
@@ -346,6 +352,7 @@ impl Op {
     fn terms(&self, k: usize) -> usize {
         match self {
             Op::Mul { .. } => k + 1,
+            Op::Square { .. } => k / 2 + 1,
             Op::Div { .. } | Op::Recip { .. } | Op::Exp { .. } => k,
             Op::Ln { .. } | Op::Sqrt { .. } => k - 1,
             Op::SinCos { degree, .. } => 2 * degree.map_or(k, |d| d.min(k)),
@@ -368,6 +375,17 @@ impl Op {
             Op::Sub { a, b, .. } => at(s, a, k) - at(s, b, k),
             Op::Scale { a, c, .. } => at(s, a, k) * at(s, c, 0),
             Op::Mul { a, b, .. } => conv(s, w, a, b, 0, k, k, k, false),
+            Op::Square { a, .. } if k == 0 => conv(s, w, a, a, 0, 0, 0, 0, false),
+            Op::Square { a, .. } => {
+                let half = conv(s, w, a, a, 0, (k - 1) / 2, k, k, false);
+                let twice = half + half;
+                if k.is_multiple_of(2) {
+                    let mid = at(s, a, k / 2);
+                    twice + mid * mid
+                } else {
+                    twice
+                }
+            }
             Op::DivC { a, c, .. } => at(s, a, k) / at(s, c, 0),
             Op::Div { out, a, b } => {
                 (at(s, a, k) - conv(s, w, b, out, 1, k, k, k, false)) / at(s, b, 0)
@@ -570,6 +588,7 @@ impl Lowering {
 impl Lowering {
     /// Take the negations off every order where that changes no bit: a negation −a read by a
     /// sum or a difference becomes its sign (x + (−a) = x − a and x − (−a) = x + a exactly),
+    /// one squared goes ((−a)² = a², every product of its sum exactly),
     /// read by a scaling it moves onto the constant ((−a) c = a (−c) exactly, −c computed once
     /// per binding); one left unread (and not M or f, which `outside` holds) is dropped. The
     /// derivatives of energies are full of them (∂U/∂q of −m g l cos θ, the signs of eq. 55).
@@ -603,6 +622,10 @@ impl Lowering {
                     out,
                     a,
                     b: negated[&b],
+                },
+                Op::Square { out, a } if negated.contains_key(&a) => Op::Square {
+                    out,
+                    a: negated[&a],
                 },
                 Op::Scale { out, a, c } if negated.contains_key(&a) && !state.contains(&c) => {
                     let c = *minus.entry(c).or_insert_with(|| {
@@ -1018,6 +1041,7 @@ impl TaylorProgram {
                         Binary::Sub => Op::Sub { out, a, b },
                         Binary::Mul if !v(a) => Op::Scale { out, a: b, c: a },
                         Binary::Mul if !v(b) => Op::Scale { out, a, c: b },
+                        Binary::Mul if a == b => Op::Square { out, a },
                         Binary::Mul => Op::Mul { out, a, b },
                         Binary::Div if !v(b) => Op::DivC { out, a, c: b },
                         Binary::Div => Op::Div { out, a, b },
@@ -1071,14 +1095,7 @@ impl TaylorProgram {
                             break;
                         }
                         let sq = low.row();
-                        low.push(
-                            Op::Mul {
-                                out: sq,
-                                a: base,
-                                b: base,
-                            },
-                            at(a),
-                        );
+                        low.push(Op::Square { out: sq, a: base }, at(a));
                         base = sq;
                     }
                     let power = acc.unwrap_or(a);
@@ -1977,15 +1994,11 @@ mod tests {
             "{:?}",
             program.order0
         );
-        // M₁₁ is the product r r itself; M₀₀ = ½ · 2 a number.
+        // M₁₁ is the square r² itself; M₀₀ = ½ · 2 a number.
         let r_row = program.coords[0].unwrap();
         let m11 = program.mass_full[3];
         assert!(
-            program.varying.contains(&Op::Mul {
-                out: m11,
-                a: r_row,
-                b: r_row
-            }),
+            program.varying.contains(&Op::Square { out: m11, a: r_row }),
             "{:?}",
             program.varying
         );
@@ -2002,6 +2015,35 @@ mod tests {
                 (e.qd(1)[i] - qdd[i]).abs() < 1e-14 * qdd[i].abs().max(1.0),
                 "{i}"
             );
+        }
+    }
+
+    /// A square's half sum gives the product's coefficients: (1 − t)⁻¹ = Σ tᵏ squared is
+    /// Σ (k + 1) tᵏ exactly, and a series of mixed signs squared agrees with its product by
+    /// itself to a rounding per term.
+    #[test]
+    fn squares_are_products_in_half_the_terms() {
+        let w = 21;
+        for series in [
+            vec![1.0; w],
+            (0..w)
+                .map(|k| ((k * 7 % 5) as f64 - 2.3) / (k + 1) as f64)
+                .collect(),
+        ] {
+            let mut s = [series, vec![0.0; w], vec![0.0; w]].concat();
+            for k in 0..w {
+                Op::Square { out: 1, a: 0 }.apply(&mut s, w, k);
+                Op::Mul { out: 2, a: 0, b: 0 }.apply(&mut s, w, k);
+                let (square, product) = (s[w + k], s[2 * w + k]);
+                let scale: f64 = (0..=k).map(|j| (s[j] * s[k - j]).abs()).sum();
+                assert!(
+                    (square - product).abs() <= 4.0 * f64::EPSILON * scale,
+                    "{k}"
+                );
+                if s[0] == 1.0 && s[1] == 1.0 {
+                    assert_eq!(square, (k + 1) as f64, "{k}");
+                }
+            }
         }
     }
 

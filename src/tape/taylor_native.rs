@@ -63,7 +63,8 @@ fn rows_of(op: &Op) -> Vec<usize> {
         | Op::Ln { out, a }
         | Op::Sqrt { out, a }
         | Op::Abs { out, a }
-        | Op::Sign { out, a } => vec![out, a],
+        | Op::Sign { out, a }
+        | Op::Square { out, a } => vec![out, a],
         Op::Recip { out, b } => vec![out, b],
         Op::Add { out, a, b }
         | Op::Sub { out, a, b }
@@ -983,6 +984,8 @@ enum Top {
     Degree(usize),
     /// min(k − 1, d): a sum over a polynomial of degree d up to k − 1.
     BelowDegree(usize),
+    /// ⌊(k − 1)/2⌋: the first half of a square's sum ([`Op::Square`]).
+    Half,
 }
 
 /// A series a sum reads: a row of the table, or coordinate c's q̈ (in the unrolled expansion).
@@ -1601,6 +1604,7 @@ impl<'a> Gen<'a> {
                 Top::Below => k - 1,
                 Top::Degree(d) => d.min(k),
                 Top::BelowDegree(d) => d.min(k - 1),
+                Top::Half => (k - 1) / 2,
             };
             return self.sum(Operand::Row(a), Operand::Row(b), lo, hi, kk, weighted);
         }
@@ -1620,6 +1624,10 @@ impl<'a> Gen<'a> {
                     let km1 = self.b.ins().iadd_imm_s(k, -1);
                     let d = self.b.ins().iconst(types::I64, d as i64);
                     self.b.ins().umin(km1, d)
+                }
+                Top::Half => {
+                    let km1 = self.b.ins().iadd_imm_s(k, -1);
+                    self.b.ins().ushr_imm_s(km1, 1)
                 }
             };
             let (pa, pb) = (self.row(a), self.row(b));
@@ -1642,6 +1650,8 @@ impl<'a> Gen<'a> {
                 let d = self.b.ins().iconst(types::I64, d as i64);
                 self.b.ins().umin(km1, d)
             }
+            // Below k for k ≥ 1: no term of it reads order k but j = 0's.
+            Top::Half => self.b.ins().ushr_imm_s(km1, 1),
         };
         let from = lo as i64 + i64::from(first);
         let mut sum = self.conv_loop(a, b, from, old_hi, kkv, weighted);
@@ -1767,6 +1777,27 @@ impl<'a> Gen<'a> {
         let low = self.b.ins().fadd(l[0], l[1]);
         let high = self.b.ins().fadd(l[2], l[3]);
         self.b.ins().fadd(low, high)
+    }
+
+    /// A square's coefficient k from twice its half sum ([`Op::Square`]): plus a²ₖ/₂ where k is
+    /// even.
+    fn square_middle(&mut self, a: usize, twice: Value) -> Value {
+        match self.k {
+            Ix::Fixed(k) if k.is_multiple_of(2) => {
+                let mid = self.load(a, Ix::Fixed(k / 2));
+                let sq = self.b.ins().fmul(mid, mid);
+                self.b.ins().fadd(twice, sq)
+            }
+            Ix::Fixed(_) => twice,
+            Ix::Var(k) => {
+                let m = self.b.ins().ushr_imm_s(k, 1);
+                let mid = self.load(a, Ix::Var(m));
+                let sq = self.b.ins().fmul(mid, mid);
+                let with = self.b.ins().fadd(twice, sq);
+                let odd = self.b.ins().band_imm_s(k, 1);
+                self.b.ins().select(odd, twice, with)
+            }
+        }
     }
 
     /// Term j + i of a convolution: [(j + i)] a_(j+i) b_(kk−j−i), with `pa` at aⱼ, `pb` at
@@ -1904,6 +1935,7 @@ impl<'a> Gen<'a> {
             | Op::Sub { .. }
             | Op::Scale { .. }
             | Op::Mul { .. }
+            | Op::Square { .. }
             | Op::DivC { .. }
             | Op::Div { .. } => self.op(op),
         }
@@ -1931,6 +1963,14 @@ impl<'a> Gen<'a> {
                 (out, self.b.ins().fmul(x, y))
             }
             Op::Mul { out, a, b } => (out, self.conv(a, b, 0, Top::K, k, false)),
+            Op::Square { out, a } if k == Ix::Fixed(0) => {
+                (out, self.conv(a, a, 0, Top::K, k, false))
+            }
+            Op::Square { out, a } => {
+                let half = self.conv(a, a, 0, Top::Half, k, false);
+                let twice = self.b.ins().fadd(half, half);
+                (out, self.square_middle(a, twice))
+            }
             Op::DivC { out, a, c } => {
                 let (x, y) = (self.at_k(a), self.at0(c));
                 (out, self.b.ins().fdiv(x, y))
