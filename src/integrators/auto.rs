@@ -132,12 +132,13 @@ pub(super) fn choose<S: Dynamics + ?Sized>(
 /// 9–34 % faster (Kepler and the elastic pendulum at 1e-12 in both runs); after the work
 /// spaces kept between runs and the steps taken in a row, 43 of 48, the five others keeping
 /// DOP853 where Taylor was 1–35 % faster (Taylor got faster, the estimate was not refitted).
-/// Refitted on 2026-11-27 after that: over the 48 pairs Taylor's measured cost ratio was 0.84 of
-/// the estimate's (median; geometric mean 0.86), so its step's constants were scaled by 0.84
-/// (300, U/4, 13 O before); on that run's measurements the choice is then the faster method in
-/// 47 of 48 (44 before), the other keeping DOP853 on the driven pivot at 1e-12 (Taylor 0.86 of
-/// its time, estimated 1.27). Once compiled unrolled (after 10⁴ expansions, which this estimate never counts on) Taylor is
-/// 1.1–20× faster than DOP853 on the small models.
+/// Refitted on 2026-11-27 after that: over the 48 pairs Taylor's measured cost ratio was 0.84
+/// of the estimate's (median; geometric mean 0.86), so its step's constants were scaled by 0.84
+/// (300, U/4, 13 O before). Then, with squares summing half their terms: the faster method in
+/// 45 of 48, the other three a tie (the ball at 1e-6) or within the machine's ±0.4 noise (the
+/// double pendulum and Hénon–Heiles at 1e-9). Once compiled unrolled (after 10⁴ expansions,
+/// which this estimate never counts on) Taylor is 1.5–33× faster than DOP853 on the small
+/// models.
 struct TaylorEstimate {
     order: usize,
     /// Estimated nanoseconds per step.
