@@ -729,22 +729,28 @@ impl Lowering {
 impl Lowering {
     /// Read the row a copy copies, or a scaling by exactly 1 scales, in place of theirs, and drop
     /// them (in M and f, `outside`, too): no bit changes, and an operation fewer at every order.
-    /// Powers make copies (x² is the product x x, copied into the node's row), and so does sin
-    /// beside cos of one argument; the derivatives of ½ m v² scale by ½ · 2. Which numbers are 1
-    /// is known here, where the rows fixed by numbers alone are computed once (`numbers`; the
-    /// parameters' rows are unknown).
+    /// Powers make copies (x² is a square, copied into the node's row), and so does sin beside
+    /// cos of one argument; the derivatives of ½ m v² scale by ½ · 2. Which numbers are 1 is
+    /// known here, where the rows fixed by numbers alone are computed once (`numbers`): a row
+    /// that reads a parameter, however far back, is not (sign(p) is ±1 whatever p is).
     fn alias_rows(&mut self, numbers: &[(usize, f64)], outside: [&mut [usize]; 2]) {
-        let mut known = vec![f64::NAN; self.rows];
+        let mut values = vec![0.0; self.rows];
+        let mut known = vec![false; self.rows];
         for &(r, x) in numbers {
-            known[r] = x;
+            (values[r], known[r]) = (x, true);
         }
         for op in &self.fixed {
-            op.apply(&mut known, 1, 0);
+            if op.operands().iter().all(|&r| known[r]) {
+                op.apply(&mut values, 1, 0);
+                for r in op.outputs() {
+                    known[r] = true;
+                }
+            }
         }
         let alias: HashMap<usize, usize> = (self.order0.iter())
             .filter_map(|op| match *op {
                 Op::Copy { out, a } => Some((out, a)),
-                Op::Scale { out, a, c } if known[c] == 1.0 => Some((out, a)),
+                Op::Scale { out, a, c } if known[c] && values[c] == 1.0 => Some((out, a)),
                 _ => None,
             })
             .collect();
@@ -1949,6 +1955,33 @@ mod tests {
         )
         .unwrap();
         (program, model)
+    }
+
+    /// A scaling by a constant that reads a parameter stays, whatever the parameter: U =
+    /// sign(p) x²/2 gives ẍ = −sign(p) x, a scaling by −½ · 2 · sign(p), which is 1 for p < 0
+    /// only (and which sign(NaN) = −1 would take for 1), for p = ±2.
+    #[test]
+    fn scalings_by_parameters_stay() {
+        let mut g = Graph::new();
+        let (x, v, p) = (g.coord(0), g.velocity(0), g.param(0));
+        let half = g.constant(0.5);
+        let v2 = g.powi(v, 2).unwrap();
+        let x2 = g.powi(x, 2).unwrap();
+        let sign = g.unary(Unary::Sign, p).unwrap();
+        let scaled = g.binary(Binary::Mul, sign, x2).unwrap();
+        let parts = Energies {
+            kinetic: g.binary(Binary::Mul, half, v2).unwrap(),
+            potential: Some(g.binary(Binary::Mul, half, scaled).unwrap()),
+            dissipation: None,
+            forces: None,
+        };
+        for p in [2.0, -2.0] {
+            let (program, _) = setup(&mut g, 1, &parts, &[p]);
+            let mut e = Arc::new(program).expansion(&[p], 4);
+            e.expand(0.0, &[1.0], &[0.0]).unwrap();
+            // q̇'s coefficient 1 is q̈₀ = −sign(p) x₀.
+            assert_eq!(e.qd(1)[0], -p.signum(), "p = {p}");
+        }
     }
 
     /// Copies and scalings by exactly 1 are read through and dropped, in M too: T = ½ (ṙ² +

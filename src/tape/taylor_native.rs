@@ -276,7 +276,8 @@ impl Status {
 /// k = 0, …, p − 1 of q̈ — the leaves' row coefficients, the recurrences, fₖ − Σⱼ Mⱼ q̈ₖ₋ⱼ, the
 /// LDLᵀ solve — and orders 1, …, p of q and q̇, and with a [`StepControl`] the step of
 /// `Expansion::step` (its size from the last two orders, the new state). Every index is a
-/// constant: no loop, no bound to test at run time. The operations and their order are those of
+/// constant: no loop, no bound to test at run time. A third function runs such steps in a row
+/// ([`ExpansionKernel::steps`]), factoring M₀ itself. The operations and their order are those of
 /// `Expansion::expand` and `Expansion::step` with the interpreter (the sums in the lanes of
 /// `conv`, two at a time in two-lane vectors; the solve of `linalg::ldlt_solve`), so the
 /// coefficients and the steps are the same bits.
@@ -448,9 +449,9 @@ impl ExpansionKernel {
             "buffers too short for a step of {n} coordinates, or no step to take"
         );
         let mut taken = 0;
-        // SAFETY: as for `call`, and order 0 reads y's entries below 2n and writes M₀'s below
-        // n², inside the buffers by the asserts; the row writes y's entries below 2n and
-        // `taken`.
+        // SAFETY: as for `call`, and order 0 reads y's entries below 2n; the row writes M₀'s
+        // entries below n² (copied from the table and factored), y's below 2n and `taken`, all
+        // inside the buffers by the asserts.
         let code = unsafe {
             (self.code.entry().steps)(
                 b.table.as_mut_ptr(),
@@ -645,8 +646,9 @@ fn define_expansion(
 
 /// Generate, compile and link the row of steps ([`ExpansionKernel::steps`]): a loop that calls
 /// the kernel's `order0` and `expansion` (linked before it) and, where M varies, copies M₀ out
-/// of the table and factors it with `linalg::ldlt_in_place` itself (`lagrangian_ldlt`), so the
-/// steps are those of the calls made one by one from Rust, without the Rust around each.
+/// of the table and factors it — in the code for up to two coordinates ([`factor_small`]), by
+/// `linalg::ldlt_in_place` itself above (`lagrangian_ldlt`) — so the steps are those of the
+/// calls made one by one from Rust, without the Rust around each.
 fn define_steps(
     module: &mut JITModule,
     program: &TaylorProgram,
