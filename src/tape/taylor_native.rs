@@ -167,7 +167,8 @@ const UNROLL_UP_TO: usize = 100_000;
 /// order 13): the double pendulum compiles in 16–22 ms and expands in 0.64–0.67 against
 /// 1.47–1.55 µs (break-even after 18 000–24 000 expansions), the 4-link chain in 0.15–0.25 s,
 /// 4.8 against 13.6–13.8 µs (17 000–24 000), the forced two-mass in 3.2–3.7 ms, 0.13 against
-/// 0.67 µs (6 000–6 500), Kepler in 10–14 ms, 0.40 against 1.12 µs (13 000–19 000).
+/// 0.67 µs (6 000–6 500), Kepler in 10–14 ms, 0.40 against 1.12 µs (13 000–19 000; before its
+/// squares summed half their terms, which took 6 % off the instructions of its unrolled step).
 /// Waiting for the break-even keeps a short run from paying for code it would not repay (at
 /// worst a run then costs about twice what the better choice in hindsight would have).
 pub(crate) const UNROLL_AFTER: usize = 10_000;
