@@ -1262,11 +1262,7 @@ impl TaylorProgram {
     /// or after `UNROLL_AFTER` expansions to that order).
     pub fn is_unrolled(&self, order: usize) -> bool {
         #[cfg(feature = "jit")]
-        return self
-            .unrolled
-            .get(order)
-            .and_then(|cell| cell.get())
-            .is_some_and(|kernel| kernel.is_some());
+        return self.compiled(order).is_some();
         #[cfg(not(feature = "jit"))]
         {
             let _ = order;
@@ -1446,6 +1442,25 @@ struct Workspace {
     reversed: Vec<f64>,
 }
 
+#[cfg(feature = "jit")]
+impl Workspace {
+    /// The buffers the compiled expansion reads and writes, the mirror work space grown to
+    /// `reversed_len` entries first (sized at the first compiled run).
+    fn buffers(&mut self, reversed_len: usize) -> Buffers<'_> {
+        if self.reversed.len() < reversed_len {
+            self.reversed.resize(reversed_len, 0.0);
+        }
+        Buffers {
+            table: &mut self.series,
+            q: &mut self.q,
+            v: &mut self.v,
+            qdd: &mut self.qdd,
+            m0: &mut self.m0,
+            reversed: &mut self.reversed,
+        }
+    }
+}
+
 /// Spare work spaces a program keeps at most (more than the threads of a parallel ensemble on
 /// most machines, few enough to bound the memory they hold).
 const SPARES: usize = 8;
@@ -1561,42 +1576,19 @@ impl Expansion {
         qd0: &[f64],
         step: Option<Step<'_>>,
     ) -> Option<Result<Status>> {
-        let Self {
-            program,
-            work:
-                Workspace {
-                    order,
-                    series,
-                    q,
-                    v,
-                    m0,
-                    m0_fixed,
-                    qdd,
-                    reversed,
-                    ..
-                },
-        } = self;
-        let kernel = program.unrolled(*order)?;
-        let w = *order + 1;
+        let Self { program, work } = self;
+        let kernel = program.unrolled(work.order)?;
+        let w = work.order + 1;
         if let Some(r) = program.time {
             // t's coefficients beyond 0 are fixed at creation.
-            series[r * w] = t0;
+            work.series[r * w] = t0;
         }
-        kernel.order0(series, q0, qd0, q, v);
+        kernel.order0(&mut work.series, q0, qd0, &mut work.q, &mut work.v);
+        let (series, m0, m0_fixed) = (&work.series, &mut work.m0, &mut work.m0_fixed);
         if let Err(e) = factor_m0(program, series, w, m0, m0_fixed, t0, q0) {
             return Some(Err(e));
         }
-        if reversed.len() < kernel.reversed_len() {
-            reversed.resize(kernel.reversed_len(), 0.0);
-        }
-        let buffers = Buffers {
-            table: series,
-            q,
-            v,
-            qdd,
-            m0,
-            reversed,
-        };
+        let buffers = work.buffers(kernel.reversed_len());
         Some(Ok(match step {
             None => kernel.run(buffers),
             Some(step) => kernel.step(buffers, step),
@@ -1687,41 +1679,17 @@ impl Expansion {
         y_new: &mut [f64],
         limit: usize,
     ) -> Option<(usize, RowEnd)> {
-        let Self {
-            program,
-            work:
-                Workspace {
-                    order,
-                    series,
-                    q,
-                    v,
-                    m0,
-                    m0_fixed,
-                    qdd,
-                    reversed,
-                    ..
-                },
-        } = self;
-        let kernel = program.compiled(*order)?;
-        if program.mass_constant && !*m0_fixed {
+        let Self { program, work } = self;
+        let kernel = program.compiled(work.order)?;
+        if program.mass_constant && !work.m0_fixed {
             return None;
-        }
-        if reversed.len() < kernel.reversed_len() {
-            reversed.resize(kernel.reversed_len(), 0.0);
         }
         let mut control = StepControl {
             t: *t,
             rule: *rule,
             ..StepControl::default()
         };
-        let buffers = Buffers {
-            table: series,
-            q,
-            v,
-            qdd,
-            m0,
-            reversed,
-        };
+        let buffers = work.buffers(kernel.reversed_len());
         let (status, taken) = kernel.steps(buffers, &mut control, [y, lost, y_new], limit);
         *t = control.t;
         let end = match status {
