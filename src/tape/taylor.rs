@@ -667,6 +667,79 @@ impl Lowering {
 }
 
 impl Lowering {
+    /// Turn a quotient of a quotient by the same series, (x / b) / b, into one quotient by the
+    /// square the program already computes, x / b², and −(x / b) / b into −(x / b²), when the
+    /// inner quotient (and the negation) is read nowhere else: a convolution fewer at every
+    /// order. Polar coordinates make them: ∂U/∂r of −μ/r is μ/r / r, beside M's r². The
+    /// quotient rounds once where it rounded twice (the coefficients move by an ulp or so).
+    fn fold_quotients(&mut self, outside: &HashSet<usize>) {
+        let mut reads: HashMap<usize, usize> = HashMap::new();
+        for r in self.order0.iter().flat_map(Op::operands) {
+            *reads.entry(r).or_insert(0) += 1;
+        }
+        let once = |r: usize| reads.get(&r) == Some(&1) && !outside.contains(&r);
+        let made: HashMap<usize, Op> = self.order0.iter().map(|op| (op.out(), *op)).collect();
+        let varies: HashSet<Op> = self.varying.iter().copied().collect();
+        // The squares the program computes at every order it computes them, by their operand.
+        let squares: HashMap<usize, Op> = (self.order0.iter())
+            .filter_map(|op| match *op {
+                Op::Square { a, .. } => Some((a, *op)),
+                _ => None,
+            })
+            .collect();
+        // (old outer quotient, the inner ops it replaces, its replacements).
+        let mut rewrites: Vec<(Op, Vec<Op>, Vec<Op>)> = Vec::new();
+        // The rows of the ops rewritten so far: a rewrite touching one is left out (a quotient
+        // of a quotient of a quotient folds its first two).
+        let mut touched: HashSet<usize> = HashSet::new();
+        for &op in &self.order0 {
+            let Op::Div { out, a, b } = op else { continue };
+            let Some(&square) = squares.get(&b) else {
+                continue;
+            };
+            // Computed before the quotient, at every order the quotient is.
+            let position = |x: Op| self.order0.iter().position(|&o| o == x);
+            if position(square) > position(op) || varies.contains(&op) && !varies.contains(&square)
+            {
+                continue;
+            }
+            let inner = |r: usize| match made.get(&r) {
+                Some(&Op::Div { a: x, b: c, .. }) if c == b && once(r) => Some(x),
+                _ => None,
+            };
+            let sq = square.out();
+            if let Some(x) = inner(a) {
+                let new = Op::Div { out, a: x, b: sq };
+                if !touched.contains(&x) && [out, a].iter().all(|r| touched.insert(*r)) {
+                    rewrites.push((op, vec![made[&a]], vec![new]));
+                }
+            } else if let Some(&Op::Neg { a: m, .. }) = made.get(&a)
+                && once(a)
+                && let Some(x) = inner(m)
+            {
+                let quotient = Op::Div {
+                    out: m,
+                    a: x,
+                    b: sq,
+                };
+                let negation = Op::Neg { out, a: m };
+                if !touched.contains(&x) && [out, a, m].iter().all(|r| touched.insert(*r)) {
+                    rewrites.push((op, vec![made[&a], made[&m]], vec![quotient, negation]));
+                }
+            }
+        }
+        for (old, gone, new) in rewrites {
+            for list in [&mut self.order0, &mut self.varying] {
+                if let Some(at) = list.iter().position(|&o| o == old) {
+                    list.splice(at..=at, new.iter().copied());
+                }
+                list.retain(|op| !gone.contains(op));
+            }
+        }
+    }
+}
+
+impl Lowering {
     /// Fold a scaling of a scaling read nowhere else, (x c₁) c₂, into one, x (c₁ c₂), with
     /// c₁ c₂ a row fixed at binding (of constants fixed at binding): one operation fewer at every
     /// order. The derivatives of quadratic energies are full of them (∂U/∂x of ½ k (x₂ − x₁)²
@@ -1121,6 +1194,7 @@ impl TaylorProgram {
         let mut mass: Vec<usize> = eom.mass.iter().map(|&o| row[o]).collect();
         let mut force: Vec<usize> = eom.force.iter().map(|&o| row[o]).collect();
         let outside: HashSet<usize> = mass.iter().chain(&force).copied().collect();
+        low.fold_quotients(&outside);
         low.fold_negations(&outside);
         low.fold_scalings(&outside);
         // M's reach is its node rows' (the rows they may read through after `alias_rows` are
@@ -1956,6 +2030,61 @@ mod tests {
     /// r² θ̇²), U = sin θ cos θ − μ/r has x² as a product copied into the power's row, sin
     /// beside cos, and M₁₁ = r² scaled by ½ · 2. What remains still expands as the dual
     /// numbers of the tapes differentiate (q̈ at order 0, against the accelerations).
+    #[test]
+    fn quotients_of_quotients_are_one_quotient() {
+        // Kepler in polar coordinates, U = −μ/r: ∂U/∂r = (μ/r)/r, and μ r⁻¹ (no quotient) as
+        // the reference; their series agree to rounding at every order.
+        let kepler = |inverse: bool| {
+            let mut g = Graph::new();
+            let (r, rd, thd, mu) = (g.coord(0), g.velocity(0), g.velocity(1), g.param(0));
+            let _ = g.coord(1);
+            let half = g.constant(0.5);
+            let (rd2, r2, thd2) = (
+                g.powi(rd, 2).unwrap(),
+                g.powi(r, 2).unwrap(),
+                g.powi(thd, 2).unwrap(),
+            );
+            let rt = g.binary(Binary::Mul, r2, thd2).unwrap();
+            let sum = g.binary(Binary::Add, rd2, rt).unwrap();
+            let over = if inverse {
+                let inv = g.powi(r, -1).unwrap();
+                g.binary(Binary::Mul, mu, inv).unwrap()
+            } else {
+                g.binary(Binary::Div, mu, r).unwrap()
+            };
+            let parts = Energies {
+                kinetic: g.binary(Binary::Mul, half, sum).unwrap(),
+                potential: Some(g.unary(Unary::Neg, over).unwrap()),
+                dissipation: None,
+                forces: None,
+            };
+            setup(&mut g, 2, &parts, &[1.3]).0
+        };
+        let quotients = |p: &TaylorProgram| {
+            (p.varying.iter())
+                .filter(|op| matches!(op, Op::Div { .. }))
+                .count()
+        };
+        let (folded, reference) = (kepler(false), kepler(true));
+        assert_eq!(quotients(&folded), 1, "{:?}", folded.varying);
+        assert_eq!(quotients(&reference), 0, "{:?}", reference.varying);
+        let (q, v) = ([0.7, 0.4], [0.2, -1.1]);
+        let order = 16;
+        let mut e = Arc::new(folded).expansion(&[1.3], order);
+        let mut f = Arc::new(reference).expansion(&[1.3], order);
+        e.expand(0.0, &q, &v).unwrap();
+        f.expand(0.0, &q, &v).unwrap();
+        for k in 1..=order {
+            for i in 0..2 {
+                let (a, b) = (e.q(k)[i], f.q(k)[i]);
+                assert!(
+                    (a - b).abs() <= 1e-13 * b.abs().max(1e-3),
+                    "q{i} order {k}: {a} {b}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn copies_and_unit_scalings_are_read_through() {
         let mut g = Graph::new();
