@@ -2026,14 +2026,10 @@ mod tests {
         }
     }
 
-    /// Copies and scalings by exactly 1 are read through and dropped, in M too: T = ½ (ṙ² +
-    /// r² θ̇²), U = sin θ cos θ − μ/r has x² as a product copied into the power's row, sin
-    /// beside cos, and M₁₁ = r² scaled by ½ · 2. What remains still expands as the dual
-    /// numbers of the tapes differentiate (q̈ at order 0, against the accelerations).
+    /// Kepler in polar coordinates, U = −μ/r: ∂U/∂r = (μ/r)/r becomes μ/r², r² being M₁₁'s
+    /// square; against μ r⁻¹ (no quotient at all), the series agree to rounding at every order.
     #[test]
     fn quotients_of_quotients_are_one_quotient() {
-        // Kepler in polar coordinates, U = −μ/r: ∂U/∂r = (μ/r)/r, and μ r⁻¹ (no quotient) as
-        // the reference; their series agree to rounding at every order.
         let kepler = |inverse: bool| {
             let mut g = Graph::new();
             let (r, rd, thd, mu) = (g.coord(0), g.velocity(0), g.velocity(1), g.param(0));
@@ -2085,6 +2081,10 @@ mod tests {
         }
     }
 
+    /// Copies and scalings by exactly 1 are read through and dropped, in M too: T = ½ (ṙ² +
+    /// r² θ̇²), U = sin θ cos θ − μ/r has x² as a product copied into the power's row, sin
+    /// beside cos, and M₁₁ = r² scaled by ½ · 2. What remains still expands as the dual
+    /// numbers of the tapes differentiate (q̈ at order 0, against the accelerations).
     #[test]
     fn copies_and_unit_scalings_are_read_through() {
         let mut g = Graph::new();

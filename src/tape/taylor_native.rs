@@ -1380,8 +1380,9 @@ impl<'a> Gen<'a> {
     /// ball in a sphere: a sine and cosine and a scaling) that wait was the step's critical
     /// path: measured at 1e-9, 242 against 199 ns per step taking them from the registers. More
     /// values carried from one order into the next cost spills: all of them ran the double
-    /// pendulum 10 % slower (12 % more instructions); at most 4 changed Kepler's, the double
-    /// pendulum's and the forced two-mass's times by less than the noise (±3 %).
+    /// pendulum 10 % slower (12 % more instructions); at most 4 cost Kepler's and the 4-link
+    /// chain's steps about 2 %, and moved the double pendulum's and the forced two-mass's by
+    /// less than the noise (±3 %).
     fn pair(&mut self, base: Value, off: i32) -> Value {
         let held = |g: &Self, o: i32| {
             g.stored[1]
