@@ -136,9 +136,11 @@ pub(super) fn choose<S: Dynamics + ?Sized>(
 /// of the estimate's (median; geometric mean 0.86), so its step's constants were scaled by 0.84
 /// (300, U/4, 13 O before). Then, with squares summing half their terms: the faster method in
 /// 45 of 48, the other three a tie (the ball at 1e-6) or within the machine's ±0.4 noise (the
-/// double pendulum and Hénon–Heiles at 1e-9). Once compiled unrolled (after 10⁴ expansions,
-/// which this estimate never counts on) Taylor is 1.5–33× faster than DOP853 on the small
-/// models.
+/// double pendulum and Hénon–Heiles at 1e-9); with the unrolled step's pairs from the
+/// registers, Kepler's quotient by r² and a smaller fixed cost per call (not refitted), 46 of
+/// 48, the other two a tie (the ball at 1e-6) or within the noise (Hénon–Heiles at 1e-9). Once
+/// compiled unrolled (after 10⁴ expansions, which this estimate never counts on) Taylor is
+/// 1.2–25× faster than DOP853 on the small models.
 struct TaylorEstimate {
     order: usize,
     /// Estimated nanoseconds per step.
