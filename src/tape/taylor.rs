@@ -671,7 +671,7 @@ impl Lowering {
     /// square the program already computes, x / b², and −(x / b) / b into −(x / b²), when the
     /// inner quotient (and the negation) is read nowhere else: a convolution fewer at every
     /// order. Polar coordinates make them: ∂U/∂r of −μ/r is μ/r / r, beside M's r². The
-    /// quotient rounds once where it rounded twice (the coefficients move by an ulp or so).
+    /// coefficients move by an ulp or so (one quotient by a rounded square for two quotients).
     fn fold_quotients(&mut self, outside: &HashSet<usize>) {
         let mut reads: HashMap<usize, usize> = HashMap::new();
         for r in self.order0.iter().flat_map(Op::operands) {
@@ -710,7 +710,8 @@ impl Lowering {
             let sq = square.out();
             if let Some(x) = inner(a) {
                 let new = Op::Div { out, a: x, b: sq };
-                if !touched.contains(&x) && [out, a].iter().all(|r| touched.insert(*r)) {
+                if ![x, out, a].iter().any(|r| touched.contains(r)) {
+                    touched.extend([out, a]);
                     rewrites.push((op, vec![made[&a]], vec![new]));
                 }
             } else if let Some(&Op::Neg { a: m, .. }) = made.get(&a)
@@ -723,7 +724,8 @@ impl Lowering {
                     b: sq,
                 };
                 let negation = Op::Neg { out, a: m };
-                if !touched.contains(&x) && [out, a, m].iter().all(|r| touched.insert(*r)) {
+                if ![x, out, a, m].iter().any(|r| touched.contains(r)) {
+                    touched.extend([out, a, m]);
                     rewrites.push((op, vec![made[&a], made[&m]], vec![quotient, negation]));
                 }
             }
@@ -2023,6 +2025,62 @@ mod tests {
             e.expand(0.0, &[1.0], &[0.0]).unwrap();
             // q̇'s coefficient 1 is q̈₀ = −sign(p) x₀.
             assert_eq!(e.qd(1)[0], -p.signum(), "p = {p}");
+        }
+    }
+
+    /// Both forms `fold_quotients` rewrites, on a hand-made program: (x/b)/b and −(x/b)/b
+    /// become x/b² and −(x/b²), with b² the program's own square, and give the series of the
+    /// two quotients to rounding at every order.
+    #[test]
+    fn quotients_fold_in_both_forms() {
+        // Rows: 0 = x, 1 = b, 2 = b², 3 = x/b, 4 = (x/b)/b, 5 = x/b again, 6 = −(x/b),
+        // 7 = −(x/b)/b.
+        let ops = vec![
+            Op::Square { out: 2, a: 1 },
+            Op::Div { out: 3, a: 0, b: 1 },
+            Op::Div { out: 4, a: 3, b: 1 },
+            Op::Div { out: 5, a: 0, b: 1 },
+            Op::Neg { out: 6, a: 5 },
+            Op::Div { out: 7, a: 6, b: 1 },
+        ];
+        let mut low = Lowering {
+            rows: 8,
+            fixed: Vec::new(),
+            order0: ops.clone(),
+            varying: ops.clone(),
+        };
+        low.fold_quotients(&HashSet::from([2, 4, 7]));
+        let folded = vec![
+            Op::Square { out: 2, a: 1 },
+            Op::Div { out: 4, a: 0, b: 2 },
+            Op::Div { out: 5, a: 0, b: 2 },
+            Op::Neg { out: 7, a: 5 },
+        ];
+        assert_eq!(low.order0, folded);
+        assert_eq!(low.varying, folded);
+        let w = 17;
+        let run = |ops: &[Op]| {
+            let mut s = vec![0.0; 8 * w];
+            for k in 0..w {
+                s[k] = ((k * 5 % 7) as f64 - 2.9) / (k + 1) as f64;
+                s[w + k] = 1.3 / (k * k + 1) as f64;
+            }
+            for k in 0..w {
+                for op in ops {
+                    op.apply(&mut s, w, k);
+                }
+            }
+            s
+        };
+        let (before, after) = (run(&ops), run(&folded));
+        for row in [4, 7] {
+            for k in 0..w {
+                let (a, b) = (after[row * w + k], before[row * w + k]);
+                assert!(
+                    (a - b).abs() <= 1e-13 * b.abs().max(1e-3),
+                    "row {row} order {k}: {a} {b}"
+                );
+            }
         }
     }
 

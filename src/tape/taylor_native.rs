@@ -1372,13 +1372,13 @@ impl<'a> Gen<'a> {
     }
 
     /// The two `f64` at byte `off` from `base`, as a two-lane vector: an unaligned load, or
-    /// built in the registers when one of them was stored by the previous order or this one and
-    /// this order has taken fewer than [`CARRIED`] values so.
+    /// built in the registers when one of them was stored since the previous order's solve and
+    /// this order's values so taken stay within [`CARRIED`].
     ///
     /// Why: the stores are of one `f64` each, and a load of two cannot be forwarded from them
     /// while they are on their way to the cache; it waits for them. Where an order is short (the
     /// ball in a sphere: a sine and cosine and a scaling) that wait was the step's critical
-    /// path: measured at 1e-9, 242 against 199 ns per step taking them from the registers. More
+    /// path: measured at 1e-9, 242 against 197 ns per step taking them from the registers. More
     /// values carried from one order into the next cost spills: all of them ran the double
     /// pendulum 10 % slower (12 % more instructions); at most 4 cost Kepler's and the 4-link
     /// chain's steps about 2 %, and moved the double pendulum's and the forced two-mass's by
