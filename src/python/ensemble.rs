@@ -29,7 +29,7 @@ use std::sync::mpsc::{RecvTimeoutError, channel};
 use std::time::Duration;
 
 /// The counters of [`crate::integrators::Statistics`], in this order, as columns.
-const COUNTERS: [&str; 6] = [
+pub(super) const COUNTERS: [&str; 6] = [
     "accepted_steps",
     "rejected_steps",
     "rhs_evaluations",

@@ -791,17 +791,8 @@ pub(crate) fn solution_tuple<'py>(
     static STATS: PyOnceLock<Py<PyDict>> = PyOnceLock::new();
     let template = STATS.get_or_try_init(py, || -> PyResult<Py<PyDict>> {
         let d = PyDict::new(py);
-        for key in [
-            "method",
-            "choice",
-            "accepted_steps",
-            "rejected_steps",
-            "rhs_evaluations",
-            "jacobian_evaluations",
-            "factorizations",
-            "newton_failures",
-            "conserved",
-        ] {
+        let keys = ["method", "choice"].into_iter().chain(ensemble::COUNTERS);
+        for key in keys.chain(["conserved"]) {
             d.set_item(key, py.None())?;
         }
         Ok(d.unbind())

@@ -2028,6 +2028,20 @@ mod tests {
         }
     }
 
+    /// T = ½ (ṙ² + r² θ̇²), a point in polar coordinates (r, θ) = (q₀, q₁), in `g`.
+    fn polar_kinetic(g: &mut Graph) -> usize {
+        let (r, _, rd, thd) = (g.coord(0), g.coord(1), g.velocity(0), g.velocity(1));
+        let half = g.constant(0.5);
+        let (rd2, r2, thd2) = (
+            g.powi(rd, 2).unwrap(),
+            g.powi(r, 2).unwrap(),
+            g.powi(thd, 2).unwrap(),
+        );
+        let rt = g.binary(Binary::Mul, r2, thd2).unwrap();
+        let sum = g.binary(Binary::Add, rd2, rt).unwrap();
+        g.binary(Binary::Mul, half, sum).unwrap()
+    }
+
     /// Both forms `fold_quotients` rewrites, on a hand-made program: (x/b)/b and −(x/b)/b
     /// become x/b² and −(x/b²), with b² the program's own square, and give the series of the
     /// two quotients to rounding at every order.
@@ -2090,16 +2104,8 @@ mod tests {
     fn quotients_of_quotients_are_one_quotient() {
         let kepler = |inverse: bool| {
             let mut g = Graph::new();
-            let (r, rd, thd, mu) = (g.coord(0), g.velocity(0), g.velocity(1), g.param(0));
-            let _ = g.coord(1);
-            let half = g.constant(0.5);
-            let (rd2, r2, thd2) = (
-                g.powi(rd, 2).unwrap(),
-                g.powi(r, 2).unwrap(),
-                g.powi(thd, 2).unwrap(),
-            );
-            let rt = g.binary(Binary::Mul, r2, thd2).unwrap();
-            let sum = g.binary(Binary::Add, rd2, rt).unwrap();
+            let kinetic = polar_kinetic(&mut g);
+            let (r, mu) = (g.coord(0), g.param(0));
             let over = if inverse {
                 let inv = g.powi(r, -1).unwrap();
                 g.binary(Binary::Mul, mu, inv).unwrap()
@@ -2107,7 +2113,7 @@ mod tests {
                 g.binary(Binary::Div, mu, r).unwrap()
             };
             let parts = Energies {
-                kinetic: g.binary(Binary::Mul, half, sum).unwrap(),
+                kinetic,
                 potential: Some(g.unary(Unary::Neg, over).unwrap()),
                 dissipation: None,
                 forces: None,
@@ -2146,21 +2152,8 @@ mod tests {
     #[test]
     fn copies_and_unit_scalings_are_read_through() {
         let mut g = Graph::new();
-        let (r, th, rd, thd, mu) = (
-            g.coord(0),
-            g.coord(1),
-            g.velocity(0),
-            g.velocity(1),
-            g.param(0),
-        );
-        let half = g.constant(0.5);
-        let (rd2, r2, thd2) = (
-            g.powi(rd, 2).unwrap(),
-            g.powi(r, 2).unwrap(),
-            g.powi(thd, 2).unwrap(),
-        );
-        let rt = g.binary(Binary::Mul, r2, thd2).unwrap();
-        let sum = g.binary(Binary::Add, rd2, rt).unwrap();
+        let kinetic = polar_kinetic(&mut g);
+        let (r, th, mu) = (g.coord(0), g.coord(1), g.param(0));
         let (s, c) = (
             g.unary(Unary::Sin, th).unwrap(),
             g.unary(Unary::Cos, th).unwrap(),
@@ -2168,7 +2161,7 @@ mod tests {
         let sc = g.binary(Binary::Mul, s, c).unwrap();
         let over = g.binary(Binary::Div, mu, r).unwrap();
         let parts = Energies {
-            kinetic: g.binary(Binary::Mul, half, sum).unwrap(),
+            kinetic,
             potential: Some(g.binary(Binary::Sub, sc, over).unwrap()),
             dissipation: None,
             forces: None,
