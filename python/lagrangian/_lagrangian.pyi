@@ -19,6 +19,7 @@ __all__ = [
     "TooManyStepsError",
     "NativeModel",
     "DenseSolution",
+    "Run",
     "check_options",
     "method_info",
     "methods",
@@ -48,18 +49,14 @@ _EventSpec = Tuple[
     str,
     int,
 ]
-# (t, q, qd, energy, stats, events, status, message, dense)
-_SolutionTuple = Tuple[
-    _FloatArray,
-    _FloatArray,
-    _FloatArray,
-    _FloatArray,
-    Dict[str, Any],
-    List[Tuple[_FloatArray, _FloatArray, _FloatArray]],
-    int,
-    str,
-    Optional["DenseSolution"],
-]
+@final
+class Run:
+    """A finished run, kept by ``Solution``: each field is made when first read."""
+
+    def field(self, name: str) -> Any:
+        """The ``Solution`` attribute ``name`` (``t``, ``q``, ``qd``, ``energy``, ``stats``,
+        ``events`` — ``(t_events, q_events, qd_events)`` —, ``status``, ``message`` or
+        ``_dense``), handed over: ask for each once."""
 
 @final
 class DenseSolution:
@@ -88,7 +85,7 @@ class LagrangianError(RuntimeError):
     t: Optional[float]
     q: Optional[_FloatArray]
     qd: Optional[_FloatArray]
-    _partial: Optional[_SolutionTuple]
+    _partial: Optional[Run]
 
 class SingularMassMatrixError(LagrangianError):
     """The mass matrix is singular, indefinite or not finite at some state."""
@@ -204,7 +201,7 @@ class NativeModel:
         events: Sequence[_EventSpec] = ...,
         dense: bool = False,
         backend: str = "native",
-    ) -> Optional[_SolutionTuple]: ...
+    ) -> Optional[Run]: ...
     def equilibrium(
         self,
         q_guess: Sequence[float],

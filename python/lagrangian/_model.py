@@ -831,16 +831,15 @@ class Model:
             # A failure during the run carries what was computed (see `Raises`).
             partial = err._partial
             if partial is not None:
-                err.solution = Solution._from_native(
-                    partial, self._names, event_names, self._conserved(events), str(err)
-                )
+                err.solution = Solution._from_native(partial, self._names, event_names, str(err))
                 err._partial = None
             raise
-        return Solution._from_native(out, self._names, event_names, self._conserved(events))
+        return Solution._from_native(out, self._names, event_names)
 
     def _conserved(self, events: Optional[Sequence[Event]]) -> bool:
-        """Whether h = q̇·p − L is a constant of a run with these events (``stats["conserved"]``:
-        its plot shows the drift then): a conservative model, and no reset."""
+        """Whether h = q̇·p − L is a constant of runs with these events (an ensemble's
+        ``stats["conserved"]``; ``simulate``'s is decided in Rust alike): a conservative model,
+        and no reset."""
         if not self._native.conservative:
             return False
         return events is None or not any(e.reset for e in events)

@@ -14,6 +14,11 @@ if TYPE_CHECKING:
 
 __all__ = ["Solution"]
 
+# The three lists of event occurrences, made together from a native run.
+_EVENT_LISTS = frozenset({"t_events", "q_events", "qd_events"})
+# The fields a native run makes on first read (`Solution.__getattr__`).
+_FROM_RUN = _EVENT_LISTS | {"t", "q", "qd", "energy", "stats", "status", "message", "_dense"}
+
 FloatArray = npt.NDArray[np.float64]
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -71,6 +76,7 @@ class Solution:
         "message",
         "_dense",
         "_y",
+        "_run",
     )
 
     t: FloatArray
@@ -112,40 +118,52 @@ class Solution:
         self.status, self.message = status, message
         self._dense = dense
         self._y: Optional[FloatArray] = None
+        self._run: Any = None
 
     @classmethod
     def _from_native(
         cls,
-        out: Tuple[Any, ...],
+        run: Any,
         names: Tuple[str, ...],
         event_names: Tuple[str, ...],
-        conserved: bool,
         failure: Optional[str] = None,
     ) -> "Solution":
-        """The solution from the native tuple (t, q, qd, energy, stats, events, status,
-        message, dense), with the model's coordinate and event names (tuples of strings) and
-        ``stats["conserved"]``; ``failure`` marks the partial solution of a failed run. Its
-        fields set directly: a short run's fixed cost is most of what it costs."""
-        t, q, qd, energy, stats, events, status, message, dense = out
+        """The solution of a native run (``_lagrangian.Run``), with the model's coordinate and
+        event names (tuples of strings); ``failure`` marks the partial solution of a failed
+        run. Every other field is made from the run when first read (:meth:`__getattr__`): a
+        short run's fixed cost is most of what it costs."""
         sol = cls.__new__(cls)
-        sol.t, sol.q, sol.qd, sol.energy = t, q, qd, energy
-        stats["conserved"] = conserved  # a new dict from every native call: the solution owns it
-        sol.stats = stats
+        sol._run = run
         sol.names = names
-        if events:
-            sol.t_events = [np.asarray(te) for te, _, _ in events]
-            sol.q_events = [np.asarray(qe) for _, qe, _ in events]
-            sol.qd_events = [np.asarray(qde) for _, _, qde in events]
-        else:
-            sol.t_events, sol.q_events, sol.qd_events = [], [], []
         sol.event_names = event_names
-        if failure is None:
-            sol.status, sol.message = int(status), str(message)
-        else:
+        if failure is not None:
             sol.status, sol.message = -1, failure
-        sol._dense = dense
         sol._y = None
         return sol
+
+    def __getattr__(self, name: str) -> Any:
+        # Called only for a field not yet set: one of a native run's, made now and kept (so
+        # the next read is a plain slot read, and the run hands each over once).
+        if name in _FROM_RUN:
+            run = self._run
+            if run is not None:
+                if name in _EVENT_LISTS:
+                    self.t_events, self.q_events, self.qd_events = run.field("events")
+                else:
+                    setattr(self, name, run.field(name))
+                return getattr(self, name)
+        raise AttributeError(f"'Solution' object has no attribute {name!r}")
+
+    def __getstate__(self) -> Dict[str, Any]:
+        # Every field made (the native run does not pickle), for pickle and copy.
+        state = {name: getattr(self, name) for name in self.__slots__ if name != "_run"}
+        state["_y"] = None
+        return state
+
+    def __setstate__(self, state: Dict[str, Any]) -> None:
+        for name, value in state.items():
+            setattr(self, name, value)
+        self._run = None
 
     def __call__(self, t: Union[float, "npt.ArrayLike"]) -> Tuple[FloatArray, FloatArray]:
         """(q, q̇) at time(s) ``t`` anywhere in the span, from the method's own interpolant

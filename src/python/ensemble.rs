@@ -301,7 +301,7 @@ fn ensemble_tuple<'py>(
     for (i, run) in runs.into_iter().enumerate() {
         let mut sol = match run {
             Ok(sol) => {
-                status[i] = super::status_code(&sol.status);
+                status[i] = super::solution::status_code(&sol.status);
                 Some(sol)
             }
             Err(Failed {

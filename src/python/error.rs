@@ -86,16 +86,21 @@ impl From<Error> for PyErr {
     }
 }
 
-/// Attributes of every `LagrangianError` that a failed run fills: the partial solution's
-/// (t, q, qd, energy, stats) as `_partial` (the package wraps it as `solution`) and the last
+/// Attributes of every `LagrangianError` that a failed run fills: the partial solution (a
+/// [`PyRun`](super::solution::PyRun)) as `_partial` (the package wraps it as `solution`) and the last
 /// accepted state `t`, `q`, `qd`. They are `None` on the class, so on any failure that came
 /// before the first step (or outside `simulate`).
 pub(crate) const PARTIAL_ATTRIBUTES: [&str; 5] = ["_partial", "solution", "t", "q", "qd"];
 
 /// The Python exception of a failed run, carrying the partial solution and the last accepted
-/// state when the run had started. `n` is the number of coordinates; `energy` is the partial
-/// trajectory's energy.
-pub(crate) fn with_partial(py: Python<'_>, failed: Failed, energy: Vec<f64>, n: usize) -> PyErr {
+/// state when the run had started. `energy` is the partial trajectory's energy, `conserved`
+/// whether it is a constant of the run.
+pub(crate) fn with_partial(
+    py: Python<'_>,
+    failed: Failed,
+    energy: Vec<f64>,
+    conserved: bool,
+) -> PyErr {
     let Failed {
         error,
         partial,
@@ -105,7 +110,8 @@ pub(crate) fn with_partial(py: Python<'_>, failed: Failed, energy: Vec<f64>, n: 
     if let (Some(sol), Some((t, q, qd))) = (partial, last) {
         let value = err.value(py);
         let attach = || -> PyResult<()> {
-            value.setattr("_partial", super::solution_tuple(py, sol, energy, n)?)?;
+            let run = super::solution::PyRun::new(sol, energy, conserved);
+            value.setattr("_partial", Bound::new(py, run)?)?;
             value.setattr("t", t)?;
             value.setattr("q", PyArray1::from_vec(py, q))?;
             value.setattr("qd", PyArray1::from_vec(py, qd))?;

@@ -20,6 +20,7 @@ mod first_order;
 mod linear;
 mod model;
 mod scenes;
+mod solution;
 mod states;
 
 use crate::integrators::{Failed, Method, Options, Output, Solution, Status, solve_partial};
@@ -32,10 +33,9 @@ use numpy::{
     PyReadonlyArray2, PyReadonlyArrayDyn,
 };
 use pyo3::exceptions::PyValueError;
-use pyo3::intern;
 use pyo3::prelude::*;
-use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyDict, PyTuple};
+use solution::PyRun;
 use states::States;
 use std::cell::Cell;
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -235,8 +235,8 @@ impl PyModel {
         self.model.dof()
     }
 
-    /// `structure()["conservative"]` without building the dict: read after every `simulate`
-    /// (`stats["conserved"]`), where the dict cost a microsecond and a half per call.
+    /// `structure()["conservative"]` without building the dict (an ensemble's
+    /// `stats["conserved"]`).
     #[getter]
     fn conservative(&self) -> bool {
         self.model.structure().conservative()
@@ -468,8 +468,7 @@ impl PyModel {
         })
     }
 
-    /// Integrate from (q0, qd0) at t0 to t_end; returns (t, q, qd, energy, stats), or `None`
-    /// when q0 or qd0 is not in the fast form of [`states::vector`] (the package converts and
+    /// Integrate from (q0, qd0) at t0 to t_end; returns the [`PyRun`], or `None` when q0 or qd0 is not in the fast form of [`states::vector`] (the package converts and
     /// checks them and calls again).
     #[pyo3(signature = (q0, qd0, t_end, t0=0.0, method="auto", dt=None, rtol=1e-6, atol=1e-9,
                         t_eval=None, max_steps=None, every=None, events=Vec::new(),
@@ -492,7 +491,7 @@ impl PyModel {
         events: Vec<events::EventSpec>,
         dense: bool,
         backend: &str,
-    ) -> PyResult<Option<Bound<'py, PyTuple>>> {
+    ) -> PyResult<Option<Bound<'py, PyRun>>> {
         let n = self.model.dof();
         let (Some(q0), Some(qd0)) = (states::vector(q0, n), states::vector(qd0, n)) else {
             return Ok(None);
@@ -512,6 +511,10 @@ impl PyModel {
             max_steps,
             (times, every),
         )?;
+        // h = q̇·p − L is a constant of the run when nothing drives or damps the model and no
+        // event resets the state.
+        let conserved =
+            self.model.structure().conservative() && events.iter().all(|e| e.reset.is_none());
         options.events = events;
         options.dense = dense;
         options.validate(t0, t_end)?;
@@ -596,11 +599,11 @@ impl PyModel {
                     let e = pending.lock().unwrap_or_else(|p| p.into_inner()).take();
                     return Err(e.unwrap_or_else(|| Error::Interrupted { t }.into()));
                 }
-                return Err(error::with_partial(py, failed, energy, n));
+                return Err(error::with_partial(py, failed, energy, conserved));
             }
             Ok(Ok(done)) => done,
         };
-        solution_tuple(py, sol, energy, n).map(Some)
+        Bound::new(py, PyRun::new(sol, energy, conserved)).map(Some)
     }
 
     /// An equilibrium near `q_guess` (q̈ = 0 at q̇ = 0; virtual work, seed §3, when T is
@@ -760,72 +763,6 @@ fn with_energy(model: &AnyModel, mut sol: Solution) -> (Solution, Vec<f64>, Opti
     (sol, h, None)
 }
 
-/// SciPy's status of a run: 0 it reached t_end, 1 a terminal event stopped it, −1 it failed.
-pub(crate) fn status_code(status: &Status) -> i8 {
-    match status {
-        Status::Finished => 0,
-        Status::Terminated { .. } => 1,
-        Status::Failed | Status::Unfinished { .. } => -1,
-    }
-}
-
-/// (t, q, qd, energy, stats, events, status, message, dense) of a solution, as `simulate`
-/// returns it and a failure carries it: `events` one (t, q, qd) per event, `status` 0 when the
-/// run reached t_end and 1 when a terminal event stopped it, `dense` the continuous solution or
-/// `None`.
-pub(crate) fn solution_tuple<'py>(
-    py: Python<'py>,
-    sol: Solution,
-    energy: Vec<f64>,
-    n: usize,
-) -> PyResult<Bound<'py, PyTuple>> {
-    let rows = sol.len();
-    let q = Array2::from_shape_vec((rows, n), sol.q)
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
-    let qd = Array2::from_shape_vec((rows, n), sol.qd)
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
-    let s = &sol.stats;
-    // A copy of a dictionary with every key (`conserved` is the package's): no key made,
-    // hashed or inserted on a call, and no growing of the table (measured: 2 400 of the 30 000
-    // instructions of a one-step `simulate` call went to building it afresh).
-    static STATS: PyOnceLock<Py<PyDict>> = PyOnceLock::new();
-    let template = STATS.get_or_try_init(py, || -> PyResult<Py<PyDict>> {
-        let d = PyDict::new(py);
-        let keys = ["method", "choice"].into_iter().chain(ensemble::COUNTERS);
-        for key in keys.chain(["conserved"]) {
-            d.set_item(key, py.None())?;
-        }
-        Ok(d.unbind())
-    })?;
-    let stats = template.bind(py).copy()?;
-    stats.set_item(intern!(py, "method"), s.method.name())?;
-    stats.set_item(intern!(py, "choice"), s.choice.clone())?;
-    stats.set_item(intern!(py, "accepted_steps"), s.accepted_steps)?;
-    stats.set_item(intern!(py, "rejected_steps"), s.rejected_steps)?;
-    stats.set_item(intern!(py, "rhs_evaluations"), s.rhs_evaluations)?;
-    stats.set_item(intern!(py, "jacobian_evaluations"), s.jacobian_evaluations)?;
-    stats.set_item(intern!(py, "factorizations"), s.factorizations)?;
-    stats.set_item(intern!(py, "newton_failures"), s.newton_failures)?;
-    let status = status_code(&sol.status);
-    let message = sol.status.to_string();
-    let dense = sol
-        .dense
-        .map(|d| Bound::new(py, events::PyDense::new(d)))
-        .transpose()?;
-    (
-        PyArray1::from_vec(py, sol.t),
-        q.into_pyarray(py),
-        qd.into_pyarray(py),
-        PyArray1::from_vec(py, energy),
-        stats,
-        events::occurrences(py, sol.events, n)?,
-        status,
-        message,
-        dense,
-    )
-        .into_pyobject(py)
-}
-
 /// The compiled core of the `lagrangian` package.
 #[pymodule(name = "_lagrangian")]
 pub mod lagrangian_module {
@@ -838,6 +775,8 @@ pub mod lagrangian_module {
     };
     #[pymodule_export]
     use super::events::PyDense;
+    #[pymodule_export]
+    use super::solution::PyRun;
     #[pymodule_export]
     use super::scenes::{scene_catalog, scene_drawing, scene_exact, scene_model, scene_pivot};
     #[pymodule_export]

@@ -53,6 +53,44 @@ def test_solution_arrays_and_stats(dp_params):
         assert_allclose(sol.energy[i], model.energy(sol.t[i], sol.q[i], sol.qd[i]), rtol=1e-14)
 
 
+def test_solution_fields_are_made_on_first_read_in_any_order():
+    import copy
+    import pickle
+
+    # x = cos t; the event x = 0 at t = π/2 and 3π/2.
+    x, = lg.coordinates("x")
+    model = lg.Model(coordinates=[x], kinetic=0.5 * x.d**2, potential=0.5 * x**2)
+    kw = dict(method="dop853", rtol=1e-12, atol=1e-12, events=[lg.Event(x, name="zero")],
+              dense=True)
+    fields = ["t", "q", "qd", "energy", "stats", "t_events", "q_events", "qd_events",
+              "status", "message", "interpolant"]
+    first = model.simulate([1.0], [0.0], 5.0, **kw)
+    seen = {name: getattr(first, name) for name in fields}
+    assert_allclose(seen["q"][:, 0], np.cos(seen["t"]), atol=1e-10)
+    assert_allclose(seen["t_events"][0], [np.pi / 2, 3 * np.pi / 2], atol=1e-10)
+    assert seen["status"] == 0 and seen["message"] == "reached t_end"
+    assert seen["stats"]["conserved"] is True
+    for name in fields[:-1]:
+        assert getattr(first, name) is seen[name]  # kept, not made again
+    # Read in the reverse order, or never read before a copy: the same values.
+    again = model.simulate([1.0], [0.0], 5.0, **kw)
+    unread = [model.simulate([1.0], [0.0], 5.0, **kw) for _ in range(2)]
+    for sol in (again, pickle.loads(pickle.dumps(unread[0])), copy.deepcopy(unread[1])):
+        for name in reversed(fields):
+            a, b = getattr(sol, name), seen[name]
+            if isinstance(b, list):
+                assert len(a) == len(b) and all(np.array_equal(u, v) for u, v in zip(a, b))
+            elif isinstance(b, np.ndarray):
+                assert np.array_equal(a, b)
+            else:
+                assert a == b
+        assert np.array_equal(sol(2.0)[0], first(2.0)[0])
+    with pytest.raises(AttributeError, match="no attribute 'nothing'"):
+        again.nothing
+    again.t = np.zeros(3)  # a field can still be set
+    assert again.t.shape == (3,)
+
+
 def test_auto_picks_symplectic_for_separable_fixed_step():
     model = lg.scenes.kepler(1.0, 1.0)
     sol = model.simulate([1.0, 0.0], [0.0, 1.0], 1.0, dt=0.01)
