@@ -69,8 +69,9 @@ Method
     reached", with the best error seen. Then each side is timed at its rung, best of R rounds,
     the rounds alternating between the sides so that a change of load hits all of them; a
     round repeats a short run up to about ``--round-seconds`` (at most 20 times) and keeps the
-    best run. Our times include the fixed cost of a ``simulate`` call (printed below the
-    table, about 15–20 µs against heyoka's 2 µs), which weighs on the shortest runs.
+    best run. A timed run ends with its final state read as arrays (ours ``sol.q[-1]`` and
+    ``sol.qd[-1]``, made from the run then; heyoka's ``ta.state``). Our times include the fixed
+    cost of a ``simulate`` call (printed below the table), which weighs on the shortest runs.
 
 Build time (separate column)
     heyoka: ``heyoka.lagrangian`` plus the ``taylor_adaptive`` construction (LLVM JIT; heyoka
@@ -553,10 +554,11 @@ class Ours(Side):
             try:
                 sol = self.model.simulate(s.q0, s.qd0, s.t_end, method=self.method, rtol=tol,
                                           atol=tol, output_every=EVERY)
+                q, qd = sol.q[-1], sol.qd[-1]
             except (lg.LagrangianError, ValueError) as e:
                 return Result(math.inf, None, None, failure=f"{type(e).__name__}: {e}")
             best = min(best, time.perf_counter() - start)
-        end = [float(x) for x in sol.q[-1]] + [float(x) for x in sol.qd[-1]]
+        end = [float(x) for x in q] + [float(x) for x in qd]
         return Result(best, end, error(end, self.ref), steps=int(sol.stats["accepted_steps"]))
 
 
@@ -611,11 +613,12 @@ class Heyoka(Side):
             ta.state[:] = x0
             start = time.perf_counter()
             out = ta.propagate_until(s.t_end)
+            state = ta.state
             best = min(best, time.perf_counter() - start)
         if str(out[0]) != "taylor_outcome.time_limit":
             return Result(math.inf, None, None, failure=f"propagate_until: {out[0]}",
                           build=build, order=order)
-        end = [float(x) for x in ta.state]
+        end = [float(x) for x in state]
         return Result(best, end, error(end, self.ref), steps=int(out[3]), build=build,
                       order=order)
 
@@ -923,14 +926,16 @@ def checks(rows: List[Dict[str, Any]]) -> str:
 
 
 def fixed_costs(worker: Worker, rounds: int) -> Tuple[float, float]:
-    """A run of 1e-9 on the double pendulum: our `simulate` call, heyoka's `propagate_until`."""
+    """A run of 1e-9 on the double pendulum: our `simulate` call, heyoka's `propagate_until`,
+    each with its final state read as the timed runs read it."""
     s = SCENES["double_pendulum"]
     model = our_model(s)
     ours = math.inf
     for _ in range(5 * rounds):
         start = time.perf_counter()
-        model.simulate(s.q0, s.qd0, 1e-9, method="taylor", rtol=1e-9, atol=1e-9,
-                       output_every=EVERY)
+        sol = model.simulate(s.q0, s.qd0, 1e-9, method="taylor", rtol=1e-9, atol=1e-9,
+                             output_every=EVERY)
+        sol.q[-1], sol.qd[-1]
         ours = min(ours, time.perf_counter() - start)
     hey = math.nan
     try:
@@ -945,6 +950,7 @@ def fixed_costs(worker: Worker, rounds: int) -> Tuple[float, float]:
             ta.state[:] = s.x0
             start = time.perf_counter()
             ta.propagate_until(1e-9)
+            ta.state
             hey = min(hey, time.perf_counter() - start)
     return ours, hey
 

@@ -175,6 +175,51 @@ where
     }
 }
 
+/// Which entries of the factor L of an n × n symmetric matrix (at i·n + j, j < i) may be
+/// nonzero when the entries where `zero(i·n + j)` holds are zero by structure: such an entry
+/// of L is zero unless some column k < j fills it in (L_ik L_jk ≠ 0). Entries on and above
+/// the diagonal are `true`.
+pub(crate) fn ldlt_pattern(n: usize, zero: impl Fn(usize) -> bool) -> Vec<bool> {
+    let mut nonzero = vec![true; n * n];
+    for i in 0..n {
+        for j in 0..i {
+            nonzero[i * n + j] =
+                !zero(i * n + j) || (0..j).any(|k| nonzero[i * n + k] && nonzero[j * n + k]);
+        }
+    }
+    nonzero
+}
+
+/// [`ldlt_solve`] without the products by the entries of L that `nonzero` (from
+/// [`ldlt_pattern`]) says are zero: the same sums of the other terms, in the same lanes, so
+/// with every entry nonzero it is `ldlt_solve` bit for bit. (Unrolled Taylor expansions
+/// solve as this does, `taylor_native.rs`.)
+pub(crate) fn ldlt_solve_pattern(f: &[f64], n: usize, nonzero: &[bool], b: &mut [f64]) {
+    for i in 1..n {
+        let row = &nonzero[i * n..i * n + i];
+        let count = row.iter().filter(|&&x| x).count();
+        if count == 0 {
+            continue;
+        }
+        // `dot`'s lanes over the terms kept: chunks of four, the rest into the first lane.
+        let full = count / 4 * 4;
+        let mut s = [0.0; 4];
+        for (m, j) in (0..i).filter(|&j| row[j]).enumerate() {
+            s[if m < full { m % 4 } else { 0 }] += b[j] * f[i * n + j];
+        }
+        b[i] -= (s[0] + s[1]) + (s[2] + s[3]);
+    }
+    for i in 0..n {
+        b[i] *= f[i * n + i];
+    }
+    for k in (1..n).rev() {
+        let x = b[k];
+        for j in (0..k).filter(|&j| nonzero[k * n + j]) {
+            b[j] -= x * f[k * n + j];
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -195,6 +240,52 @@ mod tests {
         ldlt_solve(&a, 3, &mut b);
         for i in 0..3 {
             assert_relative_eq!(b[i], x[i], epsilon = 1e-14);
+        }
+    }
+
+    /// An arrow matrix (its last row and column full, a diagonal otherwise) factors without
+    /// fill-in; with the full row first instead, L fills in completely below it. The solve that
+    /// skips L's structural zeros gives the full solve's bits: with a full pattern on a dense
+    /// matrix (6 × 6, the sums in all four lanes and a remainder), and on the arrow matrix.
+    #[test]
+    fn ldlt_pattern_fills_in_and_the_solve_skips_only_zeros() {
+        let n = 6;
+        let last = |e: usize| e / n == n - 1 || e % n == n - 1 || e / n == e % n;
+        let first = |e: usize| e / n == 0 || e % n == 0 || e / n == e % n;
+        let arrow = ldlt_pattern(n, |e| !last(e));
+        let filled = ldlt_pattern(n, |e| !first(e));
+        for i in 0..n {
+            for j in 0..i {
+                assert_eq!(arrow[i * n + j], i == n - 1, "arrow ({i}, {j})");
+                assert!(filled[i * n + j], "filled ({i}, {j})");
+            }
+        }
+        let value = |e: usize| ((e * 7 % 11) as f64 - 5.0) / 3.0;
+        let spd = |keep: &dyn Fn(usize) -> bool| {
+            let mut a = vec![0.0; n * n];
+            for i in 0..n {
+                for j in 0..=i {
+                    let x = if i == j {
+                        20.0 + value(i)
+                    } else if keep(i * n + j) {
+                        value(i * n + j)
+                    } else {
+                        0.0
+                    };
+                    (a[i * n + j], a[j * n + i]) = (x, x);
+                }
+            }
+            ldlt_in_place(&mut a, n).unwrap();
+            a
+        };
+        let rhs: Vec<f64> = (0..n).map(|i| (i as f64 * 0.9).sin() + 0.2).collect();
+        for (factor, pattern) in [(spd(&|_| true), vec![true; n * n]), (spd(&last), arrow)] {
+            let (mut x, mut y) = (rhs.clone(), rhs.clone());
+            ldlt_solve(&factor, n, &mut x);
+            ldlt_solve_pattern(&factor, n, &pattern, &mut y);
+            for (x, y) in x.iter().zip(&y) {
+                assert_eq!(x.to_bits(), y.to_bits(), "{x} against {y}");
+            }
         }
     }
 

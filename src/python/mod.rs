@@ -776,9 +776,9 @@ pub mod lagrangian_module {
     #[pymodule_export]
     use super::events::PyDense;
     #[pymodule_export]
-    use super::solution::PyRun;
-    #[pymodule_export]
     use super::scenes::{scene_catalog, scene_drawing, scene_exact, scene_model, scene_pivot};
+    #[pymodule_export]
+    use super::solution::PyRun;
     #[pymodule_export]
     use super::{PyModel, check_options, method_info, methods};
     use pyo3::prelude::*;

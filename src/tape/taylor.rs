@@ -290,6 +290,15 @@ impl Op {
         op.operands_mut().into_iter().map(|r| *r).collect()
     }
 
+    /// The rows this recurrence reads at the orders above 0: its operands, less the argument
+    /// of a sine and cosine summed through its derivative (`da`), which only order 0 reads.
+    fn operands_above_zero(&self) -> Vec<usize> {
+        match *self {
+            Op::SinCos { da: Some(da), .. } => vec![da],
+            _ => self.operands(),
+        }
+    }
+
     /// [`Op::operands`], to rewrite.
     fn operands_mut(&mut self) -> Vec<&mut usize> {
         match self {
@@ -531,6 +540,10 @@ pub struct TaylorProgram {
     /// Whether M depends on the parameters alone (then M₀ is factored once per expansion's
     /// work space).
     pub(super) mass_constant: bool,
+    /// Which entries of M₀'s factor L (at r·n + c, below the diagonal) may be nonzero: not
+    /// those that M's zeros by structure make zero ([`linalg::ldlt_pattern`]), which the
+    /// solves skip (a diagonal M: the ball, Kepler in polar coordinates, the forced two-mass).
+    pub(super) factor_nonzero: Vec<bool>,
     /// The recurrences as machine code, compiled at the first expansion (`None`: not allowed,
     /// or Cranelift could not compile them, and the interpreter runs).
     #[cfg(feature = "jit")]
@@ -850,6 +863,22 @@ impl Lowering {
         for r in outside.into_iter().flatten() {
             *r = resolve(*r);
         }
+    }
+
+    /// Drop from the orders above 0 the recurrences whose rows no order above 0 reads there
+    /// (nor M and f, `outside`): ω t feeding only sin ω t and cos ω t, which sum ω instead.
+    /// Order 0 still computes them; no bit changes, and an operation fewer at every order.
+    fn drop_unread_orders(&mut self, outside: &[usize]) {
+        let mut read: HashSet<usize> = outside.iter().copied().collect();
+        let mut kept = Vec::with_capacity(self.varying.len());
+        for op in self.varying.iter().rev() {
+            if op.outputs().iter().any(|r| read.contains(r)) {
+                read.extend(op.operands_above_zero());
+                kept.push(*op);
+            }
+        }
+        kept.reverse();
+        self.varying = kept;
     }
 }
 
@@ -1203,18 +1232,25 @@ impl TaylorProgram {
         // auxiliary rows of the same reach).
         let mass_reach: Vec<Reach> = mass.iter().map(|&r| reach[r]).collect();
         low.alias_rows(&numbers, [&mut mass, &mut force]);
+        low.drop_unread_orders(&[&mass[..], &force[..]].concat());
         // Entry of M(r, c) from the upper triangle, row by row.
         let upper = |r: usize, c: usize| {
             let (i, l) = if r <= c { (r, c) } else { (c, r) };
             i * dof - i * (i + 1) / 2 + l
         };
         let entries = (0..dof * dof).map(|e| upper(e / dof, e % dof));
+        let mass_varying: Vec<bool> = entries
+            .clone()
+            .map(|e| mass_reach[e] == Reach::Varying)
+            .collect();
+        let mass_full: Vec<usize> = entries.map(|e| mass[e]).collect();
+        let zero = |e: usize| {
+            !mass_varying[e] && numbers.iter().any(|&(r, x)| r == mass_full[e] && x == 0.0)
+        };
         Self {
-            mass_varying: entries
-                .clone()
-                .map(|e| mass_reach[e] == Reach::Varying)
-                .collect(),
-            mass_full: entries.map(|e| mass[e]).collect(),
+            factor_nonzero: linalg::ldlt_pattern(dof, zero),
+            mass_varying,
+            mass_full,
             dof,
             rows: low.rows,
             mass_constant: mass_reach.iter().all(|&r| r == Reach::Fixed),
@@ -1263,6 +1299,7 @@ impl TaylorProgram {
             force: self.force.clone(),
             mass_varying: self.mass_varying.clone(),
             mass_constant: self.mass_constant,
+            factor_nonzero: self.factor_nonzero.clone(),
             #[cfg(feature = "jit")]
             native: OnceLock::new(),
             #[cfg(feature = "jit")]
@@ -1819,7 +1856,8 @@ impl Expansion {
                     f
                 };
             }
-            linalg::ldlt_solve(&self.work.m0, n, &mut self.work.rhs);
+            let nonzero = &program.factor_nonzero;
+            linalg::ldlt_solve_pattern(&self.work.m0, n, nonzero, &mut self.work.rhs);
             let next = 1.0 / (k + 1) as f64;
             for i in 0..n {
                 self.work.qdd[i * w + k] = self.work.rhs[i];
@@ -2040,6 +2078,96 @@ mod tests {
         let rt = g.binary(Binary::Mul, r2, thd2).unwrap();
         let sum = g.binary(Binary::Add, rd2, rt).unwrap();
         g.binary(Binary::Mul, half, sum).unwrap()
+    }
+
+    /// Two masses on springs to the wall, the first driven by F cos ω t (U = ½ k (x₁² + x₂²) −
+    /// F x₁ cos ω t, M = diag(2, m₂)): ω t is expanded at order 0 alone (sin and cos sum ω
+    /// above it), M's factor has no entry below the diagonal to solve with, and the series
+    /// still follow the recursion xₖ₊₂ = (−k xₖ + F cₖ) / (m (k + 1)(k + 2)), with cₖ =
+    /// ωᵏ cos(ω t₀ + k π/2) / k!, interpreted and unrolled alike, bit for bit.
+    #[test]
+    fn unread_orders_and_zeros_of_the_mass_matrix_are_skipped() {
+        let mut g = Graph::new();
+        let (x1, x2, v1, v2) = (g.coord(0), g.coord(1), g.velocity(0), g.velocity(1));
+        let (m2, omega, t) = (g.param(0), g.param(1), g.time());
+        let (half, k, force) = (g.constant(0.5), g.constant(3.0), g.constant(0.7));
+        let square = |g: &mut Graph, x: usize| g.powi(x, 2).unwrap();
+        let (v1s, v2s, x1s, x2s) = (
+            square(&mut g, v1),
+            square(&mut g, v2),
+            square(&mut g, x1),
+            square(&mut g, x2),
+        );
+        let heavy = g.binary(Binary::Mul, m2, v2s).unwrap();
+        let two = g.constant(2.0);
+        let light = g.binary(Binary::Mul, two, v1s).unwrap();
+        let sum = g.binary(Binary::Add, light, heavy).unwrap();
+        let kinetic = g.binary(Binary::Mul, half, sum).unwrap();
+        let springs = g.binary(Binary::Add, x1s, x2s).unwrap();
+        let springs = g.binary(Binary::Mul, k, springs).unwrap();
+        let springs = g.binary(Binary::Mul, half, springs).unwrap();
+        let phase = g.binary(Binary::Mul, omega, t).unwrap();
+        let drive = g.unary(Unary::Cos, phase).unwrap();
+        let drive = g.binary(Binary::Mul, drive, x1).unwrap();
+        let drive = g.binary(Binary::Mul, force, drive).unwrap();
+        let parts = Energies {
+            kinetic,
+            potential: Some(g.binary(Binary::Sub, springs, drive).unwrap()),
+            dissipation: None,
+            forces: None,
+        };
+        let (m2, omega) = (1.7, 1.3);
+        let params = [m2, omega];
+        let program = Arc::new(setup(&mut g, 2, &parts, &params).0);
+        assert_eq!(program.factor_nonzero, [true, true, false, true]);
+        let time = program.time.expect("the model reads t");
+        let reads_t = |op: &Op| op.operands().contains(&time);
+        assert!(program.order0.iter().any(reads_t), "{:?}", program.order0);
+        assert!(
+            !program.varying.iter().any(reads_t),
+            "{:?}",
+            program.varying
+        );
+        let (t0, q, v) = (0.3, [0.4, -0.2], [0.1, 0.5]);
+        let order = 20;
+        let mut e = program.expansion(&params, order);
+        e.expand(t0, &q, &v).unwrap();
+        let mut factorial = 1.0;
+        let mut c = vec![0.0; order + 1];
+        for (j, c) in c.iter_mut().enumerate() {
+            factorial *= j.max(1) as f64;
+            let phase = omega * t0 + j as f64 * std::f64::consts::FRAC_PI_2;
+            *c = omega.powi(j as i32) * phase.cos() / factorial;
+        }
+        let (mut a, mut b) = (vec![q[0], v[0]], vec![q[1], v[1]]);
+        for j in 0..order - 1 {
+            let d = ((j + 1) * (j + 2)) as f64;
+            a.push((-3.0 * a[j] + 0.7 * c[j]) / (2.0 * d));
+            b.push(-3.0 * b[j] / (m2 * d));
+        }
+        for j in 1..=order {
+            let (x, y) = (e.q(j), [a[j], b[j]]);
+            for i in 0..2 {
+                assert!(
+                    (x[i] - y[i]).abs() <= 1e-14 * y[i].abs().max(1e-300),
+                    "x{i} order {j}: {} against {}",
+                    x[i],
+                    y[i]
+                );
+            }
+        }
+        let reference = Arc::new(program.interpreted());
+        let mut r = reference.expansion(&params, order);
+        assert_eq!(program.unroll(order), cfg!(feature = "jit"));
+        let mut u = program.expansion(&params, order);
+        r.expand(t0, &q, &v).unwrap();
+        u.expand(t0, &q, &v).unwrap();
+        for j in 0..=order {
+            let pairs = (r.q(j).iter().zip(u.q(j))).chain(r.qd(j).iter().zip(u.qd(j)));
+            for (x, y) in pairs {
+                assert_eq!(x.to_bits(), y.to_bits(), "order {j}: {x} against {y}");
+            }
+        }
     }
 
     /// Both forms `fold_quotients` rewrites, on a hand-made program: (x/b)/b and −(x/b)/b

@@ -280,7 +280,7 @@ impl Status {
 /// constant: no loop, no bound to test at run time. A third function runs such steps in a row
 /// ([`ExpansionKernel::steps`]), factoring M₀ itself. The operations and their order are those of
 /// `Expansion::expand` and `Expansion::step` with the interpreter (the sums in the lanes of
-/// `conv`, two at a time in two-lane vectors; the solve of `linalg::ldlt_solve`), so the
+/// `conv`, two at a time in two-lane vectors; the solve of `linalg::ldlt_solve_pattern`), so the
 /// coefficients and the steps are the same bits.
 pub(crate) struct ExpansionKernel {
     code: Code<Entries>,
@@ -919,16 +919,21 @@ fn emit_expansion(
                     f
                 });
             }
-            // M₀ q̈ₖ = rhs as `linalg::ldlt_solve`: L y = b, D z = y, Lᵀ x = z.
+            // M₀ q̈ₖ = rhs as `linalg::ldlt_solve_pattern`: L y = b, D z = y, Lᵀ x = z, without
+            // the entries of L that are zero by structure.
+            let nonzero = &program.factor_nonzero;
             for i in 1..n {
-                let terms = (0..i)
+                let terms: Vec<Value> = (0..i)
+                    .filter(|&j| nonzero[i * n + j])
                     .map(|j| {
                         let l = g.load_at(m0p, i * n + j);
                         g.b.ins().fmul(rhs[j], l)
                     })
                     .collect();
-                let d = g.lanes(terms);
-                rhs[i] = g.b.ins().fsub(rhs[i], d);
+                if !terms.is_empty() {
+                    let d = g.lanes(terms);
+                    rhs[i] = g.b.ins().fsub(rhs[i], d);
+                }
             }
             for i in 0..n {
                 let d = g.load_at(m0p, i * n + i);
@@ -936,7 +941,7 @@ fn emit_expansion(
             }
             for i in (1..n).rev() {
                 let x = rhs[i];
-                for j in 0..i {
+                for j in (0..i).filter(|&j| nonzero[i * n + j]) {
                     let l = g.load_at(m0p, i * n + j);
                     let xl = g.b.ins().fmul(x, l);
                     rhs[j] = g.b.ins().fsub(rhs[j], xl);
@@ -2081,11 +2086,18 @@ impl<'a> Gen<'a> {
                     }
                 };
                 let sv = self.b.ins().fmul(sv, inv_k);
-                let cv = self.b.ins().fmul(cv, inv_k);
-                let cv = if hyperbolic {
-                    cv
-                } else {
-                    self.b.ins().fneg(cv)
+                // −(x · 1/k) is x · (−1/k), bit for bit: where k is a constant, one product
+                // (a negation is a sign mask made in a register, three instructions).
+                let cv = match (hyperbolic, self.k) {
+                    (true, _) => self.b.ins().fmul(cv, inv_k),
+                    (false, Ix::Fixed(k)) => {
+                        let c = self.f64(-1.0 / k as f64);
+                        self.b.ins().fmul(cv, c)
+                    }
+                    (false, _) => {
+                        let cv = self.b.ins().fmul(cv, inv_k);
+                        self.b.ins().fneg(cv)
+                    }
                 };
                 self.store_k(s, sv);
                 (c, cv)
