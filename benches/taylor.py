@@ -935,7 +935,7 @@ def fixed_costs(worker: Worker, rounds: int) -> Tuple[float, float]:
         model.simulate(s.q0, s.qd0, 1e-9, method="taylor", rtol=1e-9, atol=1e-9,
                        output_every=EVERY)
     ours = math.inf
-    for _ in range(5 * rounds):
+    for _ in range(100 * rounds):
         start = time.perf_counter()
         sol = model.simulate(s.q0, s.qd0, 1e-9, method="taylor", rtol=1e-9, atol=1e-9,
                              output_every=EVERY)
@@ -949,7 +949,7 @@ def fixed_costs(worker: Worker, rounds: int) -> Tuple[float, float]:
     if ans[0] == "ok":
         ta = pickle.loads(ans[1])
         hey = math.inf
-        for _ in range(5 * rounds):
+        for _ in range(100 * rounds):
             ta.time = 0.0
             ta.state[:] = s.x0
             start = time.perf_counter()

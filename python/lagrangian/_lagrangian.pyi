@@ -19,7 +19,7 @@ __all__ = [
     "TooManyStepsError",
     "NativeModel",
     "DenseSolution",
-    "Run",
+    "NativeSolution",
     "check_options",
     "method_info",
     "methods",
@@ -50,7 +50,7 @@ _EventSpec = Tuple[
     int,
 ]
 @final
-class Run:
+class NativeSolution:
     """A finished run, kept by ``Solution``: each field is made when first read."""
 
     def field(self, name: str) -> Any:
@@ -85,7 +85,7 @@ class LagrangianError(RuntimeError):
     t: Optional[float]
     q: Optional[_FloatArray]
     qd: Optional[_FloatArray]
-    _partial: Optional[Run]
+    _partial: Optional[NativeSolution]
 
 class SingularMassMatrixError(LagrangianError):
     """The mass matrix is singular, indefinite or not finite at some state."""
@@ -201,7 +201,7 @@ class NativeModel:
         events: Sequence[_EventSpec] = ...,
         dense: bool = False,
         backend: str = "native",
-    ) -> Optional[Run]: ...
+    ) -> Optional[NativeSolution]: ...
     def equilibrium(
         self,
         q_guess: Sequence[float],

@@ -4,6 +4,7 @@ and modes are in ``_linear``."""
 from __future__ import annotations
 
 import os
+import threading
 from typing import TYPE_CHECKING, Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -16,8 +17,9 @@ __all__ = ["Solution"]
 
 # The three lists of event occurrences, made together from a native run.
 _EVENT_LISTS = frozenset({"t_events", "q_events", "qd_events"})
-# The fields a native run makes on first read (`Solution.__getattr__`).
+# The fields a native run makes on first read (`Solution.__getattr__`), one at a time.
 _FROM_RUN = _EVENT_LISTS | {"t", "q", "qd", "energy", "stats", "status", "message", "_dense"}
+_MAKING = threading.RLock()
 
 FloatArray = npt.NDArray[np.float64]
 PathLike = Union[str, "os.PathLike[str]"]
@@ -128,10 +130,10 @@ class Solution:
         event_names: Tuple[str, ...],
         failure: Optional[str] = None,
     ) -> "Solution":
-        """The solution of a native run (``_lagrangian.Run``), with the model's coordinate and
-        event names (tuples of strings); ``failure`` marks the partial solution of a failed
-        run. Every other field is made from the run when first read (:meth:`__getattr__`): a
-        short run's fixed cost is most of what it costs."""
+        """The solution of a native run (``_lagrangian.NativeSolution``), with the model's
+        coordinate and event names (tuples of strings); ``failure`` marks the partial solution
+        of a failed run. Every other field is made from the run when first read
+        (``__getattr__``): a short run's fixed cost is most of what it costs."""
         sol = cls.__new__(cls)
         sol._run = run
         sol.names = names
@@ -141,18 +143,22 @@ class Solution:
         sol._y = None
         return sol
 
-    def __getattr__(self, name: str) -> Any:
-        # Called only for a field not yet set: one of a native run's, made now and kept (so
-        # the next read is a plain slot read, and the run hands each over once).
-        if name in _FROM_RUN:
-            run = self._run
-            if run is not None:
-                if name in _EVENT_LISTS:
-                    self.t_events, self.q_events, self.qd_events = run.field("events")
-                else:
-                    setattr(self, name, run.field(name))
-                return getattr(self, name)
-        raise AttributeError(f"'Solution' object has no attribute {name!r}")
+    if not TYPE_CHECKING:  # (typed, it would let any attribute through the type checker)
+
+        def __getattr__(self, name: str) -> Any:
+            # Called only for a field not yet set: one of a native run's, made now and kept, so
+            # that the next read is a plain slot read. Under a lock, so that two threads reading
+            # a new solution do not both make it (the run gives the same object to both anyway).
+            if name in _FROM_RUN:
+                run = self._run
+                if run is not None:
+                    with _MAKING:
+                        if name in _EVENT_LISTS:
+                            self.t_events, self.q_events, self.qd_events = run.field("events")
+                        else:
+                            setattr(self, name, run.field(name))
+                    return object.__getattribute__(self, name)
+            raise AttributeError(f"'Solution' object has no attribute {name!r}")
 
     def __getstate__(self) -> Dict[str, Any]:
         # Every field made (the native run does not pickle), for pickle and copy.
@@ -160,7 +166,9 @@ class Solution:
         state["_y"] = None
         return state
 
-    def __setstate__(self, state: Dict[str, Any]) -> None:
+    def __setstate__(self, state: Any) -> None:
+        if isinstance(state, tuple):  # (None, slots): the pickles of earlier versions
+            state = state[1]
         for name, value in state.items():
             setattr(self, name, value)
         self._run = None

@@ -87,9 +87,9 @@ impl From<Error> for PyErr {
 }
 
 /// Attributes of every `LagrangianError` that a failed run fills: the partial solution (a
-/// [`PyRun`](super::solution::PyRun)) as `_partial` (the package wraps it as `solution`) and the last
-/// accepted state `t`, `q`, `qd`. They are `None` on the class, so on any failure that came
-/// before the first step (or outside `simulate`).
+/// [`PySolution`](super::solution::PySolution)) as `_partial` (the package wraps it as
+/// `solution`) and the last accepted state `t`, `q`, `qd`. They are `None` on the class, so
+/// on any failure that came before the first step (or outside `simulate`).
 pub(crate) const PARTIAL_ATTRIBUTES: [&str; 5] = ["_partial", "solution", "t", "q", "qd"];
 
 /// The Python exception of a failed run, carrying the partial solution and the last accepted
@@ -110,7 +110,7 @@ pub(crate) fn with_partial(
     if let (Some(sol), Some((t, q, qd))) = (partial, last) {
         let value = err.value(py);
         let attach = || -> PyResult<()> {
-            let run = super::solution::PyRun::new(sol, energy, conserved);
+            let run = super::solution::PySolution::new(sol, energy, conserved);
             value.setattr("_partial", Bound::new(py, run)?)?;
             value.setattr("t", t)?;
             value.setattr("q", PyArray1::from_vec(py, q))?;

@@ -35,7 +35,7 @@ use numpy::{
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
-use solution::PyRun;
+use solution::PySolution;
 use states::States;
 use std::cell::Cell;
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -468,8 +468,9 @@ impl PyModel {
         })
     }
 
-    /// Integrate from (q0, qd0) at t0 to t_end; returns the [`PyRun`], or `None` when q0 or qd0 is not in the fast form of [`states::vector`] (the package converts and
-    /// checks them and calls again).
+    /// Integrate from (q0, qd0) at t0 to t_end; returns the [`PySolution`], or `None` when q0
+    /// or qd0 is not in the fast form of [`states::vector`] (the package converts and checks
+    /// them and calls again).
     #[pyo3(signature = (q0, qd0, t_end, t0=0.0, method="auto", dt=None, rtol=1e-6, atol=1e-9,
                         t_eval=None, max_steps=None, every=None, events=Vec::new(),
                         dense=false, backend="native"))]
@@ -491,7 +492,7 @@ impl PyModel {
         events: Vec<events::EventSpec>,
         dense: bool,
         backend: &str,
-    ) -> PyResult<Option<Bound<'py, PyRun>>> {
+    ) -> PyResult<Option<Bound<'py, PySolution>>> {
         let n = self.model.dof();
         let (Some(q0), Some(qd0)) = (states::vector(q0, n), states::vector(qd0, n)) else {
             return Ok(None);
@@ -603,7 +604,7 @@ impl PyModel {
             }
             Ok(Ok(done)) => done,
         };
-        Bound::new(py, PyRun::new(sol, energy, conserved)).map(Some)
+        Bound::new(py, PySolution::new(sol, energy, conserved)).map(Some)
     }
 
     /// An equilibrium near `q_guess` (q̈ = 0 at q̇ = 0; virtual work, seed §3, when T is
@@ -778,7 +779,7 @@ pub mod lagrangian_module {
     #[pymodule_export]
     use super::scenes::{scene_catalog, scene_drawing, scene_exact, scene_model, scene_pivot};
     #[pymodule_export]
-    use super::solution::PyRun;
+    use super::solution::PySolution;
     #[pymodule_export]
     use super::{PyModel, check_options, method_info, methods};
     use pyo3::prelude::*;

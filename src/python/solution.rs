@@ -1,6 +1,6 @@
-//! A finished run as `simulate` hands it to the package ([`PyRun`], `Run` in Python): the
-//! package's `Solution` keeps it and makes each of its fields (arrays, the statistics dict, the
-//! events, the message) a Python object only when it is first read.
+//! A finished run as `simulate` hands it to the package ([`PySolution`], `NativeSolution` in
+//! Python): the package's `Solution` keeps it and makes each of its fields (arrays, the
+//! statistics dict, the events, the message) a Python object only when it is first read.
 //!
 //! Why: a short run's cost is mostly its fixed cost, and building every field up front was a
 //! third of it (measured on a one-step Taylor run of the forced two-mass system, callgrind:
@@ -26,21 +26,55 @@ pub(crate) fn status_code(status: &Status) -> i8 {
     }
 }
 
-/// A run's solution, the energy function h at its points, and whether h is a constant of the
-/// run (`stats["conserved"]`).
-#[pyclass(name = "Run", module = "lagrangian._lagrangian")]
-pub struct PyRun {
+/// A run's solution, the energy function h at its points, whether h is a constant of the run
+/// (`stats["conserved"]`), and the fields made so far.
+#[pyclass(name = "NativeSolution", module = "lagrangian._lagrangian")]
+pub struct PySolution {
     sol: Solution,
     energy: Vec<f64>,
     conserved: bool,
+    made: Vec<(String, Py<PyAny>)>,
 }
 
-impl PyRun {
+impl PySolution {
     pub(crate) fn new(sol: Solution, energy: Vec<f64>, conserved: bool) -> Self {
         Self {
             sol,
             energy,
             conserved,
+            made: Vec::new(),
+        }
+    }
+
+    /// The field `name`, made now (its arrays take the solution's vectors, without a copy).
+    fn make<'py>(&mut self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
+        let n = self.sol.dof;
+        let sol = &mut self.sol;
+        match name {
+            "t" => Ok(PyArray1::from_vec(py, std::mem::take(&mut sol.t)).into_any()),
+            "q" => Self::rows(py, std::mem::take(&mut sol.q), n),
+            "qd" => Self::rows(py, std::mem::take(&mut sol.qd), n),
+            "energy" => Ok(PyArray1::from_vec(py, std::mem::take(&mut self.energy)).into_any()),
+            "stats" => Ok(self.stats(py)?.into_any()),
+            "events" => {
+                let found = events::occurrences(py, std::mem::take(&mut sol.events), n)?;
+                let (mut t, mut q, mut qd) = (Vec::new(), Vec::new(), Vec::new());
+                for o in found {
+                    t.push(o.get_item(0)?);
+                    q.push(o.get_item(1)?);
+                    qd.push(o.get_item(2)?);
+                }
+                Ok(PyTuple::new(py, [t, q, qd])?.into_any())
+            }
+            "status" => Ok(status_code(&sol.status).into_pyobject(py)?.into_any()),
+            "message" => Ok(sol.status.to_string().into_pyobject(py)?.into_any()),
+            "_dense" => match sol.dense.take() {
+                Some(d) => Ok(Bound::new(py, events::PyDense::new(d))?.into_any()),
+                None => Ok(py.None().into_bound(py)),
+            },
+            _ => Err(PyAttributeError::new_err(format!(
+                "a run has no field {name:?}"
+            ))),
         }
     }
 
@@ -80,38 +114,16 @@ impl PyRun {
 }
 
 #[pymethods]
-impl PyRun {
+impl PySolution {
     /// The `Solution` attribute `name` (`t`, `q`, `qd`, `energy`, `stats`, `events` — the
-    /// three event lists as a tuple —, `status`, `message` or `_dense`), made now. An array is
-    /// handed over, not copied, so each is asked for once (the package keeps it).
+    /// three event lists as a tuple —, `status`, `message` or `_dense`): made at the first
+    /// request, the same object at the next ones.
     fn field<'py>(&mut self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
-        let n = self.sol.dof;
-        let sol = &mut self.sol;
-        match name {
-            "t" => Ok(PyArray1::from_vec(py, std::mem::take(&mut sol.t)).into_any()),
-            "q" => Self::rows(py, std::mem::take(&mut sol.q), n),
-            "qd" => Self::rows(py, std::mem::take(&mut sol.qd), n),
-            "energy" => Ok(PyArray1::from_vec(py, std::mem::take(&mut self.energy)).into_any()),
-            "stats" => Ok(self.stats(py)?.into_any()),
-            "events" => {
-                let found = events::occurrences(py, std::mem::take(&mut sol.events), n)?;
-                let (mut t, mut q, mut qd) = (Vec::new(), Vec::new(), Vec::new());
-                for o in found {
-                    t.push(o.get_item(0)?);
-                    q.push(o.get_item(1)?);
-                    qd.push(o.get_item(2)?);
-                }
-                Ok(PyTuple::new(py, [t, q, qd])?.into_any())
-            }
-            "status" => Ok(status_code(&sol.status).into_pyobject(py)?.into_any()),
-            "message" => Ok(sol.status.to_string().into_pyobject(py)?.into_any()),
-            "_dense" => match sol.dense.take() {
-                Some(d) => Ok(Bound::new(py, events::PyDense::new(d))?.into_any()),
-                None => Ok(py.None().into_bound(py)),
-            },
-            _ => Err(PyAttributeError::new_err(format!(
-                "a run has no field {name:?}"
-            ))),
+        if let Some((_, made)) = self.made.iter().find(|(n, _)| n == name) {
+            return Ok(made.bind(py).clone());
         }
+        let made = self.make(py, name)?;
+        self.made.push((name.to_owned(), made.clone().unbind()));
+        Ok(made)
     }
 }

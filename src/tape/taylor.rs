@@ -540,10 +540,11 @@ pub struct TaylorProgram {
     /// Whether M depends on the parameters alone (then M₀ is factored once per expansion's
     /// work space).
     pub(super) mass_constant: bool,
-    /// Which entries of M₀'s factor L (at r·n + c, below the diagonal) may be nonzero: not
-    /// those that M's zeros by structure make zero ([`linalg::ldlt_pattern`]), which the
-    /// solves skip (a diagonal M: the ball, Kepler in polar coordinates, the forced two-mass).
-    pub(super) factor_nonzero: Vec<bool>,
+    /// Which entries of M₀'s factor L (at r·n + c, below the diagonal) may be nonzero, when
+    /// M's zeros by structure make some zero ([`linalg::ldlt_pattern`]; `None`: none do): the
+    /// solves skip those (a diagonal M: the ball, Kepler in polar coordinates, the forced
+    /// two-mass).
+    pub(super) factor_nonzero: Option<Vec<bool>>,
     /// The recurrences as machine code, compiled at the first expansion (`None`: not allowed,
     /// or Cranelift could not compile them, and the interpreter runs).
     #[cfg(feature = "jit")]
@@ -1247,8 +1248,10 @@ impl TaylorProgram {
         let zero = |e: usize| {
             !mass_varying[e] && numbers.iter().any(|&(r, x)| r == mass_full[e] && x == 0.0)
         };
+        let factor_nonzero =
+            Some(linalg::ldlt_pattern(dof, zero)).filter(|p| !p.iter().all(|&x| x));
         Self {
-            factor_nonzero: linalg::ldlt_pattern(dof, zero),
+            factor_nonzero,
             mass_varying,
             mass_full,
             dof,
@@ -1856,8 +1859,12 @@ impl Expansion {
                     f
                 };
             }
-            let nonzero = &program.factor_nonzero;
-            linalg::ldlt_solve_pattern(&self.work.m0, n, nonzero, &mut self.work.rhs);
+            match &program.factor_nonzero {
+                Some(nonzero) => {
+                    linalg::ldlt_solve_pattern(&self.work.m0, n, nonzero, &mut self.work.rhs)
+                }
+                None => linalg::ldlt_solve(&self.work.m0, n, &mut self.work.rhs),
+            }
             let next = 1.0 / (k + 1) as f64;
             for i in 0..n {
                 self.work.qdd[i * w + k] = self.work.rhs[i];
@@ -2119,7 +2126,7 @@ mod tests {
         let (m2, omega) = (1.7, 1.3);
         let params = [m2, omega];
         let program = Arc::new(setup(&mut g, 2, &parts, &params).0);
-        assert_eq!(program.factor_nonzero, [true, true, false, true]);
+        assert_eq!(program.factor_nonzero, Some(vec![true, true, false, true]));
         let time = program.time.expect("the model reads t");
         let reads_t = |op: &Op| op.operands().contains(&time);
         assert!(program.order0.iter().any(reads_t), "{:?}", program.order0);

@@ -280,8 +280,9 @@ impl Status {
 /// constant: no loop, no bound to test at run time. A third function runs such steps in a row
 /// ([`ExpansionKernel::steps`]), factoring M₀ itself. The operations and their order are those of
 /// `Expansion::expand` and `Expansion::step` with the interpreter (the sums in the lanes of
-/// `conv`, two at a time in two-lane vectors; the solve of `linalg::ldlt_solve_pattern`), so the
-/// coefficients and the steps are the same bits.
+/// `conv`, two at a time in two-lane vectors; the solve of `linalg::ldlt_solve`, or
+/// `ldlt_solve_pattern` where M has zeros by structure), so the coefficients and the steps are
+/// the same bits.
 pub(crate) struct ExpansionKernel {
     code: Code<Entries>,
     rows: usize,
@@ -919,12 +920,12 @@ fn emit_expansion(
                     f
                 });
             }
-            // M₀ q̈ₖ = rhs as `linalg::ldlt_solve_pattern`: L y = b, D z = y, Lᵀ x = z, without
-            // the entries of L that are zero by structure.
-            let nonzero = &program.factor_nonzero;
+            // M₀ q̈ₖ = rhs as `linalg::ldlt_solve` (`ldlt_solve_pattern` without the entries of
+            // L that are zero by structure): L y = b, D z = y, Lᵀ x = z.
+            let nonzero = |e: usize| program.factor_nonzero.as_ref().is_none_or(|p| p[e]);
             for i in 1..n {
                 let terms: Vec<Value> = (0..i)
-                    .filter(|&j| nonzero[i * n + j])
+                    .filter(|&j| nonzero(i * n + j))
                     .map(|j| {
                         let l = g.load_at(m0p, i * n + j);
                         g.b.ins().fmul(rhs[j], l)
@@ -941,7 +942,7 @@ fn emit_expansion(
             }
             for i in (1..n).rev() {
                 let x = rhs[i];
-                for j in (0..i).filter(|&j| nonzero[i * n + j]) {
+                for j in (0..i).filter(|&j| nonzero(i * n + j)) {
                     let l = g.load_at(m0p, i * n + j);
                     let xl = g.b.ins().fmul(x, l);
                     rhs[j] = g.b.ins().fsub(rhs[j], xl);

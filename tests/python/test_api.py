@@ -89,6 +89,24 @@ def test_solution_fields_are_made_on_first_read_in_any_order():
         again.nothing
     again.t = np.zeros(3)  # a field can still be set
     assert again.t.shape == (3,)
+    kept = again.q
+    del again.q  # and read again: the same array, not an empty one
+    assert again.q is kept and np.array_equal(kept, seen["q"])
+    # Threads reading a new solution's fields at once all get them whole.
+    import threading
+
+    for _ in range(5):
+        sol = model.simulate([1.0], [0.0], 5.0, **kw)
+        got = []
+        readers = [threading.Thread(target=lambda: got.append((sol.q, sol.t_events)))
+                   for _ in range(4)]
+        for r in readers:
+            r.start()
+        for r in readers:
+            r.join(timeout=60)
+        assert len(got) == 4
+        for q, te in got:
+            assert np.array_equal(q, seen["q"]) and np.array_equal(te[0], seen["t_events"][0])
 
 
 def test_auto_picks_symplectic_for_separable_fixed_step():
