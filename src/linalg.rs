@@ -252,7 +252,7 @@ mod tests {
     fn ldlt_pattern_fills_in_and_the_solve_skips_only_zeros() {
         let n = 6;
         let last = |e: usize| e / n == n - 1 || e % n == n - 1 || e / n == e % n;
-        let first = |e: usize| e / n == 0 || e % n == 0 || e / n == e % n;
+        let first = |e: usize| e / n == 0 || e.is_multiple_of(n) || e / n == e % n;
         let arrow = ldlt_pattern(n, |e| !last(e));
         let filled = ldlt_pattern(n, |e| !first(e));
         for i in 0..n {

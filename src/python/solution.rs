@@ -106,7 +106,7 @@ impl PySolution {
 
     /// Rows of `n` values as an array of shape (rows, n), without a copy.
     fn rows<'py>(py: Python<'py>, values: Vec<f64>, n: usize) -> PyResult<Bound<'py, PyAny>> {
-        let rows = if n == 0 { 0 } else { values.len() / n };
+        let rows = values.len().checked_div(n).unwrap_or(0);
         let a = Array2::from_shape_vec((rows, n), values)
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         Ok(a.into_pyarray(py).into_any())
