@@ -841,11 +841,8 @@ class Model:
 
     def _conserved(self, events: Optional[Sequence[Event]]) -> bool:
         """Whether h = q̇·p − L is a constant of runs with these events (an ensemble's
-        ``stats["conserved"]``; ``simulate``'s is decided in Rust alike): a conservative model,
-        and no reset."""
-        if not self._native.conservative:
-            return False
-        return events is None or not any(e.reset for e in events)
+        ``stats["conserved"]``, by the rule ``simulate``'s follows in Rust)."""
+        return bool(self._native.conserved(events is not None and any(e.reset for e in events)))
 
     def simulate_many(
         self,

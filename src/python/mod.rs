@@ -235,11 +235,10 @@ impl PyModel {
         self.model.dof()
     }
 
-    /// `structure()["conservative"]` without building the dict (an ensemble's
-    /// `stats["conserved"]`).
-    #[getter]
-    fn conservative(&self) -> bool {
-        self.model.structure().conservative()
+    /// Whether h = q̇·p − L is a constant of a run (`stats["conserved"]`, of `simulate` and of
+    /// an ensemble): nothing drives or damps the model, and no event `resets` the state.
+    fn conserved(&self, resets: bool) -> bool {
+        !resets && self.model.structure().conservative()
     }
 
     /// The structure flags the engine uses: time dependence of L, constant mass matrix,
@@ -512,10 +511,7 @@ impl PyModel {
             max_steps,
             (times, every),
         )?;
-        // h = q̇·p − L is a constant of the run when nothing drives or damps the model and no
-        // event resets the state.
-        let conserved =
-            self.model.structure().conservative() && events.iter().all(|e| e.reset.is_none());
+        let conserved = self.conserved(events.iter().any(|e| e.reset.is_some()));
         options.events = events;
         options.dense = dense;
         options.validate(t0, t_end)?;
