@@ -1,11 +1,13 @@
 """The compiled core of the ``lagrangian`` package (Rust, pyo3). Use the public API in
 ``lagrangian`` instead of this module."""
 
-from typing import Any, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Type, TypeVar
 
 import numpy as np
 import numpy.typing as npt
 from typing import final
+
+from typing_extensions import Self, disjoint_base
 
 from ._solution import Solution
 
@@ -49,14 +51,29 @@ _EventSpec = Tuple[
     str,
     int,
 ]
-@final
+@disjoint_base
 class NativeSolution:
-    """A finished run, kept by ``Solution``: each field is made when first read."""
+    """The base of ``Solution``: a run whose fields are made when first read, each once, and can
+    be assigned (not deleted)."""
 
-    def field(self, name: str) -> Any:
-        """The ``Solution`` attribute ``name`` (``t``, ``q``, ``qd``, ``energy``, ``stats``,
-        ``events`` — ``(t_events, q_events, qd_events)`` —, ``status``, ``message`` or
-        ``_dense``), handed over: ask for each once."""
+    FIELDS: List[str]
+    t: Any
+    q: Any
+    qd: Any
+    energy: Any
+    stats: Any
+    t_events: Any
+    q_events: Any
+    qd_events: Any
+    status: Any
+    message: Any
+    names: Any
+    event_names: Any
+    _dense: Any
+    _y: Any
+    def __new__(cls, *_args: Any, **_kwargs: Any) -> Self: ...
+
+_S = TypeVar("_S", bound=NativeSolution)
 
 @final
 class DenseSolution:
@@ -85,7 +102,6 @@ class LagrangianError(RuntimeError):
     t: Optional[float]
     q: Optional[_FloatArray]
     qd: Optional[_FloatArray]
-    _partial: Optional[NativeSolution]
 
 class SingularMassMatrixError(LagrangianError):
     """The mass matrix is singular, indefinite or not finite at some state."""
@@ -189,18 +205,21 @@ class NativeModel:
         q0: object,
         qd0: object,
         t_end: float,
-        t0: float = 0.0,
-        method: str = "auto",
-        dt: Optional[float] = None,
-        rtol: float = 1e-6,
-        atol: float = 1e-9,
-        t_eval: Optional[_FloatArray] = None,
-        max_steps: Optional[int] = None,
-        every: Optional[int] = None,
-        events: Sequence[_EventSpec] = ...,
-        dense: bool = False,
-        backend: str = "native",
-    ) -> Optional[NativeSolution]: ...
+        t0: float,
+        method: str,
+        dt: Optional[float],
+        rtol: float,
+        atol: float,
+        t_eval: Optional[_FloatArray],
+        max_steps: Optional[int],
+        every: Optional[int],
+        events: Sequence[_EventSpec],
+        dense: bool,
+        backend: str,
+        solution_type: Type[_S],
+        names: Optional[Tuple[str, ...]],
+        event_names: Tuple[str, ...],
+    ) -> Optional[_S]: ...
     def equilibrium(
         self,
         q_guess: Sequence[float],

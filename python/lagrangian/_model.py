@@ -820,24 +820,21 @@ class Model:
         if dense is not False and dense is not True:
             raise TypeError(f"dense must be True or False, got {dense!r}")
         native, backend = self._native, self._backend
-        try:
-            # The arguments spelled out (a vectorcall): unpacked from a tuple with *, the call
-            # went through an argument tuple, 1 000 more instructions (callgrind).
-            out = native.simulate(q0, qd0, t_end, t0, method, dt, rtol, atol, times, max_steps,
-                                  every, specs, dense, backend)
-            if out is None:
-                n = self.dof
-                q0, qd0 = vector("q0", q0, n), vector("qd0", qd0, n)
-                out = native.simulate(q0, qd0, t_end, t0, method, dt, rtol, atol, times,
-                                      max_steps, every, specs, dense, backend)
-        except _lagrangian.LagrangianError as err:
-            # A failure during the run carries what was computed (see `Raises`).
-            partial = err._partial
-            if partial is not None:
-                err.solution = Solution._from_native(partial, self._names, event_names, str(err))
-                err._partial = None
-            raise
-        return Solution._from_native(out, self._names, event_names)
+        # The arguments spelled out (a vectorcall): unpacked from a tuple with *, the call went
+        # through an argument tuple, 1 000 more instructions (callgrind). A failure during the
+        # run raises with the partial solution as `err.solution` (see `Raises`).
+        out: Optional[Solution] = native.simulate(q0, qd0, t_end, t0, method, dt, rtol, atol,
+                                                  times, max_steps, every, specs, dense, backend,
+                                                  Solution, self._names, event_names)
+        if out is not None:
+            return out
+        # q0 or qd0 not in the form Rust reads: converted and checked here, then called again.
+        n = self.dof
+        q0, qd0 = vector("q0", q0, n), vector("qd0", qd0, n)
+        sol: Solution = native.simulate(q0, qd0, t_end, t0, method, dt, rtol, atol, times,
+                                        max_steps, every, specs, dense, backend, Solution,
+                                        self._names, event_names)
+        return sol
 
     def _conserved(self, events: Optional[Sequence[Event]]) -> bool:
         """Whether h = q̇·p − L is a constant of runs with these events (an ensemble's

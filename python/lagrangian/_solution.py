@@ -4,32 +4,31 @@ and modes are in ``_linear``."""
 from __future__ import annotations
 
 import os
-import threading
 from typing import TYPE_CHECKING, Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
+
+from . import _lagrangian
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure  # type: ignore[import-not-found, unused-ignore]
 
 __all__ = ["Solution"]
 
-# The three lists of event occurrences, made together from a native run.
-_EVENT_LISTS = frozenset({"t_events", "q_events", "qd_events"})
-# The fields a native run makes on first read (`Solution.__getattr__`), one at a time.
-_FROM_RUN = _EVENT_LISTS | {"t", "q", "qd", "energy", "stats", "status", "message", "_dense"}
-_MAKING = threading.RLock()
-
 FloatArray = npt.NDArray[np.float64]
 PathLike = Union[str, "os.PathLike[str]"]
 
 
-class Solution:
+class Solution(_lagrangian.NativeSolution):
     """A trajectory from :meth:`Model.simulate`.
 
     With ``simulate(..., dense=True)`` the solution is callable: ``sol(t)`` gives (q, q̇)
     anywhere in the span from the method's own interpolant (see :meth:`__call__`).
+
+    The fields of a native run are made when first read (a short run's fixed cost is most of
+    what it costs): the arrays take the run's memory without a copy, and a field read again is
+    the same object. Each can be assigned.
 
     Attributes
     ----------
@@ -63,23 +62,8 @@ class Solution:
         ``"reached t_end"``, ``"terminal event <name> at t = …"``, or the failure.
     """
 
-    __slots__ = (
-        "t",
-        "q",
-        "qd",
-        "energy",
-        "stats",
-        "names",
-        "t_events",
-        "q_events",
-        "qd_events",
-        "event_names",
-        "status",
-        "message",
-        "_dense",
-        "_y",
-        "_run",
-    )
+    # The fields are the native base's (getters and setters); nothing is added per instance.
+    __slots__ = ()
 
     t: FloatArray
     q: FloatArray
@@ -93,6 +77,8 @@ class Solution:
     event_names: Tuple[str, ...]
     status: int
     message: str
+    _dense: Any
+    _y: Optional[FloatArray]
 
     def __init__(
         self,
@@ -119,50 +105,11 @@ class Solution:
         self.event_names = tuple(map(str, event_names))
         self.status, self.message = status, message
         self._dense = dense
-        self._y: Optional[FloatArray] = None
-        self._run: Any = None
-
-    @classmethod
-    def _from_native(
-        cls,
-        run: Any,
-        names: Tuple[str, ...],
-        event_names: Tuple[str, ...],
-        failure: Optional[str] = None,
-    ) -> "Solution":
-        """The solution of a native run (``_lagrangian.NativeSolution``), with the model's
-        coordinate and event names (tuples of strings); ``failure`` marks the partial solution
-        of a failed run. Every other field is made from the run when first read
-        (``__getattr__``): a short run's fixed cost is most of what it costs."""
-        sol = cls.__new__(cls)
-        sol._run = run
-        sol.names = names
-        sol.event_names = event_names
-        if failure is not None:
-            sol.status, sol.message = -1, failure
-        sol._y = None
-        return sol
-
-    if not TYPE_CHECKING:  # (typed, it would let any attribute through the type checker)
-
-        def __getattr__(self, name: str) -> Any:
-            # Called only for a field not yet set: one of a native run's, made now and kept, so
-            # that the next read is a plain slot read. Under a lock, so that two threads reading
-            # a new solution do not both make it (the run gives the same object to both anyway).
-            if name in _FROM_RUN:
-                run = self._run
-                if run is not None:
-                    with _MAKING:
-                        if name in _EVENT_LISTS:
-                            self.t_events, self.q_events, self.qd_events = run.field("events")
-                        else:
-                            setattr(self, name, run.field(name))
-                    return object.__getattribute__(self, name)
-            raise AttributeError(f"'Solution' object has no attribute {name!r}")
+        self._y = None
 
     def __getstate__(self) -> Dict[str, Any]:
-        # Every field made (the native run does not pickle), for pickle and copy.
-        state = {name: getattr(self, name) for name in self.__slots__ if name != "_run"}
+        # Every field made (a run's memory is not pickled as such), for pickle and copy.
+        state = {name: getattr(self, name) for name in self.FIELDS}
         state["_y"] = None
         return state
 
@@ -171,7 +118,6 @@ class Solution:
             state = state[1]
         for name, value in state.items():
             setattr(self, name, value)
-        self._run = None
 
     def __call__(self, t: Union[float, "npt.ArrayLike"]) -> Tuple[FloatArray, FloatArray]:
         """(q, q̇) at time(s) ``t`` anywhere in the span, from the method's own interpolant

@@ -86,20 +86,20 @@ impl From<Error> for PyErr {
     }
 }
 
-/// Attributes of every `LagrangianError` that a failed run fills: the partial solution (a
-/// [`PySolution`](super::solution::PySolution)) as `_partial` (the package wraps it as
-/// `solution`) and the last accepted state `t`, `q`, `qd`. They are `None` on the class, so
-/// on any failure that came before the first step (or outside `simulate`).
-pub(crate) const PARTIAL_ATTRIBUTES: [&str; 5] = ["_partial", "solution", "t", "q", "qd"];
+/// Attributes of every `LagrangianError` that a failed run fills: the partial solution and
+/// the last accepted state `t`, `q`, `qd`. They are `None` on the class, so on any failure
+/// that came before the first step (or outside `simulate`).
+pub(crate) const PARTIAL_ATTRIBUTES: [&str; 4] = ["solution", "t", "q", "qd"];
 
-/// The Python exception of a failed run, carrying the partial solution and the last accepted
-/// state when the run had started. `energy` is the partial trajectory's energy, `conserved`
-/// whether it is a constant of the run.
+/// The Python exception of a failed run, carrying the partial solution (made by `wrap`, with
+/// the error's message) and the last accepted state when the run had started. `energy` is the
+/// partial trajectory's energy, `conserved` whether it is a constant of the run.
 pub(crate) fn with_partial(
     py: Python<'_>,
     failed: Failed,
     energy: Vec<f64>,
     conserved: bool,
+    wrap: &super::solution::Wrap<'_, '_>,
 ) -> PyErr {
     let Failed {
         error,
@@ -110,8 +110,13 @@ pub(crate) fn with_partial(
     if let (Some(sol), Some((t, q, qd))) = (partial, last) {
         let value = err.value(py);
         let attach = || -> PyResult<()> {
-            let run = super::solution::PySolution::new(sol, energy, conserved);
-            value.setattr("_partial", Bound::new(py, run)?)?;
+            let run = super::solution::Run {
+                sol,
+                energy,
+                conserved,
+            };
+            let message = value.str()?.to_string();
+            value.setattr("solution", wrap.wrap(run, Some(message))?)?;
             value.setattr("t", t)?;
             value.setattr("q", PyArray1::from_vec(py, q))?;
             value.setattr("qd", PyArray1::from_vec(py, qd))?;

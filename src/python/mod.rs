@@ -34,8 +34,7 @@ use numpy::{
 };
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyTuple};
-use solution::PySolution;
+use pyo3::types::{PyDict, PyTuple, PyType};
 use states::States;
 use std::cell::Cell;
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -467,12 +466,13 @@ impl PyModel {
         })
     }
 
-    /// Integrate from (q0, qd0) at t0 to t_end; returns the [`PySolution`], or `None` when q0
-    /// or qd0 is not in the fast form of [`states::vector`] (the package converts and checks
-    /// them and calls again).
-    #[pyo3(signature = (q0, qd0, t_end, t0=0.0, method="auto", dt=None, rtol=1e-6, atol=1e-9,
-                        t_eval=None, max_steps=None, every=None, events=Vec::new(),
-                        dense=false, backend="native"))]
+    /// Integrate from (q0, qd0) at t0 to t_end; returns the run as an instance of
+    /// `solution_type` (a subclass of [`PySolution`], the package's `Solution`) carrying the
+    /// coordinate and event names, or `None` when q0 or qd0 is not in the fast form of
+    /// [`states::vector`] (the package converts and checks them and calls again). A failed run
+    /// raises with its partial solution, of the same type, as `solution`.
+    #[pyo3(signature = (q0, qd0, t_end, t0, method, dt, rtol, atol, t_eval, max_steps, every,
+                        events, dense, backend, solution_type, names, event_names))]
     #[allow(clippy::too_many_arguments)]
     fn simulate<'py>(
         &self,
@@ -491,7 +491,10 @@ impl PyModel {
         events: Vec<events::EventSpec>,
         dense: bool,
         backend: &str,
-    ) -> PyResult<Option<Bound<'py, PySolution>>> {
+        solution_type: &Bound<'py, PyType>,
+        names: &Bound<'py, PyAny>,
+        event_names: &Bound<'py, PyAny>,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
         let n = self.model.dof();
         let (Some(q0), Some(qd0)) = (states::vector(q0, n), states::vector(qd0, n)) else {
             return Ok(None);
@@ -588,6 +591,11 @@ impl PyModel {
                 },
             ))
         });
+        let wrap = solution::Wrap {
+            kind: solution_type,
+            names,
+            event_names,
+        };
         let (sol, energy) = match outcome {
             Err(panic) => return Err(panic_error(panic)),
             Ok(Err(failed)) => {
@@ -596,11 +604,19 @@ impl PyModel {
                     let e = pending.lock().unwrap_or_else(|p| p.into_inner()).take();
                     return Err(e.unwrap_or_else(|| Error::Interrupted { t }.into()));
                 }
-                return Err(error::with_partial(py, failed, energy, conserved));
+                return Err(error::with_partial(py, failed, energy, conserved, &wrap));
             }
             Ok(Ok(done)) => done,
         };
-        Bound::new(py, PySolution::new(sol, energy, conserved)).map(Some)
+        wrap.wrap(
+            solution::Run {
+                sol,
+                energy,
+                conserved,
+            },
+            None,
+        )
+        .map(Some)
     }
 
     /// An equilibrium near `q_guess` (q̈ = 0 at q̇ = 0; virtual work, seed §3, when T is

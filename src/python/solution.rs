@@ -1,21 +1,24 @@
-//! A finished run as `simulate` hands it to the package ([`PySolution`], `NativeSolution` in
-//! Python): the package's `Solution` keeps it and makes each of its fields (arrays, the
-//! statistics dict, the events, the message) a Python object only when it is first read.
+//! A finished run as `simulate` hands it to the package: [`PySolution`] (`NativeSolution` in
+//! Python) is the base class of the package's `Solution`, and each of its fields (arrays, the
+//! statistics dict, the events, the message) becomes a Python object only when first read.
 //!
-//! Why: a short run's cost is mostly its fixed cost, and building every field up front was a
-//! third of it (measured on a one-step Taylor run of the forced two-mass system, callgrind:
-//! 7 800 of the 25 000 instructions of the native call went to four NumPy arrays, the dict, the
-//! message and the 9-tuple holding them).
+//! Why: a short run's cost is mostly its fixed cost. Building every field up front was a third
+//! of it (one-step Taylor run of the forced two-mass system, callgrind: 7 800 of the 25 000
+//! instructions of the native call went to four NumPy arrays, the dict, the message and the
+//! tuple holding them). Making them on first read in Python (`__getattr__`) cost 5 800
+//! instructions of interpreter per field (the failed slot lookup raises an `AttributeError`
+//! first); a native getter costs a few hundred, and a field read again is the object kept.
 
 use super::{ensemble, events};
-use crate::integrators::{Solution, Status};
+use crate::integrators::{Solution, Statistics, Status};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::exceptions::{PyAttributeError, PyValueError};
 use pyo3::intern;
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
-use pyo3::types::{PyDict, PyTuple};
+use pyo3::types::{PyDict, PyTuple, PyType};
+use std::sync::{Mutex, MutexGuard};
 
 /// SciPy's status of a run: 0 it reached t_end, 1 a terminal event stopped it, −1 it failed.
 pub(crate) fn status_code(status: &Status) -> i8 {
@@ -26,104 +29,318 @@ pub(crate) fn status_code(status: &Status) -> i8 {
     }
 }
 
-/// A run's solution, the energy function h at its points, whether h is a constant of the run
-/// (`stats["conserved"]`), and the fields made so far.
-#[pyclass(name = "NativeSolution", module = "lagrangian._lagrangian")]
+/// What a run computed: the solution, the energy function h at its points and whether h is a
+/// constant of the run (`stats["conserved"]`).
+pub(crate) struct Run {
+    pub(crate) sol: Solution,
+    pub(crate) energy: Vec<f64>,
+    pub(crate) conserved: bool,
+}
+
+/// The fields of a `Solution`, in the order of [`FIELDS`].
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Field {
+    T,
+    Q,
+    Qd,
+    Energy,
+    Stats,
+    TEvents,
+    QEvents,
+    QdEvents,
+    Status,
+    Message,
+    Dense,
+    Names,
+    EventNames,
+    Y,
+}
+
+/// The Python names of the fields (`NativeSolution.FIELDS`: what a pickle keeps).
+const FIELDS: [&str; 14] = [
+    "t",
+    "q",
+    "qd",
+    "energy",
+    "stats",
+    "t_events",
+    "q_events",
+    "qd_events",
+    "status",
+    "message",
+    "_dense",
+    "names",
+    "event_names",
+    "_y",
+];
+
+/// A field's value taken out of the run (under its lock, in plain Rust), to be made a Python
+/// object after the lock is released.
+enum Taken {
+    Floats(Vec<f64>),
+    Rows(Vec<f64>, usize),
+    Stats(Box<Statistics>, bool),
+    Status(i8),
+    Message(String),
+    Dense(Option<crate::integrators::Dense>),
+}
+
+/// A run's fields: made from the run on first read, each once, or assigned from Python.
+///
+/// Frozen (no borrow flag), its mutable parts behind locks that are never held across a call
+/// into Python: making a field can allocate, the allocation can collect garbage, a finalizer
+/// can run Python code and another thread can read a field meanwhile. That thread waits for a
+/// field being made (a [`PyOnceLock`], detached from the interpreter while it waits).
+#[pyclass(
+    name = "NativeSolution",
+    module = "lagrangian._lagrangian",
+    subclass,
+    frozen
+)]
 pub struct PySolution {
-    sol: Solution,
-    energy: Vec<f64>,
-    conserved: bool,
-    made: Vec<(String, Py<PyAny>)>,
+    /// What the run computed, taken piece by piece as the fields are made; `None` for a
+    /// `Solution` built from its fields.
+    run: Mutex<Option<Run>>,
+    /// The fields made from the run one by one: t, q, qd, energy, stats, status, message,
+    /// _dense.
+    made: [PyOnceLock<Py<PyAny>>; 8],
+    /// The three event lists, made together.
+    events: PyOnceLock<[Py<PyAny>; 3]>,
+    /// The fields assigned from Python (the constructor, unpickling, the user): they come before
+    /// what the run would make.
+    assigned: Mutex<[Option<Py<PyAny>>; 14]>,
+}
+
+/// `simulate`'s result type: the package's `Solution` (a subclass of [`PySolution`]), with the
+/// model's coordinate names and the events' names that every run of this call carries.
+pub(crate) struct Wrap<'a, 'py> {
+    pub(crate) kind: &'a Bound<'py, PyType>,
+    pub(crate) names: &'a Bound<'py, PyAny>,
+    pub(crate) event_names: &'a Bound<'py, PyAny>,
+}
+
+impl<'py> Wrap<'_, 'py> {
+    /// The run as an instance of `kind`; `failure` (the error's message) marks the partial
+    /// solution of a failed run.
+    pub(crate) fn wrap(&self, run: Run, failure: Option<String>) -> PyResult<Bound<'py, PyAny>> {
+        let py = self.kind.py();
+        let sol = self
+            .kind
+            .call_method1(intern!(py, "__new__"), (self.kind,))?;
+        let native = sol.cast::<PySolution>()?.get();
+        *native.run() = Some(run);
+        let mut assigned = native.assigned();
+        assigned[Field::Names as usize] = Some(self.names.clone().unbind());
+        assigned[Field::EventNames as usize] = Some(self.event_names.clone().unbind());
+        if let Some(message) = failure {
+            assigned[Field::Message as usize] =
+                Some(message.into_pyobject(py)?.into_any().unbind());
+        }
+        drop(assigned);
+        Ok(sol)
+    }
 }
 
 impl PySolution {
-    pub(crate) fn new(sol: Solution, energy: Vec<f64>, conserved: bool) -> Self {
-        Self {
+    fn run(&self) -> MutexGuard<'_, Option<Run>> {
+        self.run.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    fn assigned(&self) -> MutexGuard<'_, [Option<Py<PyAny>>; 14]> {
+        self.assigned.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// The field: as assigned, else made from the run (once), else `None` for the names and
+    /// the `y` cache; `AttributeError` for a field neither assigned nor in a run.
+    fn get(&self, py: Python<'_>, field: Field) -> PyResult<Py<PyAny>> {
+        if let Some(value) = &self.assigned()[field as usize] {
+            return Ok(value.clone_ref(py));
+        }
+        match field {
+            Field::Names | Field::EventNames | Field::Y => Ok(py.None()),
+            Field::TEvents | Field::QEvents | Field::QdEvents => {
+                let lists = self.events.get_or_try_init(py, || self.make_events(py))?;
+                Ok(lists[field as usize - Field::TEvents as usize].clone_ref(py))
+            }
+            _ => {
+                // The slot in `made`: the three event lists have theirs.
+                let k = field as usize;
+                let slot = if k > Field::QdEvents as usize {
+                    k - 3
+                } else {
+                    k
+                };
+                self.made[slot]
+                    .get_or_try_init(py, || self.make(py, field))
+                    .map(|v| v.clone_ref(py))
+            }
+        }
+    }
+
+    /// Assign the field; the value it replaces is dropped after the lock is released (dropping
+    /// it may run Python code).
+    fn set(&self, field: Field, value: Py<PyAny>) {
+        let old = self.assigned()[field as usize].replace(value);
+        drop(old);
+    }
+
+    /// The field's value taken out of the run (its vectors moved, not copied).
+    fn take(&self, field: Field) -> PyResult<Taken> {
+        let mut run = self.run();
+        let Some(Run {
             sol,
             energy,
             conserved,
-            made: Vec::new(),
-        }
+        }) = run.as_mut()
+        else {
+            return Err(PyAttributeError::new_err(format!(
+                "'Solution' object has no attribute '{}'",
+                FIELDS[field as usize]
+            )));
+        };
+        Ok(match field {
+            Field::T => Taken::Floats(std::mem::take(&mut sol.t)),
+            Field::Q => Taken::Rows(std::mem::take(&mut sol.q), sol.dof),
+            Field::Qd => Taken::Rows(std::mem::take(&mut sol.qd), sol.dof),
+            Field::Energy => Taken::Floats(std::mem::take(energy)),
+            Field::Stats => Taken::Stats(Box::new(sol.stats.clone()), *conserved),
+            Field::Status => Taken::Status(status_code(&sol.status)),
+            Field::Message => Taken::Message(sol.status.to_string()),
+            Field::Dense => Taken::Dense(sol.dense.take()),
+            _ => unreachable!("the names, the events and y are not taken one by one"),
+        })
     }
 
-    /// The field `name`, made now (its arrays take the solution's vectors, without a copy).
-    fn make<'py>(&mut self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
-        let n = self.sol.dof;
-        let sol = &mut self.sol;
-        match name {
-            "t" => Ok(PyArray1::from_vec(py, std::mem::take(&mut sol.t)).into_any()),
-            "q" => Self::rows(py, std::mem::take(&mut sol.q), n),
-            "qd" => Self::rows(py, std::mem::take(&mut sol.qd), n),
-            "energy" => Ok(PyArray1::from_vec(py, std::mem::take(&mut self.energy)).into_any()),
-            "stats" => Ok(self.stats(py)?.into_any()),
-            "events" => {
-                let found = events::occurrences(py, std::mem::take(&mut sol.events), n)?;
-                let (mut t, mut q, mut qd) = (Vec::new(), Vec::new(), Vec::new());
-                for o in found {
-                    t.push(o.get_item(0)?);
-                    q.push(o.get_item(1)?);
-                    qd.push(o.get_item(2)?);
-                }
-                Ok(PyTuple::new(py, [t, q, qd])?.into_any())
+    /// The field made a Python object from what the run computed.
+    fn make(&self, py: Python<'_>, field: Field) -> PyResult<Py<PyAny>> {
+        let made = match self.take(field)? {
+            Taken::Floats(values) => PyArray1::from_vec(py, values).into_any(),
+            Taken::Rows(values, n) => {
+                // Rows of n values as an array of shape (rows, n), without a copy.
+                let rows = values.len().checked_div(n).unwrap_or(0);
+                Array2::from_shape_vec((rows, n), values)
+                    .map_err(|e| PyValueError::new_err(e.to_string()))?
+                    .into_pyarray(py)
+                    .into_any()
             }
-            "status" => Ok(status_code(&sol.status).into_pyobject(py)?.into_any()),
-            "message" => Ok(sol.status.to_string().into_pyobject(py)?.into_any()),
-            "_dense" => match sol.dense.take() {
-                Some(d) => Ok(Bound::new(py, events::PyDense::new(d))?.into_any()),
-                None => Ok(py.None().into_bound(py)),
-            },
-            _ => Err(PyAttributeError::new_err(format!(
-                "a run has no field {name:?}"
-            ))),
+            Taken::Stats(stats, conserved) => stats_dict(py, &stats, conserved)?.into_any(),
+            Taken::Status(code) => code.into_pyobject(py)?.into_any(),
+            Taken::Message(message) => message.into_pyobject(py)?.into_any(),
+            Taken::Dense(Some(d)) => Bound::new(py, events::PyDense::new(d))?.into_any(),
+            Taken::Dense(None) => py.None().into_bound(py),
+        };
+        Ok(made.unbind())
+    }
+
+    /// `t_events`, `q_events` and `qd_events`: one list each, an entry per event.
+    fn make_events(&self, py: Python<'_>) -> PyResult<[Py<PyAny>; 3]> {
+        let (found, n) = {
+            let mut run = self.run();
+            let Some(Run { sol, .. }) = run.as_mut() else {
+                return Err(PyAttributeError::new_err(
+                    "'Solution' object has no attribute 't_events'",
+                ));
+            };
+            (std::mem::take(&mut sol.events), sol.dof)
+        };
+        let (mut t, mut q, mut qd) = (Vec::new(), Vec::new(), Vec::new());
+        for o in events::occurrences(py, found, n)? {
+            t.push(o.get_item(0)?);
+            q.push(o.get_item(1)?);
+            qd.push(o.get_item(2)?);
         }
-    }
-
-    /// The statistics dict: a copy of a template that has every key (no key made, hashed or
-    /// inserted on a call, no growing of the table).
-    fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        static STATS: PyOnceLock<Py<PyDict>> = PyOnceLock::new();
-        let template = STATS.get_or_try_init(py, || -> PyResult<Py<PyDict>> {
-            let d = PyDict::new(py);
-            let keys = ["method", "choice"].into_iter().chain(ensemble::COUNTERS);
-            for key in keys.chain(["conserved"]) {
-                d.set_item(key, py.None())?;
-            }
-            Ok(d.unbind())
-        })?;
-        let s = &self.sol.stats;
-        let stats = template.bind(py).copy()?;
-        stats.set_item(intern!(py, "method"), s.method.name())?;
-        stats.set_item(intern!(py, "choice"), s.choice.clone())?;
-        stats.set_item(intern!(py, "accepted_steps"), s.accepted_steps)?;
-        stats.set_item(intern!(py, "rejected_steps"), s.rejected_steps)?;
-        stats.set_item(intern!(py, "rhs_evaluations"), s.rhs_evaluations)?;
-        stats.set_item(intern!(py, "jacobian_evaluations"), s.jacobian_evaluations)?;
-        stats.set_item(intern!(py, "factorizations"), s.factorizations)?;
-        stats.set_item(intern!(py, "newton_failures"), s.newton_failures)?;
-        stats.set_item(intern!(py, "conserved"), self.conserved)?;
-        Ok(stats)
-    }
-
-    /// Rows of `n` values as an array of shape (rows, n), without a copy.
-    fn rows<'py>(py: Python<'py>, values: Vec<f64>, n: usize) -> PyResult<Bound<'py, PyAny>> {
-        let rows = values.len().checked_div(n).unwrap_or(0);
-        let a = Array2::from_shape_vec((rows, n), values)
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
-        Ok(a.into_pyarray(py).into_any())
+        let list =
+            |v| -> PyResult<Py<PyAny>> { Ok(pyo3::types::PyList::new(py, v)?.into_any().unbind()) };
+        Ok([list(t)?, list(q)?, list(qd)?])
     }
 }
 
-#[pymethods]
-impl PySolution {
-    /// The `Solution` attribute `name` (`t`, `q`, `qd`, `energy`, `stats`, `events` — the
-    /// three event lists as a tuple —, `status`, `message` or `_dense`): made at the first
-    /// request, the same object at the next ones.
-    fn field<'py>(&mut self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
-        if let Some((_, made)) = self.made.iter().find(|(n, _)| n == name) {
-            return Ok(made.bind(py).clone());
+/// The statistics dict: a copy of a template that has every key (no key made, hashed or
+/// inserted on a call, no growing of the table).
+fn stats_dict<'py>(
+    py: Python<'py>,
+    s: &Statistics,
+    conserved: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    static STATS: PyOnceLock<Py<PyDict>> = PyOnceLock::new();
+    let template = STATS.get_or_try_init(py, || -> PyResult<Py<PyDict>> {
+        let d = PyDict::new(py);
+        let keys = ["method", "choice"].into_iter().chain(ensemble::COUNTERS);
+        for key in keys.chain(["conserved"]) {
+            d.set_item(key, py.None())?;
         }
-        let made = self.make(py, name)?;
-        self.made.push((name.to_owned(), made.clone().unbind()));
-        Ok(made)
-    }
+        Ok(d.unbind())
+    })?;
+    let stats = template.bind(py).copy()?;
+    stats.set_item(intern!(py, "method"), s.method.name())?;
+    stats.set_item(intern!(py, "choice"), s.choice.clone())?;
+    stats.set_item(intern!(py, "accepted_steps"), s.accepted_steps)?;
+    stats.set_item(intern!(py, "rejected_steps"), s.rejected_steps)?;
+    stats.set_item(intern!(py, "rhs_evaluations"), s.rhs_evaluations)?;
+    stats.set_item(intern!(py, "jacobian_evaluations"), s.jacobian_evaluations)?;
+    stats.set_item(intern!(py, "factorizations"), s.factorizations)?;
+    stats.set_item(intern!(py, "newton_failures"), s.newton_failures)?;
+    stats.set_item(intern!(py, "conserved"), conserved)?;
+    Ok(stats)
+}
+
+/// The class's methods, with a getter and a setter per field (`del` is refused: a field always
+/// has a value once the solution is built).
+macro_rules! fields {
+    ($($py:ident: $get:ident, $set:ident => $field:ident),* $(,)?) => {
+        #[pymethods]
+        impl PySolution {
+            /// An empty solution (the package's `Solution.__init__` assigns the fields; a
+            /// native run is moved in by `simulate`).
+            #[new]
+            #[pyo3(signature = (*_args, **_kwargs))]
+            fn new(
+                _args: &Bound<'_, PyTuple>,
+                _kwargs: Option<&Bound<'_, PyDict>>,
+            ) -> Self {
+                Self {
+                    run: Mutex::new(None),
+                    made: std::array::from_fn(|_| PyOnceLock::new()),
+                    events: PyOnceLock::new(),
+                    assigned: Mutex::new(Default::default()),
+                }
+            }
+
+            /// The names of the fields, in order (what a pickle keeps).
+            #[classattr]
+            #[allow(non_snake_case)]
+            fn FIELDS() -> [&'static str; 14] {
+                FIELDS
+            }
+
+            $(
+                #[getter($py)]
+                fn $get(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+                    self.get(py, Field::$field)
+                }
+
+                #[setter($py)]
+                fn $set(&self, value: Py<PyAny>) {
+                    self.set(Field::$field, value)
+                }
+            )*
+        }
+    };
+}
+
+fields! {
+    t: t, set_t => T,
+    q: q, set_q => Q,
+    qd: qd, set_qd => Qd,
+    energy: energy, set_energy => Energy,
+    stats: stats, set_stats => Stats,
+    t_events: t_events, set_t_events => TEvents,
+    q_events: q_events, set_q_events => QEvents,
+    qd_events: qd_events, set_qd_events => QdEvents,
+    status: status, set_status => Status,
+    message: message, set_message => Message,
+    _dense: dense, set_dense => Dense,
+    names: names, set_names => Names,
+    event_names: event_names, set_event_names => EventNames,
+    _y: y, set_y => Y,
 }
