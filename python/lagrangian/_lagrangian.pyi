@@ -56,7 +56,7 @@ class NativeSolution:
     """The base of ``Solution``: a run whose fields are made when first read, each once, and can
     be assigned (not deleted)."""
 
-    FIELDS: List[str]
+    FIELDS: Tuple[str, ...]
     t: Any
     q: Any
     qd: Any

@@ -13,11 +13,12 @@ use super::{ensemble, events};
 use crate::integrators::{Solution, Statistics, Status};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1};
-use pyo3::exceptions::{PyAttributeError, PyValueError};
+use pyo3::exceptions::{PyAttributeError, PyRuntimeError, PyValueError};
 use pyo3::intern;
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
-use pyo3::types::{PyDict, PyTuple, PyType};
+use pyo3::types::{PyDict, PyList, PyTuple, PyType};
+use pyo3::{PyTraverseError, PyVisit};
 use std::sync::{Mutex, MutexGuard};
 
 /// SciPy's status of a run: 0 it reached t_end, 1 a terminal event stopped it, −1 it failed.
@@ -82,7 +83,14 @@ enum Taken {
     Stats(Box<Statistics>, bool),
     Status(i8),
     Message(String),
+    Events(Vec<crate::integrators::Occurrences>, usize),
     Dense(Option<crate::integrators::Dense>),
+}
+
+/// What a run computed, and which fields have been taken from it (a bit per [`Field`]).
+struct Source {
+    run: Option<Run>,
+    taken: u16,
 }
 
 /// A run's fields: made from the run on first read, each once, or assigned from Python.
@@ -90,7 +98,9 @@ enum Taken {
 /// Frozen (no borrow flag), its mutable parts behind locks that are never held across a call
 /// into Python: making a field can allocate, the allocation can collect garbage, a finalizer
 /// can run Python code and another thread can read a field meanwhile. That thread waits for a
-/// field being made (a [`PyOnceLock`], detached from the interpreter while it waits).
+/// field being made (its gate is a [`PyOnceLock`], which detaches from the interpreter to
+/// wait). The values are visited by Python's garbage collector, so a cycle through a solution
+/// is collected.
 #[pyclass(
     name = "NativeSolution",
     module = "lagrangian._lagrangian",
@@ -98,17 +108,15 @@ enum Taken {
     frozen
 )]
 pub struct PySolution {
-    /// What the run computed, taken piece by piece as the fields are made; `None` for a
+    /// What the run computed, taken field by field as the fields are made; no run for a
     /// `Solution` built from its fields.
-    run: Mutex<Option<Run>>,
-    /// The fields made from the run one by one: t, q, qd, energy, stats, status, message,
-    /// _dense.
-    made: [PyOnceLock<Py<PyAny>>; 8],
-    /// The three event lists, made together.
-    events: PyOnceLock<[Py<PyAny>; 3]>,
-    /// The fields assigned from Python (the constructor, unpickling, the user): they come before
-    /// what the run would make.
-    assigned: Mutex<[Option<Py<PyAny>>; 14]>,
+    source: Mutex<Source>,
+    /// One gate per field made from the run (one for the three event lists): the make runs
+    /// once, and a field being made is waited for.
+    making: [PyOnceLock<()>; 9],
+    /// The fields' values: made, or assigned from Python (the constructor, unpickling, the
+    /// user); an assigned value replaces (and releases) the one before.
+    values: Mutex<[Option<Py<PyAny>>; 14]>,
 }
 
 /// `simulate`'s result type: the package's `Solution` (a subclass of [`PySolution`]), with the
@@ -124,96 +132,129 @@ impl<'py> Wrap<'_, 'py> {
     /// solution of a failed run.
     pub(crate) fn wrap(&self, run: Run, failure: Option<String>) -> PyResult<Bound<'py, PyAny>> {
         let py = self.kind.py();
+        let message = match failure {
+            Some(m) => Some(m.into_pyobject(py)?.into_any().unbind()),
+            None => None,
+        };
         let sol = self
             .kind
             .call_method1(intern!(py, "__new__"), (self.kind,))?;
         let native = sol.cast::<PySolution>()?.get();
-        *native.run() = Some(run);
-        let mut assigned = native.assigned();
-        assigned[Field::Names as usize] = Some(self.names.clone().unbind());
-        assigned[Field::EventNames as usize] = Some(self.event_names.clone().unbind());
-        if let Some(message) = failure {
-            assigned[Field::Message as usize] =
-                Some(message.into_pyobject(py)?.into_any().unbind());
-        }
-        drop(assigned);
+        native.source().run = Some(run);
+        let mut values = native.values();
+        values[Field::Names as usize] = Some(self.names.clone().unbind());
+        values[Field::EventNames as usize] = Some(self.event_names.clone().unbind());
+        values[Field::Message as usize] = message;
+        drop(values);
         Ok(sol)
     }
 }
 
+/// The error of a field that neither was assigned nor can be made.
+fn missing(name: &str) -> PyErr {
+    PyAttributeError::new_err(format!("the solution has no attribute '{name}'"))
+}
+
 impl PySolution {
-    fn run(&self) -> MutexGuard<'_, Option<Run>> {
-        self.run.lock().unwrap_or_else(|p| p.into_inner())
+    fn source(&self) -> MutexGuard<'_, Source> {
+        self.source.lock().unwrap_or_else(|p| p.into_inner())
     }
 
-    fn assigned(&self) -> MutexGuard<'_, [Option<Py<PyAny>>; 14]> {
-        self.assigned.lock().unwrap_or_else(|p| p.into_inner())
+    fn values(&self) -> MutexGuard<'_, [Option<Py<PyAny>>; 14]> {
+        self.values.lock().unwrap_or_else(|p| p.into_inner())
     }
 
-    /// The field: as assigned, else made from the run (once), else `None` for the names and
-    /// the `y` cache; `AttributeError` for a field neither assigned nor in a run.
+    fn value(&self, py: Python<'_>, field: Field) -> Option<Py<PyAny>> {
+        self.values()[field as usize]
+            .as_ref()
+            .map(|v| v.clone_ref(py))
+    }
+
+    /// The field: its value, else made from the run (once), else `None` for the names and the
+    /// `y` cache; `AttributeError` for a field neither assigned nor in a run.
     fn get(&self, py: Python<'_>, field: Field) -> PyResult<Py<PyAny>> {
-        if let Some(value) = &self.assigned()[field as usize] {
-            return Ok(value.clone_ref(py));
+        if let Some(value) = self.value(py, field) {
+            return Ok(value);
         }
-        match field {
-            Field::Names | Field::EventNames | Field::Y => Ok(py.None()),
-            Field::TEvents | Field::QEvents | Field::QdEvents => {
-                let lists = self.events.get_or_try_init(py, || self.make_events(py))?;
-                Ok(lists[field as usize - Field::TEvents as usize].clone_ref(py))
-            }
-            _ => {
-                // The slot in `made`: the three event lists have theirs.
-                let k = field as usize;
-                let slot = if k > Field::QdEvents as usize {
-                    k - 3
-                } else {
-                    k
-                };
-                self.made[slot]
-                    .get_or_try_init(py, || self.make(py, field))
-                    .map(|v| v.clone_ref(py))
-            }
-        }
+        let k = field as usize;
+        let gate = match field {
+            Field::Names | Field::EventNames | Field::Y => return Ok(py.None()),
+            Field::TEvents | Field::QEvents | Field::QdEvents => Field::TEvents as usize,
+            _ if k > Field::QdEvents as usize => k - 2,
+            _ => k,
+        };
+        self.making[gate].get_or_try_init(py, || self.make(py, field))?;
+        self.value(py, field)
+            .ok_or_else(|| missing(FIELDS[field as usize]))
     }
 
     /// Assign the field; the value it replaces is dropped after the lock is released (dropping
     /// it may run Python code).
     fn set(&self, field: Field, value: Py<PyAny>) {
-        let old = self.assigned()[field as usize].replace(value);
+        let old = self.values()[field as usize].replace(value);
         drop(old);
     }
 
-    /// The field's value taken out of the run (its vectors moved, not copied).
+    /// Keep a made value, unless one was assigned meanwhile (then the made one is dropped).
+    fn keep(&self, field: Field, made: Py<PyAny>) {
+        let mut values = self.values();
+        let slot = &mut values[field as usize];
+        let unused = if slot.is_none() {
+            *slot = Some(made);
+            None
+        } else {
+            Some(made)
+        };
+        drop(values);
+        drop(unused);
+    }
+
+    /// The field's value taken out of the run (its vectors moved, not copied). Taken once: a
+    /// second take means the first make failed (its data is gone), which is an error rather
+    /// than an empty value.
     fn take(&self, field: Field) -> PyResult<Taken> {
-        let mut run = self.run();
+        let mut source = self.source();
+        let Source { run, taken } = &mut *source;
+        let name = FIELDS[field as usize];
         let Some(Run {
             sol,
             energy,
             conserved,
         }) = run.as_mut()
         else {
-            return Err(PyAttributeError::new_err(format!(
-                "'Solution' object has no attribute '{}'",
-                FIELDS[field as usize]
-            )));
+            return Err(missing(name));
         };
+        let bit = 1 << field as usize;
+        if *taken & bit != 0 {
+            return Err(PyRuntimeError::new_err(format!(
+                "the solution's {name} could not be made (an earlier attempt failed)"
+            )));
+        }
+        *taken |= bit;
         Ok(match field {
             Field::T => Taken::Floats(std::mem::take(&mut sol.t)),
             Field::Q => Taken::Rows(std::mem::take(&mut sol.q), sol.dof),
             Field::Qd => Taken::Rows(std::mem::take(&mut sol.qd), sol.dof),
             Field::Energy => Taken::Floats(std::mem::take(energy)),
             Field::Stats => Taken::Stats(Box::new(sol.stats.clone()), *conserved),
+            Field::TEvents | Field::QEvents | Field::QdEvents => {
+                Taken::Events(std::mem::take(&mut sol.events), sol.dof)
+            }
             Field::Status => Taken::Status(status_code(&sol.status)),
             Field::Message => Taken::Message(sol.status.to_string()),
             Field::Dense => Taken::Dense(sol.dense.take()),
-            _ => unreachable!("the names, the events and y are not taken one by one"),
+            Field::Names | Field::EventNames | Field::Y => unreachable!("not made from a run"),
         })
     }
 
-    /// The field made a Python object from what the run computed.
-    fn make(&self, py: Python<'_>, field: Field) -> PyResult<Py<PyAny>> {
-        let made = match self.take(field)? {
+    /// Make the field a Python object from what the run computed, and keep it (the three
+    /// event lists together).
+    fn make(&self, py: Python<'_>, field: Field) -> PyResult<()> {
+        let taken = match field {
+            Field::QEvents | Field::QdEvents => self.take(Field::TEvents)?,
+            _ => self.take(field)?,
+        };
+        let made = match taken {
             Taken::Floats(values) => PyArray1::from_vec(py, values).into_any(),
             Taken::Rows(values, n) => {
                 // Rows of n values as an array of shape (rows, n), without a copy.
@@ -224,34 +265,29 @@ impl PySolution {
                     .into_any()
             }
             Taken::Stats(stats, conserved) => stats_dict(py, &stats, conserved)?.into_any(),
+            Taken::Events(found, n) => {
+                let (mut t, mut q, mut qd) = (Vec::new(), Vec::new(), Vec::new());
+                for o in events::occurrences(py, found, n)? {
+                    t.push(o.get_item(0)?);
+                    q.push(o.get_item(1)?);
+                    qd.push(o.get_item(2)?);
+                }
+                let (t, q) = (PyList::new(py, t)?, PyList::new(py, q)?);
+                self.keep(Field::TEvents, t.into_any().unbind());
+                self.keep(Field::QEvents, q.into_any().unbind());
+                PyList::new(py, qd)?.into_any()
+            }
             Taken::Status(code) => code.into_pyobject(py)?.into_any(),
             Taken::Message(message) => message.into_pyobject(py)?.into_any(),
             Taken::Dense(Some(d)) => Bound::new(py, events::PyDense::new(d))?.into_any(),
             Taken::Dense(None) => py.None().into_bound(py),
         };
-        Ok(made.unbind())
-    }
-
-    /// `t_events`, `q_events` and `qd_events`: one list each, an entry per event.
-    fn make_events(&self, py: Python<'_>) -> PyResult<[Py<PyAny>; 3]> {
-        let (found, n) = {
-            let mut run = self.run();
-            let Some(Run { sol, .. }) = run.as_mut() else {
-                return Err(PyAttributeError::new_err(
-                    "'Solution' object has no attribute 't_events'",
-                ));
-            };
-            (std::mem::take(&mut sol.events), sol.dof)
+        let field = match field {
+            Field::TEvents | Field::QEvents => Field::QdEvents,
+            f => f,
         };
-        let (mut t, mut q, mut qd) = (Vec::new(), Vec::new(), Vec::new());
-        for o in events::occurrences(py, found, n)? {
-            t.push(o.get_item(0)?);
-            q.push(o.get_item(1)?);
-            qd.push(o.get_item(2)?);
-        }
-        let list =
-            |v| -> PyResult<Py<PyAny>> { Ok(pyo3::types::PyList::new(py, v)?.into_any().unbind()) };
-        Ok([list(t)?, list(q)?, list(qd)?])
+        self.keep(field, made.unbind());
+        Ok(())
     }
 }
 
@@ -299,18 +335,33 @@ macro_rules! fields {
                 _kwargs: Option<&Bound<'_, PyDict>>,
             ) -> Self {
                 Self {
-                    run: Mutex::new(None),
-                    made: std::array::from_fn(|_| PyOnceLock::new()),
-                    events: PyOnceLock::new(),
-                    assigned: Mutex::new(Default::default()),
+                    source: Mutex::new(Source { run: None, taken: 0 }),
+                    making: std::array::from_fn(|_| PyOnceLock::new()),
+                    values: Mutex::new(Default::default()),
                 }
             }
 
             /// The names of the fields, in order (what a pickle keeps).
             #[classattr]
             #[allow(non_snake_case)]
-            fn FIELDS() -> [&'static str; 14] {
-                FIELDS
+            fn FIELDS(py: Python<'_>) -> PyResult<Py<PyTuple>> {
+                Ok(PyTuple::new(py, FIELDS)?.unbind())
+            }
+
+            fn __traverse__(&self, visit: PyVisit<'_>) -> Result<(), PyTraverseError> {
+                // Never locked while Python runs (see the type); a lock held elsewhere would
+                // only skip this visit.
+                if let Ok(values) = self.values.try_lock() {
+                    for value in values.iter().flatten() {
+                        visit.call(value)?;
+                    }
+                }
+                Ok(())
+            }
+
+            fn __clear__(&self) {
+                let values = std::mem::take(&mut *self.values());
+                drop(values);
             }
 
             $(

@@ -98,10 +98,34 @@ def test_solution_fields_are_made_on_first_read_in_any_order():
     built = lg.Solution(seen["t"], seen["q"], seen["qd"], seen["energy"], {}, ["x"])
     assert built.q is seen["q"] and built.names == ("x",) and built.status == 0
     assert built.t_events == [] and built.interpolant is None and built.y.shape[0] == 2
-    # Fields are made from the run once: a field read before a pickle is not lost from it.
+    # Fields are made from the run once: a field read before a pickle is not lost from it;
+    # every pickle protocol keeps them.
     part = model.simulate([1.0], [0.0], 5.0, **kw)
     part.q
     assert np.array_equal(copy.deepcopy(part).q, seen["q"])
+    for protocol in range(pickle.HIGHEST_PROTOCOL + 1):
+        back = pickle.loads(pickle.dumps(part, protocol=protocol))
+        assert type(back) is lg.Solution and np.array_equal(back.qd, seen["qd"])
+        assert back.event_names == ("zero",) and np.array_equal(back(2.0)[0], first(2.0)[0])
+    # An assigned field releases the value it replaces, and a cycle through a solution is
+    # collected (the native fields are visited by the garbage collector).
+    import gc
+    import weakref
+
+    old = weakref.ref(part.q)
+    part.q = part.q[::2].copy()
+    gc.collect()
+    assert old() is None
+
+    class Holder:
+        pass
+
+    holder = Holder()
+    holder.sol, part.names = part, holder
+    gone = weakref.ref(holder)
+    del holder, part
+    gc.collect()
+    assert gone() is None
     # Threads reading a new solution's fields at once all get them whole.
     import threading
 
