@@ -3,8 +3,9 @@ and modes are in ``_linear``."""
 
 from __future__ import annotations
 
+import copyreg
 import os
-from typing import TYPE_CHECKING, Any, Dict, List, Optional, Sequence, Tuple, Type, Union
+from typing import TYPE_CHECKING, Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -18,11 +19,6 @@ __all__ = ["Solution"]
 
 FloatArray = npt.NDArray[np.float64]
 PathLike = Union[str, "os.PathLike[str]"]
-
-
-def _new(cls: Type["Solution"]) -> "Solution":
-    """An empty solution of class ``cls``, which unpickling fills (``Solution.__reduce__``)."""
-    return cls.__new__(cls)
 
 
 class Solution(_lagrangian.NativeSolution):
@@ -115,7 +111,8 @@ class Solution(_lagrangian.NativeSolution):
     def __reduce__(self) -> Tuple[Any, ...]:
         # Every protocol rebuilds a solution from its fields (``Solution.__new__``, then
         # ``__setstate__``); by default protocols 0 and 1 would try to pickle the native base.
-        return _new, (type(self),), self.__getstate__()
+        new = copyreg.__newobj__  # type: ignore[attr-defined]
+        return new, (type(self),), self.__getstate__()
 
     def __getstate__(self) -> Dict[str, Any]:
         # Every field made (a run's memory is not pickled as such), for pickle and copy.

@@ -19,7 +19,7 @@ use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyDict, PyList, PyTuple, PyType};
 use pyo3::{PyTraverseError, PyVisit};
-use std::sync::{Mutex, MutexGuard};
+use std::sync::{Mutex, MutexGuard, TryLockError};
 
 /// SciPy's status of a run: 0 it reached t_end, 1 a terminal event stopped it, −1 it failed.
 pub(crate) fn status_code(status: &Status) -> i8 {
@@ -141,11 +141,11 @@ impl<'py> Wrap<'_, 'py> {
             .call_method1(intern!(py, "__new__"), (self.kind,))?;
         let native = sol.cast::<PySolution>()?.get();
         native.source().run = Some(run);
-        let mut values = native.values();
-        values[Field::Names as usize] = Some(self.names.clone().unbind());
-        values[Field::EventNames as usize] = Some(self.event_names.clone().unbind());
-        values[Field::Message as usize] = message;
-        drop(values);
+        native.set(Field::Names, self.names.clone().unbind());
+        native.set(Field::EventNames, self.event_names.clone().unbind());
+        if let Some(message) = message {
+            native.set(Field::Message, message);
+        }
         Ok(sol)
     }
 }
@@ -209,13 +209,17 @@ impl PySolution {
         drop(unused);
     }
 
-    /// The field's value taken out of the run (its vectors moved, not copied). Taken once: a
-    /// second take means the first make failed (its data is gone), which is an error rather
-    /// than an empty value.
+    /// The field's value taken out of the run (its vectors moved, not copied; the three event
+    /// lists together). Taken once: a second take means the first make failed (a moved value
+    /// is gone), which is an error rather than an empty value.
     fn take(&self, field: Field) -> PyResult<Taken> {
         let mut source = self.source();
         let Source { run, taken } = &mut *source;
         let name = FIELDS[field as usize];
+        let field = match field {
+            Field::QEvents | Field::QdEvents => Field::TEvents,
+            f => f,
+        };
         let Some(Run {
             sol,
             energy,
@@ -250,10 +254,7 @@ impl PySolution {
     /// Make the field a Python object from what the run computed, and keep it (the three
     /// event lists together).
     fn make(&self, py: Python<'_>, field: Field) -> PyResult<()> {
-        let taken = match field {
-            Field::QEvents | Field::QdEvents => self.take(Field::TEvents)?,
-            _ => self.take(field)?,
-        };
+        let taken = self.take(field)?;
         let made = match taken {
             Taken::Floats(values) => PyArray1::from_vec(py, values).into_any(),
             Taken::Rows(values, n) => {
@@ -320,8 +321,8 @@ fn stats_dict<'py>(
     Ok(stats)
 }
 
-/// The class's methods, with a getter and a setter per field (`del` is refused: a field always
-/// has a value once the solution is built).
+/// The class's methods, with a getter and a setter per field (`del` is refused: a field keeps
+/// its value).
 macro_rules! fields {
     ($($py:ident: $get:ident, $set:ident => $field:ident),* $(,)?) => {
         #[pymethods]
@@ -351,10 +352,13 @@ macro_rules! fields {
             fn __traverse__(&self, visit: PyVisit<'_>) -> Result<(), PyTraverseError> {
                 // Never locked while Python runs (see the type); a lock held elsewhere would
                 // only skip this visit.
-                if let Ok(values) = self.values.try_lock() {
-                    for value in values.iter().flatten() {
-                        visit.call(value)?;
-                    }
+                let values = match self.values.try_lock() {
+                    Ok(values) => values,
+                    Err(TryLockError::Poisoned(p)) => p.into_inner(),
+                    Err(TryLockError::WouldBlock) => return Ok(()),
+                };
+                for value in values.iter().flatten() {
+                    visit.call(value)?;
                 }
                 Ok(())
             }
