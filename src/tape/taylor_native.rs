@@ -157,9 +157,13 @@ fn define(module: &mut JITModule, ops: &[Op], inline: bool) -> Result<Entry> {
 /// (estimated by [`TaylorProgram::expansion_instructions`]) may get it compiled, unrolled;
 /// larger ones run the recurrences of [`SeriesKernel`] order by order, with the rest of the
 /// expansion in Rust.
-/// Compilation costs about 3.7 µs per estimated instruction (2-core machine, release): this is
-/// about 0.4 s, the 4-link chain at order 22.
-const UNROLL_UP_TO: usize = 100_000;
+/// Compilation grows faster than the program (2-core machine, release, 2026-11-27): about
+/// 0.4 s for 100 000 estimated instructions (the 4-link chain at order 22), 0.7 s for the
+/// 8-link chain at order 14 (111 000: 46 against 21 µs per expansion, paid back after 28 000),
+/// 1.9 s for it at order 18 (174 000: 117 against 83 µs, 57 000), 3.4 s for the 16-link chain at
+/// order 11 (210 000: 109 against 54 µs, 61 000) and 8.8 s at order 14 (324 000: no faster). Up
+/// to this size an expansion compiled after [`UNROLL_AFTER`] pays back within about 3× that.
+const UNROLL_UP_TO: usize = 120_000;
 
 /// Expansions to one order a program runs with [`SeriesKernel`] before its [`ExpansionKernel`]
 /// for that order is compiled: about the break-even, as compiling and the time it saves per
