@@ -38,42 +38,93 @@ pub(crate) struct Run {
     pub(crate) conserved: bool,
 }
 
-/// The fields of a `Solution`, in the order of [`FIELDS`].
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum Field {
-    T,
-    Q,
-    Qd,
-    Energy,
-    Stats,
-    TEvents,
-    QEvents,
-    QdEvents,
-    Status,
-    Message,
-    Dense,
-    Names,
-    EventNames,
-    Y,
+/// The fields, listed once below: the `Field` enum, their Python names, and the class's methods
+/// with a getter and a setter per field (`del` is refused: a field keeps its value).
+macro_rules! fields {
+    ($($py:ident: $get:ident, $set:ident => $field:ident),* $(,)?) => {
+        /// The fields of a `Solution`, in the order of [`FIELDS`].
+        #[derive(Clone, Copy, PartialEq, Eq)]
+        enum Field {
+            $($field,)*
+        }
+
+        /// The Python names of the fields (`NativeSolution.FIELDS`: what a pickle keeps).
+        const FIELDS: &[&str] = &[$(stringify!($py)),*];
+
+        #[pymethods]
+        impl PySolution {
+            /// An empty solution (the package's `Solution.__init__` assigns the fields; a
+            /// native run is moved in by `simulate`).
+            #[new]
+            #[pyo3(signature = (*_args, **_kwargs))]
+            fn new(
+                _args: &Bound<'_, PyTuple>,
+                _kwargs: Option<&Bound<'_, PyDict>>,
+            ) -> Self {
+                Self {
+                    source: Mutex::new(Source { run: None, taken: 0 }),
+                    making: std::array::from_fn(|_| PyOnceLock::new()),
+                    values: Mutex::new(Default::default()),
+                }
+            }
+
+            /// The names of the fields, in order (what a pickle keeps).
+            #[classattr]
+            #[allow(non_snake_case)]
+            fn FIELDS(py: Python<'_>) -> PyResult<Py<PyTuple>> {
+                Ok(PyTuple::new(py, FIELDS)?.unbind())
+            }
+
+            fn __traverse__(&self, visit: PyVisit<'_>) -> Result<(), PyTraverseError> {
+                // Never locked while Python runs (see the type); a lock held elsewhere would
+                // only skip this visit.
+                let values = match self.values.try_lock() {
+                    Ok(values) => values,
+                    Err(TryLockError::Poisoned(p)) => p.into_inner(),
+                    Err(TryLockError::WouldBlock) => return Ok(()),
+                };
+                for value in values.iter().flatten() {
+                    visit.call(value)?;
+                }
+                Ok(())
+            }
+
+            fn __clear__(&self) {
+                let values = std::mem::take(&mut *self.values());
+                drop(values);
+            }
+
+            $(
+                #[getter($py)]
+                fn $get(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+                    self.get(py, Field::$field)
+                }
+
+                #[setter($py)]
+                fn $set(&self, value: Py<PyAny>) {
+                    self.set(Field::$field, value)
+                }
+            )*
+        }
+    };
 }
 
-/// The Python names of the fields (`NativeSolution.FIELDS`: what a pickle keeps).
-const FIELDS: [&str; 14] = [
-    "t",
-    "q",
-    "qd",
-    "energy",
-    "stats",
-    "t_events",
-    "q_events",
-    "qd_events",
-    "status",
-    "message",
-    "_dense",
-    "names",
-    "event_names",
-    "_y",
-];
+fields! {
+    t: t, set_t => T,
+    q: q, set_q => Q,
+    qd: qd, set_qd => Qd,
+    energy: energy, set_energy => Energy,
+    stats: stats, set_stats => Stats,
+    t_events: t_events, set_t_events => TEvents,
+    q_events: q_events, set_q_events => QEvents,
+    qd_events: qd_events, set_qd_events => QdEvents,
+    status: status, set_status => Status,
+    message: message, set_message => Message,
+    _dense: dense, set_dense => Dense,
+    names: names, set_names => Names,
+    event_names: event_names, set_event_names => EventNames,
+    _y: y, set_y => Y,
+}
 
 /// A field's value taken out of the run (under its lock, in plain Rust), to be made a Python
 /// object after the lock is released.
@@ -116,7 +167,7 @@ pub struct PySolution {
     making: [PyOnceLock<()>; 9],
     /// The fields' values: made, or assigned from Python (the constructor, unpickling, the
     /// user); an assigned value replaces (and releases) the one before.
-    values: Mutex<[Option<Py<PyAny>>; 14]>,
+    values: Mutex<[Option<Py<PyAny>>; FIELDS.len()]>,
 }
 
 /// `simulate`'s result type: the package's `Solution` (a subclass of [`PySolution`]), with the
@@ -160,7 +211,7 @@ impl PySolution {
         self.source.lock().unwrap_or_else(|p| p.into_inner())
     }
 
-    fn values(&self) -> MutexGuard<'_, [Option<Py<PyAny>>; 14]> {
+    fn values(&self) -> MutexGuard<'_, [Option<Py<PyAny>>; FIELDS.len()]> {
         self.values.lock().unwrap_or_else(|p| p.into_inner())
     }
 
@@ -176,6 +227,7 @@ impl PySolution {
         if let Some(value) = self.value(py, field) {
             return Ok(value);
         }
+        // The gate: the field's index, the event lists' shared one, two fewer after them.
         let k = field as usize;
         let gate = match field {
             Field::Names | Field::EventNames | Field::Y => return Ok(py.None()),
@@ -319,83 +371,4 @@ fn stats_dict<'py>(
     stats.set_item(intern!(py, "newton_failures"), s.newton_failures)?;
     stats.set_item(intern!(py, "conserved"), conserved)?;
     Ok(stats)
-}
-
-/// The class's methods, with a getter and a setter per field (`del` is refused: a field keeps
-/// its value).
-macro_rules! fields {
-    ($($py:ident: $get:ident, $set:ident => $field:ident),* $(,)?) => {
-        #[pymethods]
-        impl PySolution {
-            /// An empty solution (the package's `Solution.__init__` assigns the fields; a
-            /// native run is moved in by `simulate`).
-            #[new]
-            #[pyo3(signature = (*_args, **_kwargs))]
-            fn new(
-                _args: &Bound<'_, PyTuple>,
-                _kwargs: Option<&Bound<'_, PyDict>>,
-            ) -> Self {
-                Self {
-                    source: Mutex::new(Source { run: None, taken: 0 }),
-                    making: std::array::from_fn(|_| PyOnceLock::new()),
-                    values: Mutex::new(Default::default()),
-                }
-            }
-
-            /// The names of the fields, in order (what a pickle keeps).
-            #[classattr]
-            #[allow(non_snake_case)]
-            fn FIELDS(py: Python<'_>) -> PyResult<Py<PyTuple>> {
-                Ok(PyTuple::new(py, FIELDS)?.unbind())
-            }
-
-            fn __traverse__(&self, visit: PyVisit<'_>) -> Result<(), PyTraverseError> {
-                // Never locked while Python runs (see the type); a lock held elsewhere would
-                // only skip this visit.
-                let values = match self.values.try_lock() {
-                    Ok(values) => values,
-                    Err(TryLockError::Poisoned(p)) => p.into_inner(),
-                    Err(TryLockError::WouldBlock) => return Ok(()),
-                };
-                for value in values.iter().flatten() {
-                    visit.call(value)?;
-                }
-                Ok(())
-            }
-
-            fn __clear__(&self) {
-                let values = std::mem::take(&mut *self.values());
-                drop(values);
-            }
-
-            $(
-                #[getter($py)]
-                fn $get(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
-                    self.get(py, Field::$field)
-                }
-
-                #[setter($py)]
-                fn $set(&self, value: Py<PyAny>) {
-                    self.set(Field::$field, value)
-                }
-            )*
-        }
-    };
-}
-
-fields! {
-    t: t, set_t => T,
-    q: q, set_q => Q,
-    qd: qd, set_qd => Qd,
-    energy: energy, set_energy => Energy,
-    stats: stats, set_stats => Stats,
-    t_events: t_events, set_t_events => TEvents,
-    q_events: q_events, set_q_events => QEvents,
-    qd_events: qd_events, set_qd_events => QdEvents,
-    status: status, set_status => Status,
-    message: message, set_message => Message,
-    _dense: dense, set_dense => Dense,
-    names: names, set_names => Names,
-    event_names: event_names, set_event_names => EventNames,
-    _y: y, set_y => Y,
 }
