@@ -46,6 +46,7 @@ from ._expr import (
 )
 from ._lagrangian import (
     ConvergenceError,
+    Integrator,
     LagrangianError,
     NonFiniteError,
     SingularMassMatrixError,
@@ -68,6 +69,7 @@ __all__ = [
     "Equilibrium",
     "Event",
     "Expr",
+    "Integrator",
     "LagrangianError",
     "Linearization",
     "Model",

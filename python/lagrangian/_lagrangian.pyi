@@ -21,6 +21,7 @@ __all__ = [
     "TooManyStepsError",
     "NativeModel",
     "DenseSolution",
+    "Integrator",
     "NativeSolution",
     "check_options",
     "method_info",
@@ -92,6 +93,34 @@ class DenseSolution:
     def __reduce__(self) -> Tuple[Any, ...]: ...
     @staticmethod
     def _restore(parts: Tuple[Any, ...]) -> "DenseSolution": ...
+
+@final
+class Integrator:
+    """An integrator standing at a state (t, q, qd), with its method and options: each
+    ``propagate_until(t)`` continues from where the last one ended. Made by
+    ``Model.integrator``."""
+
+    def propagate_until(self, t: float) -> str:
+        """Integrate to ``t`` and stand there: ``"finished"``, or ``"terminated"`` when a
+        terminal event stopped the run first (``event`` names it)."""
+    @property
+    def t(self) -> float: ...
+    @t.setter
+    def t(self, t: float) -> None: ...
+    @property
+    def q(self) -> _FloatArray: ...
+    @q.setter
+    def q(self, q: object) -> None: ...
+    @property
+    def qd(self) -> _FloatArray: ...
+    @qd.setter
+    def qd(self, qd: object) -> None: ...
+    @property
+    def method(self) -> str: ...
+    @property
+    def event(self) -> Optional[str]: ...
+    @property
+    def stats(self) -> Optional[Dict[str, Any]]: ...
 
 class LagrangianError(RuntimeError):
     """Base class of the failures of the mathematics. A failure of ``simulate`` during the run
@@ -220,6 +249,19 @@ class NativeModel:
         names: Optional[Tuple[str, ...]],
         event_names: Tuple[str, ...],
     ) -> Optional[_S]: ...
+    def integrator(
+        self,
+        q0: Sequence[float],
+        qd0: Sequence[float],
+        t0: float,
+        method: str,
+        dt: Optional[float],
+        rtol: float,
+        atol: float,
+        max_steps: Optional[int],
+        events: Sequence[_EventSpec],
+        backend: str,
+    ) -> Integrator: ...
     def equilibrium(
         self,
         q_guess: Sequence[float],

@@ -14,6 +14,7 @@ from . import _lagrangian
 from ._events import Event, event_specs
 from ._expr import Coordinate, Expr, ExprLike, Node, Parameter, deserialize, serialize
 from ._linear import Equilibrium, Linearization, Modes
+from ._lagrangian import Integrator
 from ._solution import Solution
 from ._validate import (
     check_coordinates,
@@ -835,6 +836,84 @@ class Model:
                                         max_steps, every, specs, dense, backend, Solution,
                                         self._names, event_names)
         return sol
+
+    def integrator(
+        self,
+        q0: ArrayLike,
+        qd0: ArrayLike,
+        *,
+        t0: float = 0.0,
+        method: str = "auto",
+        dt: Optional[float] = None,
+        rtol: float = 1e-6,
+        atol: float = 1e-9,
+        max_steps: Optional[int] = None,
+        events: Optional[Sequence[Event]] = None,
+    ) -> Integrator:
+        """An integrator standing at (q0, qd0) at ``t0``, for runs taken piece by piece:
+        ``ig.propagate_until(t)`` integrates its state to ``t`` and stands there, the next call
+        going on from there (heyoka's ``propagate_until``; SciPy's solvers step the same way).
+
+        For many short runs, or a loop that reads or changes the state between them (control,
+        co-simulation, resets of your own): the method and options are checked once, only the
+        final state is kept, and a call costs little beside its steps (a ``simulate`` also
+        builds a :class:`Solution`). ``ig.t``, ``ig.q``, ``ig.qd`` read the state (copies) and
+        can be assigned, each checked; ``ig.stats`` is the last call's work as in
+        ``Solution.stats``; ``ig.method`` the method, once ``"auto"`` has chosen.
+
+        >>> import lagrangian as lg
+        >>> ig = lg.scenes.simple_pendulum().integrator([0.1], [0.0], method="taylor",
+        ...                                            rtol=1e-12, atol=1e-12)
+        >>> [ig.propagate_until(t) for t in (0.5, 1.0)]
+        ['finished', 'finished']
+        >>> ig.t
+        1.0
+
+        Parameters
+        ----------
+        q0, qd0 : array_like, shape (dof,)
+            Initial coordinates and velocities.
+        t0 : float
+            Initial time.
+        method, rtol, atol, max_steps, events
+            As in :meth:`simulate`, for every call (``max_steps`` is each call's budget).
+            ``"auto"`` chooses at the first call, from the state and that call's span, and
+            keeps the method. A terminal event stops a call where it fires: the call returns
+            ``"terminated"``, ``ig.event`` names the event, and the next call goes on from there.
+        dt : float, optional
+            Fixed step size, > 0: each call's target gives the direction.
+
+        Returns
+        -------
+        Integrator
+            ``propagate_until(t)`` returns ``"finished"`` (it reached t) or ``"terminated"``.
+            A failed call raises as :meth:`simulate` does, with the last accepted state as
+            ``err.t``, ``err.q``, ``err.qd`` (no ``err.solution``), and leaves the integrator
+            where it stood; Ctrl-C raises ``KeyboardInterrupt``. The GIL is released while it
+            runs; one integrator is not for two threads at once (``RuntimeError``).
+
+        Raises
+        ------
+        ValueError
+            For bad input, as :meth:`simulate`.
+        """
+        if not isinstance(method, str):
+            raise TypeError(f"method must be a string such as 'taylor', got {method!r}")
+        n = self.dof
+        q0, qd0 = vector("q0", q0, n), vector("qd0", qd0, n)
+        t0 = real("t0", t0)
+        rtol, atol = number("rtol", rtol), number("atol", atol)
+        if dt is not None:
+            dt = number("dt", dt)
+        if max_steps is not None:
+            max_steps = integer("max_steps", max_steps)
+        specs: List[Any] = []
+        if events is not None:
+            specs = event_specs(events, self._coordinates, self._parameters)[0]
+        integrator: Integrator = self._native.integrator(
+            list(q0), list(qd0), t0, method, dt, rtol, atol, max_steps, specs, self._backend
+        )
+        return integrator
 
     def _conserved(self, events: Optional[Sequence[Event]]) -> bool:
         """Whether h = q̇·p − L is a constant of runs with these events (an ensemble's

@@ -548,7 +548,7 @@ pub fn solve<S: Dynamics + ?Sized>(
     method: Method,
     options: &Options,
 ) -> Result<Solution> {
-    solve_inner(system, q0, qd0, span, method, options, None, true).map_err(|f| f.error)
+    solve_inner(system, q0, qd0, span, method, options, None, true, &[]).map_err(|f| f.error)
 }
 
 /// [`solve`] that keeps what was computed when the run fails: the [`Failed`] error carries
@@ -584,7 +584,7 @@ pub fn solve_partial<S: Dynamics + ?Sized>(
     options: &Options,
     interrupt: Option<&dyn Fn(f64) -> bool>,
 ) -> std::result::Result<Solution, Failed> {
-    solve_inner(system, q0, qd0, span, method, options, interrupt, true)
+    solve_inner(system, q0, qd0, span, method, options, interrupt, true, &[])
 }
 
 /// [`solve`] with an interrupt check: `interrupt(t)` is called at every evaluation of the
@@ -608,8 +608,28 @@ pub fn solve_with_interrupt<S: Dynamics + ?Sized>(
         options,
         Some(interrupt),
         true,
+        &[],
     )
     .map_err(|f| f.error)
+}
+
+/// [`solve_partial`] from the state where a terminal event of the same options stopped an
+/// earlier run: the events `settling` sit on their roots there, so their sign is taken a
+/// little into the first step (as after a reset) and the run does not stop again at its start.
+#[allow(clippy::too_many_arguments, clippy::result_large_err)]
+pub(crate) fn solve_resumed<S: Dynamics + ?Sized>(
+    system: &S,
+    q0: &[f64],
+    qd0: &[f64],
+    span: (f64, f64),
+    method: Method,
+    options: &Options,
+    interrupt: Option<&dyn Fn(f64) -> bool>,
+    settling: &[usize],
+) -> std::result::Result<Solution, Failed> {
+    solve_inner(
+        system, q0, qd0, span, method, options, interrupt, true, settling,
+    )
 }
 
 #[allow(clippy::too_many_arguments, clippy::result_large_err)]
@@ -622,6 +642,7 @@ fn solve_inner<'a, S: Dynamics + ?Sized>(
     options: &'a Options,
     interrupt: Option<&'a dyn Fn(f64) -> bool>,
     check_stability: bool,
+    settling: &[usize],
 ) -> std::result::Result<Solution, Failed> {
     let mut solver = Solver::start(
         system,
@@ -632,6 +653,7 @@ fn solve_inner<'a, S: Dynamics + ?Sized>(
         options,
         interrupt,
         check_stability,
+        settling,
     )?;
     solver.run.batched = true;
     loop {
@@ -719,7 +741,7 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
         method: Method,
         options: &'a Options,
     ) -> Result<Self> {
-        Self::start(system, q0, qd0, span, method, options, None, true)
+        Self::start(system, q0, qd0, span, method, options, None, true, &[])
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -732,6 +754,7 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
         options: &'a Options,
         interrupt: Option<&'a dyn Fn(f64) -> bool>,
         check_stability: bool,
+        settling: &[usize],
     ) -> Result<Self> {
         let (t0, t_end) = span;
         let n = system.dof();
@@ -795,7 +818,7 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
             batched: false,
         };
         run.out.start(t0, &run.y0);
-        run.events.start(t0, &run.y0)?;
+        run.events.restart(t0, &run.y0, settling)?;
         Ok(Self {
             run,
             method,

@@ -89,6 +89,7 @@ fn amplification(method: Method, dt: f64, lambda: Complex<f64>) -> Option<f64> {
             &options,
             None,
             false,
+            &[],
         )
         .ok()?;
         let last = sol.len() - 1;

@@ -107,7 +107,7 @@ pub(crate) fn with_partial(
         last,
     } = failed;
     let err = PyErr::from(error);
-    if let (Some(sol), Some((t, q, qd))) = (partial, last) {
+    if let (Some(sol), Some(last)) = (partial, last) {
         let value = err.value(py);
         let attach = || -> PyResult<()> {
             let run = super::solution::Run {
@@ -117,6 +117,21 @@ pub(crate) fn with_partial(
             };
             let message = value.str()?.to_string();
             value.setattr("solution", wrap.wrap(run, Some(message))?)?;
+            Ok(())
+        };
+        if let Err(e) = attach() {
+            return e;
+        }
+        return with_last(py, err, Some(last));
+    }
+    err
+}
+
+/// `err` carrying the last accepted state of a failed run as `t`, `q`, `qd`, when it had one.
+pub(crate) fn with_last(py: Python<'_>, err: PyErr, last: Option<(f64, Vec<f64>, Vec<f64>)>) -> PyErr {
+    if let Some((t, q, qd)) = last {
+        let value = err.value(py);
+        let attach = || -> PyResult<()> {
             value.setattr("t", t)?;
             value.setattr("q", PyArray1::from_vec(py, q))?;
             value.setattr("qd", PyArray1::from_vec(py, qd))?;

@@ -17,6 +17,7 @@ mod ensemble;
 mod error;
 mod events;
 mod first_order;
+mod integrator;
 mod linear;
 mod model;
 mod scenes;
@@ -115,6 +116,31 @@ fn check_finite(what: &str, x: f64) -> PyResult<()> {
         Ok(())
     } else {
         Err(PyValueError::new_err(format!("{what} = {x} is not finite")))
+    }
+}
+
+/// The interrupt of a run with the GIL released: it polls Python's signal handlers (Ctrl-C)
+/// every 20 ms, looking at the clock only every 16 evaluations, and leaves the
+/// `KeyboardInterrupt` in `pending`.
+fn ctrl_c(pending: &Mutex<Option<PyErr>>) -> impl Fn(f64) -> bool + '_ {
+    let calls = Cell::new(0u32);
+    let last = Cell::new(Instant::now());
+    let stopped = Cell::new(false);
+    move |_t: f64| -> bool {
+        if stopped.get() {
+            return true;
+        }
+        let k = calls.get().wrapping_add(1);
+        calls.set(k);
+        if !k.is_multiple_of(16) || last.get().elapsed() < Duration::from_millis(20) {
+            return false;
+        }
+        last.set(Instant::now());
+        if let Err(e) = Python::attach(|py| py.check_signals()) {
+            *pending.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
+            stopped.set(true);
+        }
+        stopped.get()
     }
 }
 
@@ -523,28 +549,7 @@ impl PyModel {
         let outcome = py.detach(|| {
             catch_unwind(AssertUnwindSafe(
                 || -> Result<_, Box<(Failed, Vec<f64>)>> {
-                    let calls = Cell::new(0u32);
-                    let last = Cell::new(Instant::now());
-                    let stopped = Cell::new(false);
-                    // Poll Python's signal handlers (Ctrl-C) every 20 ms, looking at the clock only
-                    // every 16 evaluations.
-                    let interrupt = |_t: f64| -> bool {
-                        if stopped.get() {
-                            return true;
-                        }
-                        let k = calls.get().wrapping_add(1);
-                        calls.set(k);
-                        if !k.is_multiple_of(16) || last.get().elapsed() < Duration::from_millis(20)
-                        {
-                            return false;
-                        }
-                        last.set(Instant::now());
-                        if let Err(e) = Python::attach(|py| py.check_signals()) {
-                            *pending.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
-                            stopped.set(true);
-                        }
-                        stopped.get()
-                    };
+                    let interrupt = ctrl_c(&pending);
                     match solve_partial(
                         &*model,
                         &q0,
@@ -617,6 +622,56 @@ impl PyModel {
             None,
         )
         .map(Some)
+    }
+
+    /// An integrator standing at (t0, q0, q̇0) with this method and these options (`dt` a step
+    /// size > 0: each call's span gives the direction); see [`integrator::PyIntegrator`].
+    #[pyo3(signature = (q0, qd0, t0, method, dt, rtol, atol, max_steps, events, backend))]
+    #[allow(clippy::too_many_arguments)]
+    fn integrator(
+        &self,
+        q0: Vec<f64>,
+        qd0: Vec<f64>,
+        t0: f64,
+        method: &str,
+        dt: Option<f64>,
+        rtol: f64,
+        atol: f64,
+        max_steps: Option<i64>,
+        events: Vec<events::EventSpec>,
+        backend: &str,
+    ) -> PyResult<integrator::PyIntegrator> {
+        guard(|| {
+            check_finite("t0", t0)?;
+            if let Some(dt) = dt.filter(|dt| !(*dt > 0.0 && dt.is_finite())) {
+                return Err(PyValueError::new_err(format!(
+                    "dt = {dt}: an integrator's fixed step is a finite size > 0 (each \
+                     propagate_until's target gives the direction)"
+                )));
+            }
+            let n = self.model.dof();
+            let backend = Backend::named(backend)?;
+            let events = events
+                .into_iter()
+                .map(|spec| events::event(spec, n, backend))
+                .collect::<Result<Vec<_>, Error>>()?;
+            let (method, mut options) = run_options(
+                (t0, t0 + 1.0),
+                method,
+                Step { dt, rtol, atol },
+                max_steps,
+                (None, None),
+            )?;
+            let conserved = self.conserved(events.iter().any(|e| e.reset.is_some()));
+            options.events = events;
+            integrator::PyIntegrator::new(
+                self.model.clone(),
+                (t0, q0, qd0),
+                method,
+                options,
+                conserved,
+            )
+        })
     }
 
     /// An equilibrium near `q_guess` (q̈ = 0 at q̇ = 0; virtual work, seed §3, when T is
@@ -790,6 +845,8 @@ pub mod lagrangian_module {
     use super::events::PyDense;
     #[pymodule_export]
     use super::scenes::{scene_catalog, scene_drawing, scene_exact, scene_model, scene_pivot};
+    #[pymodule_export]
+    use super::integrator::PyIntegrator;
     #[pymodule_export]
     use super::solution::PySolution;
     #[pymodule_export]

@@ -346,7 +346,7 @@ impl PySolution {
 
 /// The statistics dict: a copy of a template that has every key (no key made, hashed or
 /// inserted on a call, no growing of the table).
-fn stats_dict<'py>(
+pub(super) fn stats_dict<'py>(
     py: Python<'py>,
     s: &Statistics,
     conserved: bool,

@@ -1,0 +1,237 @@
+//! A run kept between calls: [`PyIntegrator`] (`lagrangian.Integrator`, made by
+//! `Model.integrator`) holds a state (t, q, q̇) and the method and options, checked once, and
+//! `propagate_until(t)` integrates that state to t in place.
+//!
+//! Why: a short run through `simulate` pays for its arguments, its options, the `Solution` and
+//! its arrays on every call (most of a run of a few dozen steps: see the README's comparison
+//! with heyoka.py, whose `taylor_adaptive.propagate_until` is this interface). Here the options
+//! are parsed once, only the final state is kept, and nothing is made in Python but what is read.
+
+use super::{check_finite, check_vector, ctrl_c, error, guard, solution, states};
+use crate::{Dynamics, Error};
+use crate::integrators::{Method, Options, Output, Statistics, Status, solve_resumed};
+use crate::python::model::AnyModel;
+use numpy::PyArray1;
+use pyo3::exceptions::PyTypeError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::{Arc, Mutex};
+
+/// An integrator standing at a state (t, q, q̇), with its method and options: each
+/// `propagate_until(t)` continues from where the last one ended (or from a state assigned to
+/// `t`, `q`, `qd`).
+///
+/// Made by `Model.integrator`. ``"auto"`` chooses its method at the first `propagate_until`
+/// (from the state and that span) and keeps it. A terminal event ends a call where it fires;
+/// the next call starts from there. A call that fails raises with the last accepted state as
+/// `err.t`, `err.q`, `err.qd` and leaves the integrator where it was. Not for sharing between
+/// threads (a second thread's call while one runs raises `RuntimeError`); not picklable.
+#[pyclass(name = "Integrator", module = "lagrangian._lagrangian")]
+pub struct PyIntegrator {
+    model: Arc<AnyModel>,
+    method: Method,
+    options: Options,
+    /// Whether h is a constant of the runs (`stats["conserved"]`).
+    conserved: bool,
+    t: f64,
+    /// q then q̇.
+    y: Vec<f64>,
+    /// The last call's work, with the choice of `"auto"` kept from the first.
+    stats: Option<Statistics>,
+    /// The terminal event that ended the last call (its index and name), if one did and the
+    /// state has not been assigned since: the next call starts on its root.
+    event: Option<(usize, String)>,
+}
+
+impl PyIntegrator {
+    /// An integrator at (t0, q0, q̇0); `options` are checked and their output set to the final
+    /// state only.
+    pub(super) fn new(
+        model: Arc<AnyModel>,
+        (t0, q0, qd0): (f64, Vec<f64>, Vec<f64>),
+        method: Method,
+        mut options: Options,
+        conserved: bool,
+    ) -> PyResult<Self> {
+        let n = model.dof();
+        check_finite("t0", t0)?;
+        check_vector("q0", &q0, n)?;
+        check_vector("qd0", &qd0, n)?;
+        options.output = Output::Final;
+        options.dense = false;
+        // A nominal span: the options do not depend on its direction (dt is a size here).
+        options.validate(t0, t0 + 1.0)?;
+        options.check_method(method)?;
+        let mut y = q0;
+        y.extend_from_slice(&qd0);
+        Ok(Self {
+            model,
+            method,
+            options,
+            conserved,
+            t: t0,
+            y,
+            stats: None,
+            event: None,
+        })
+    }
+
+    /// A state vector assigned from Python: `n` finite numbers.
+    fn vector(&self, what: &str, v: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
+        let n = self.model.dof();
+        if let Some(v) = states::vector(v, n) {
+            return Ok(v);
+        }
+        let v: Vec<f64> = v.extract().map_err(|_| {
+            PyTypeError::new_err(format!(
+                "{what} must be a sequence of {n} numbers, got {}",
+                v.get_type()
+                    .name()
+                    .map_or_else(|_| "?".into(), |s| s.to_string())
+            ))
+        })?;
+        check_vector(what, &v, n)?;
+        Ok(v)
+    }
+}
+
+#[pymethods]
+impl PyIntegrator {
+    /// Integrate from the current state to `t` (before the current time integrates backwards)
+    /// and stand there. Returns ``"finished"`` when it reached `t`, ``"terminated"`` when a
+    /// terminal event stopped it first (the integrator stands at the event; `event` names it).
+    fn propagate_until(&mut self, py: Python<'_>, t: f64) -> PyResult<&'static str> {
+        check_finite("t", t)?;
+        if t == self.t {
+            self.event = None;
+            return Ok("finished");
+        }
+        let n = self.model.dof();
+        let (q, qd) = self.y.split_at(n);
+        let (model, method, options, t0) = (&*self.model, self.method, &self.options, self.t);
+        let settling: &[usize] = match &self.event {
+            Some((i, _)) => std::slice::from_ref(i),
+            None => &[],
+        };
+        let pending: Mutex<Option<PyErr>> = Mutex::new(None);
+        let outcome = py.detach(|| {
+            catch_unwind(AssertUnwindSafe(|| {
+                let interrupt = ctrl_c(&pending);
+                let span = (t0, t);
+                solve_resumed(model, q, qd, span, method, options, Some(&interrupt), settling)
+            }))
+        });
+        let sol = match outcome {
+            Err(panic) => return Err(error::panic_error(panic)),
+            Ok(Err(failed)) => {
+                if let Error::Interrupted { t } = failed.error {
+                    let e = pending.lock().unwrap_or_else(|p| p.into_inner()).take();
+                    return Err(e.unwrap_or_else(|| Error::Interrupted { t }.into()));
+                }
+                return Err(error::with_last(py, failed.error.into(), failed.last));
+            }
+            Ok(Ok(sol)) => sol,
+        };
+        let (t_now, q, qd) = sol.last().expect("a finished run ends at a state");
+        self.t = t_now;
+        self.y[..n].copy_from_slice(q);
+        self.y[n..].copy_from_slice(qd);
+        let mut stats = sol.stats;
+        if self.method == Method::Auto {
+            self.method = stats.method;
+        } else if let Some(first) = &self.stats {
+            stats.choice.clone_from(&first.choice);
+        }
+        self.stats = Some(stats);
+        self.event = match sol.status {
+            Status::Terminated { event, name, .. } => Some((event, name)),
+            _ => None,
+        };
+        Ok(if self.event.is_some() {
+            "terminated"
+        } else {
+            "finished"
+        })
+    }
+
+    /// The current time.
+    #[getter]
+    fn get_t(&self) -> f64 {
+        self.t
+    }
+
+    /// Move to time `t`, the state unchanged.
+    #[setter]
+    fn set_t(&mut self, t: f64) -> PyResult<()> {
+        check_finite("t", t)?;
+        self.t = t;
+        self.event = None;
+        Ok(())
+    }
+
+    /// The current coordinates (a copy).
+    #[getter]
+    fn get_q<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.y[..self.model.dof()])
+    }
+
+    /// Assign the coordinates: `dof` finite numbers.
+    #[setter]
+    fn set_q(&mut self, q: &Bound<'_, PyAny>) -> PyResult<()> {
+        let q = self.vector("q", q)?;
+        self.y[..q.len()].copy_from_slice(&q);
+        self.event = None;
+        Ok(())
+    }
+
+    /// The current velocities (a copy).
+    #[getter]
+    fn get_qd<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.y[self.model.dof()..])
+    }
+
+    /// Assign the velocities: `dof` finite numbers.
+    #[setter]
+    fn set_qd(&mut self, qd: &Bound<'_, PyAny>) -> PyResult<()> {
+        let qd = self.vector("qd", qd)?;
+        let n = qd.len();
+        self.y[n..].copy_from_slice(&qd);
+        self.event = None;
+        Ok(())
+    }
+
+    /// The method: the one `"auto"` chose once the first call has run, else the one given.
+    #[getter]
+    fn method(&self) -> &'static str {
+        self.method.name()
+    }
+
+    /// The terminal event that stopped the last call (its name), or `None` (also once the state
+    /// has been assigned).
+    #[getter]
+    fn event(&self) -> Option<&str> {
+        self.event.as_ref().map(|(_, name)| name.as_str())
+    }
+
+    /// The work of the last call, as `Solution.stats` (`None` before the first);
+    /// ``"choice"`` says why `"auto"` chose the method.
+    #[getter]
+    fn stats<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        guard(|| {
+            self.stats
+                .as_ref()
+                .map(|s| solution::stats_dict(py, s, self.conserved))
+                .transpose()
+        })
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Integrator(method={:?}, t={}, dof={})",
+            self.method.name(),
+            self.t,
+            self.model.dof()
+        )
+    }
+}

@@ -1,0 +1,136 @@
+"""``Model.integrator``: a run kept between calls. A harmonic oscillator propagated piece by
+piece against its closed form and against one ``simulate`` over the whole span, forwards and
+back, with adaptive and fixed-step methods; a pendulum's zero crossings, stopped by a terminal
+event call after call, against the elliptic integral; ``"auto"`` choosing once; and bad input or a
+failed call leaving the integrator where it stood."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.special import ellipk
+
+import lagrangian as lg
+
+W = 1.7  # ω of the oscillator
+
+
+def oscillator() -> lg.Model:
+    x, = lg.coordinates("x")
+    return lg.Model(coordinates=[x], kinetic=0.5 * x.d**2, potential=0.5 * W**2 * x**2)
+
+
+def exact(t: float, x0: float = 0.3, v0: float = -0.2) -> np.ndarray:
+    return np.array([x0 * math.cos(W * t) + v0 / W * math.sin(W * t),
+                     -x0 * W * math.sin(W * t) + v0 * math.cos(W * t)])
+
+
+@pytest.mark.parametrize("method, options, tol", [
+    ("taylor", {"rtol": 1e-13, "atol": 1e-13}, 1e-11),
+    ("dop853", {"rtol": 1e-11, "atol": 1e-11}, 1e-9),
+    ("rk4", {"dt": 1e-3}, 1e-9),  # error C dt⁴ per unit time, C = ω⁵/120 for RK4's phase
+])
+def test_pieces_follow_the_closed_form_and_one_whole_run(method, options, tol):
+    model = oscillator()
+    ig = model.integrator([0.3], [-0.2], method=method, **options)
+    assert ig.stats is None and ig.event is None and ig.t == 0.0
+    for t in np.linspace(0.25, 10.0, 40):
+        assert ig.propagate_until(t) == "finished"
+        assert ig.t == t
+        state = np.concatenate([ig.q, ig.qd])
+        np.testing.assert_allclose(state, exact(t), rtol=0, atol=tol)
+    assert ig.method == method and ig.stats["method"] == method
+    assert ig.stats["accepted_steps"] >= 1
+    whole = model.simulate([0.3], [-0.2], 10.0, method=method, **options)
+    np.testing.assert_allclose(ig.q, whole.q[-1], rtol=0, atol=tol)
+    # Back to the start, across the whole span in one call.
+    assert ig.propagate_until(0.0) == "finished"
+    np.testing.assert_allclose(np.concatenate([ig.q, ig.qd]), [0.3, -0.2], rtol=0, atol=2 * tol)
+
+
+def test_assigned_states_start_the_next_call():
+    model = oscillator()
+    ig = model.integrator([0.0], [0.0], method="taylor", rtol=1e-13, atol=1e-13)
+    ig.t, ig.q, ig.qd = 2.0, np.array([0.3]), [-0.2]  # an array, a list
+    assert ig.propagate_until(3.0) == "finished"
+    x0, v0 = exact(-2.0)  # the state that is (0.3, −0.2) at t = 2
+    np.testing.assert_allclose([ig.q[0], ig.qd[0]], exact(1.0, 0.3, -0.2), rtol=0, atol=1e-12)
+    assert np.allclose(exact(2.0, x0, v0), [0.3, -0.2])
+    # Reading gives copies: writing into them changes nothing.
+    q = ig.q
+    q[0] = 99.0
+    assert ig.q[0] != 99.0
+
+
+def test_terminal_event_stops_each_call_at_the_next_crossing():
+    # A pendulum from rest at θ₀ crosses θ = 0 at T/4, 3T/4, 5T/4, … with T = 4√(l/g) K(sin²(θ₀/2)).
+    # Each call stops at the next one, not again at the crossing it stands on.
+    th, = lg.coordinates("th")
+    g, l, theta0 = 9.81, 1.3, 2.0
+    model = lg.Model(coordinates=[th], kinetic=0.5 * l**2 * th.d**2, potential=-g * l * lg.cos(th))
+    period = 4 * math.sqrt(l / g) * ellipk(math.sin(theta0 / 2) ** 2)
+    ig = model.integrator([theta0], [0.0], method="taylor", rtol=1e-13, atol=1e-13,
+                          events=[lg.Event(th, terminal=True, name="bottom")])
+    for k in range(5):
+        assert ig.propagate_until(10 * period) == "terminated"
+        assert ig.event == "bottom"
+        assert ig.t == pytest.approx((2 * k + 1) * period / 4, abs=1e-10)
+        assert abs(ig.q[0]) < 1e-10
+        assert abs(ig.qd[0]) == pytest.approx(2 * math.sqrt(g / l) * math.sin(theta0 / 2), abs=1e-9)
+    # An assigned state clears the event; a call that reaches t before any crossing finishes.
+    ig.t, ig.q, ig.qd = 0.0, [theta0], [0.0]
+    assert ig.event is None
+    assert ig.propagate_until(period / 8) == "finished" and ig.event is None
+    assert ig.propagate_until(period) == "terminated"
+    assert ig.t == pytest.approx(period / 4, abs=1e-10)
+
+
+def test_auto_chooses_once_and_keeps_its_reason():
+    model = oscillator()
+    ig = model.integrator([0.3], [-0.2], rtol=1e-12, atol=1e-12)
+    assert ig.method == "auto"
+    ig.propagate_until(1.0)
+    chosen, why = ig.method, ig.stats["choice"]
+    assert chosen != "auto" and why
+    assert chosen == model.simulate([0.3], [-0.2], 1.0, rtol=1e-12, atol=1e-12).stats["method"]
+    ig.propagate_until(2.0)
+    assert ig.method == chosen and ig.stats["choice"] == why and ig.stats["method"] == chosen
+
+
+def test_bad_input_and_failures_leave_the_integrator_where_it_stood():
+    model = oscillator()
+    with pytest.raises(ValueError, match="dt = -0.1"):
+        model.integrator([0.3], [-0.2], method="rk4", dt=-0.1)
+    with pytest.raises(ValueError, match="dt"):
+        model.integrator([0.3], [-0.2], method="rk4")  # a fixed-step method needs dt
+    with pytest.raises(ValueError, match="rtol"):
+        model.integrator([0.3], [-0.2], rtol=-1.0)
+    with pytest.raises(ValueError, match="unknown method|not a method|nonesuch"):
+        model.integrator([0.3], [-0.2], method="nonesuch")
+    with pytest.raises(ValueError, match="q0"):
+        model.integrator([0.3, 1.0], [-0.2])
+    ig = model.integrator([0.3], [-0.2], method="dop853", rtol=1e-10, atol=1e-10, max_steps=5)
+    ig.propagate_until(0.01)
+    before = (ig.t, ig.q.copy(), ig.qd.copy(), ig.stats)
+    for bad, error in [(math.nan, ValueError), (math.inf, ValueError), ("1", TypeError)]:
+        with pytest.raises(error):
+            ig.propagate_until(bad)
+    with pytest.raises(ValueError, match="not finite"):
+        ig.q = [math.nan]
+    with pytest.raises(ValueError, match="2 entries"):
+        ig.qd = [1.0, 2.0]
+    with pytest.raises(TypeError):
+        ig.q = "x"
+    with pytest.raises(ValueError, match="not finite"):
+        ig.t = math.inf
+    with pytest.raises(lg.TooManyStepsError) as failed:
+        ig.propagate_until(100.0)  # five steps do not get there
+    err = failed.value
+    assert err.solution is None and 0.01 < err.t < 100.0
+    np.testing.assert_allclose([err.q[0], err.qd[0]], exact(err.t), rtol=0, atol=1e-8)
+    after = (ig.t, ig.q, ig.qd, ig.stats)
+    assert after[0] == before[0] and after[3] == before[3]
+    np.testing.assert_array_equal(after[1], before[1])
+    np.testing.assert_array_equal(after[2], before[2])
+    assert ig.propagate_until(ig.t) == "finished"  # an empty span: nothing to do
+    assert "dop853" in repr(ig)
