@@ -8,13 +8,17 @@ Sides
         the order from τ when the integrator is built, so every tolerance is a separate build.
         Timed: ``ta.propagate_until(t_end)`` after resetting ``ta.time`` and ``ta.state`` (the
         reset is not timed).
-    ours, taylor
+    ours, taylor, Integrator
         ``lg.Model(...)`` from the same energies (parameters as ``lg.parameters`` bound to the
-        same values), ``model.simulate(q0, qd0, t_end, method="taylor", rtol=τ, atol=τ,
-        output_every=2**62)`` through the public Python API: the whole call is timed, its fixed
-        cost included (printed below the table). ``output_every`` keeps only the initial and the
-        final state (the cheapest output holding the end state: ``t_eval=[t_end]`` would
-        evaluate the dense output there besides).
+        same values), ``ig = model.integrator(q0, qd0, method="taylor", rtol=τ, atol=τ)``: the
+        interface heyoka's is. Timed: ``ig.propagate_until(t_end)`` and the final state read
+        (``ig.q``, ``ig.qd``) after resetting ``ig.t``, ``ig.q``, ``ig.qd`` (not timed).
+    ours, taylor, simulate
+        The same model through ``model.simulate(q0, qd0, t_end, method="taylor", rtol=τ,
+        atol=τ, output_every=2**62)``: the whole call is timed, its fixed cost included
+        (printed below the table, with the integrator's and heyoka's). ``output_every`` keeps
+        only the initial and the final state (the cheapest output holding the end state:
+        ``t_eval=[t_end]`` would evaluate the dense output there besides).
     ours, dop853
         The same call with ``method="dop853"``, as a reference row.
 
@@ -69,9 +73,11 @@ Method
     reached", with the best error seen. Then each side is timed at its rung, best of R rounds,
     the rounds alternating between the sides so that a change of load hits all of them; a
     round repeats a short run up to about ``--round-seconds`` (at most 20 times) and keeps the
-    best run. A timed run ends with its final state read as arrays (ours ``sol.q[-1]`` and
-    ``sol.qd[-1]``, made from the run then; heyoka's ``ta.state``). Our times include the fixed
-    cost of a ``simulate`` call (printed below the table), which weighs on the shortest runs.
+    best run. A timed run ends with its final state read as arrays (``ig.q`` and ``ig.qd``;
+    ``sol.q[-1]`` and ``sol.qd[-1]``, made from the run then; heyoka's ``ta.state``). The times
+    include the fixed cost of a call (printed below the table), which weighs on the shortest
+    runs: a ``simulate`` also checks its arguments and options and builds a ``Solution``. The
+    two taylor sides take the same steps.
 
 Build time (separate column)
     heyoka: ``heyoka.lagrangian`` plus the ``taylor_adaptive`` construction (LLVM JIT; heyoka
@@ -98,7 +104,7 @@ ci`` or ``pip install .``) into an environment with heyoka.py:
 
     python3 benches/taylor.py [--rounds R] [--scenes a,b,...] [--heyoka-budget S] [--json FILE]
 
-It takes about 6 minutes on a 2-core machine, most of it heyoka's builds for N = 8 and 16 (a
+It takes about 8 minutes on a 2-core machine, most of it heyoka's builds for N = 8 and 16 (a
 single build for N = 16 at order 8 took about 2 minutes); ``--heyoka-budget 30`` makes it about
 2 minutes at the cost of heyoka's tighter targets on those scenes. Not a test: timings depend on
 the machine and its load.
@@ -515,11 +521,19 @@ UNROLL_AFTER = 10_000
 
 
 class Ours(Side):
-    def __init__(self, scene: Scene, ref: Vector, model: Any, method: str) -> None:
+    """`model.simulate`, or with ``integrator=True`` a `model.integrator` per rung, reset to the
+    initial state (not timed, as heyoka's reset is not) and ``propagate_until(t_end)``."""
+
+    def __init__(self, scene: Scene, ref: Vector, model: Any, method: str,
+                 integrator: bool = False,
+                 warm: Optional[Dict[int, Tuple[int, float]]] = None) -> None:
         super().__init__(scene, ref)
-        self.model, self.method, self.label = model, method, f"ours {method}"
-        # Per rung, for taylor: the warm-up's runs and its estimate of the unrolled compile.
-        self.warm: Dict[int, Tuple[int, float]] = {}
+        self.model, self.method = model, method
+        self.label = f"ours {method}" + (" integrator" if integrator else "")
+        self.integrators: Optional[Dict[int, Any]] = {} if integrator else None
+        # Per rung, for taylor: the warm-up's runs and its estimate of the unrolled compile
+        # (shared by the sides of one model: its expansions are compiled once).
+        self.warm: Dict[int, Tuple[int, float]] = {} if warm is None else warm
 
     def warm_up(self, i: int) -> None:
         """Run taylor at rung i until the model has expanded UNROLL_AFTER times there (each
@@ -548,6 +562,8 @@ class Ours(Side):
                 self.warm_up(i)
             except (lg.LagrangianError, ValueError):
                 self.warm[i] = (0, 0.0)
+        if self.integrators is not None:
+            return self.propagate(i, inner)
         best = math.inf
         for _ in range(max(1, inner)):
             start = time.perf_counter()
@@ -560,6 +576,26 @@ class Ours(Side):
             best = min(best, time.perf_counter() - start)
         end = [float(x) for x in q] + [float(x) for x in qd]
         return Result(best, end, error(end, self.ref), steps=int(sol.stats["accepted_steps"]))
+
+    def propagate(self, i: int, inner: int) -> Result:
+        s, tol = self.scene, LADDER[i]
+        assert self.integrators is not None
+        try:
+            if i not in self.integrators:
+                self.integrators[i] = self.model.integrator(s.q0, s.qd0, method=self.method,
+                                                            rtol=tol, atol=tol)
+            ig = self.integrators[i]
+            best = math.inf
+            for _ in range(max(1, inner)):
+                ig.t, ig.q, ig.qd = 0.0, s.q0, s.qd0
+                start = time.perf_counter()
+                ig.propagate_until(s.t_end)
+                q, qd = ig.q, ig.qd
+                best = min(best, time.perf_counter() - start)
+        except (lg.LagrangianError, ValueError) as e:
+            return Result(math.inf, None, None, failure=f"{type(e).__name__}: {e}")
+        end = [float(x) for x in q] + [float(x) for x in qd]
+        return Result(best, end, error(end, self.ref), steps=int(ig.stats["accepted_steps"]))
 
 
 class Heyoka(Side):
@@ -785,9 +821,11 @@ def measure(s: Scene, worker: Worker, rounds: int, round_seconds: float, budget:
     r = Ours(s, ref["state"], model, "dop853").run(rung(1e-14), 1)
     row["dop853_1e-14_vs_reference"] = r.error
     row["amplification"] = amplification(model, s)
-    sides: List[Side] = [Heyoka(s, ref["state"], worker, budget),
-                         Ours(s, ref["state"], model, "taylor"),
-                         Ours(s, ref["state"], model, "dop853")]
+    taylor = Ours(s, ref["state"], model, "taylor")
+    sides: List[Side] = [Heyoka(s, ref["state"], worker, budget), taylor,
+                         Ours(s, ref["state"], model, "dop853"),
+                         Ours(s, ref["state"], model, "taylor", integrator=True,
+                              warm=taylor.warm)]
     found: Dict[str, Dict[float, Optional[int]]] = {}
     tried: Dict[str, Dict[int, Result]] = {}
     for side in sides[1:]:
@@ -874,22 +912,27 @@ def cell_text(cell: Dict[str, Any]) -> str:
 
 
 def table(rows: List[Dict[str, Any]]) -> str:
-    lines = ["| scene | target | heyoka `taylor_adaptive` | ours `taylor` | heyoka ÷ ours | "
+    lines = ["| scene | target | heyoka `taylor_adaptive` | ours `taylor`, `Integrator` | "
+             "heyoka ÷ ours | ours `taylor`, `simulate` | heyoka ÷ ours `simulate` | "
              "ours `dop853` | build: heyoka (order) | build: ours |",
-             "|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|"]
+
+    def ratio(a: Dict[str, Any], b: Dict[str, Any]) -> str:
+        if a["tol"] is None or b["tol"] is None:
+            return "—"
+        return f"{a['seconds'] / b['seconds']:.2f}×"
+
     for row in rows:
         name = row["scene"].replace("n_pendulum_", "N-pendulum N = ").replace("_", " ")
         for k, target in enumerate(TARGETS):
             c = row["cells"]
-            h, o, d = (c[f"{side}@{target:g}"] for side in ("heyoka", "ours taylor",
-                                                            "ours dop853"))
-            ratio = "—"
-            if h["tol"] is not None and o["tol"] is not None:
-                ratio = f"{h['seconds'] / o['seconds']:.2f}×"
+            h, i, o, d = (c[f"{side}@{target:g}"] for side in (
+                "heyoka", "ours taylor integrator", "ours taylor", "ours dop853"))
             hb = ("—" if h["tol"] is None else f"{ms(h['build'])} ({h['order']})")
             ob = ms(row["build_ours"]["total"]) if k == 0 else ""
             lines.append(f"| {name if k == 0 else ''} | {target:g} | {cell_text(h)} | "
-                         f"{cell_text(o)} | {ratio} | {cell_text(d)} | {hb} | {ob} |")
+                         f"{cell_text(i)} | {ratio(h, i)} | {cell_text(o)} | {ratio(h, o)} | "
+                         f"{cell_text(d)} | {hb} | {ob} |")
     return "\n".join(lines)
 
 
@@ -925,9 +968,9 @@ def checks(rows: List[Dict[str, Any]]) -> str:
     return "\n".join(out)
 
 
-def fixed_costs(worker: Worker, rounds: int) -> Tuple[float, float]:
-    """A run of 1e-9 on the double pendulum: our `simulate` call, heyoka's `propagate_until`,
-    each with its final state read as the timed runs read it."""
+def fixed_costs(worker: Worker, rounds: int) -> Tuple[float, float, float]:
+    """A run of 1e-9 on the double pendulum: our `simulate` call, our `Integrator`'s
+    `propagate_until` and heyoka's, each with its final state read as the timed runs read it."""
     s = SCENES["double_pendulum"]
     model = our_model(s)
     # Past the unrolled compile at this order, as the timed runs are (one expansion a call).
@@ -941,11 +984,19 @@ def fixed_costs(worker: Worker, rounds: int) -> Tuple[float, float]:
                              output_every=EVERY)
         sol.q[-1], sol.qd[-1]
         ours = min(ours, time.perf_counter() - start)
+    ig = model.integrator(s.q0, s.qd0, method="taylor", rtol=1e-9, atol=1e-9)
+    ours_ig = math.inf
+    for _ in range(100 * rounds):
+        ig.t, ig.q, ig.qd = 0.0, s.q0, s.qd0
+        start = time.perf_counter()
+        ig.propagate_until(1e-9)
+        ig.q, ig.qd
+        ours_ig = min(ours_ig, time.perf_counter() - start)
     hey = math.nan
     try:
         ans = worker.ask(("build", s.name, 1e-9), BUILD_LIMIT)
     except TimedOut:
-        return ours, hey
+        return ours, ours_ig, hey
     if ans[0] == "ok":
         ta = pickle.loads(ans[1])
         hey = math.inf
@@ -956,7 +1007,7 @@ def fixed_costs(worker: Worker, rounds: int) -> Tuple[float, float]:
             ta.propagate_until(1e-9)
             ta.state
             hey = min(hey, time.perf_counter() - start)
-    return ours, hey
+    return ours, ours_ig, hey
 
 
 def main() -> None:
@@ -989,7 +1040,7 @@ def main() -> None:
             print(f"{name} …", file=sys.stderr, flush=True)
             rows.append(measure(SCENES[name], worker, args.rounds, args.round_seconds,
                                 args.heyoka_budget, args.reference))
-        ours_call, hey_call = fixed_costs(worker, args.rounds)
+        ours_call, ours_ig, hey_call = fixed_costs(worker, args.rounds)
     finally:
         worker.stop()
     total = time.perf_counter() - started
@@ -997,7 +1048,8 @@ def main() -> None:
         with open(args.json, "w") as f:
             json.dump({"targets": TARGETS, "ladder": LADDER, "rounds": args.rounds,
                        "heyoka": hy.__version__, "rows": rows,
-                       "fixed_cost": {"ours_simulate": ours_call, "heyoka_propagate": hey_call},
+                       "fixed_cost": {"ours_simulate": ours_call, "ours_propagate": ours_ig,
+                                      "heyoka_propagate": hey_call},
                        "seconds": total}, f, indent=1)
     print(f"\nheyoka.py {hy.__version__} against lagrangian {getattr(lg, '__version__', '?')}; "
           f"best of {args.rounds} rounds, alternating sides; total {total:.0f} s. Each cell: "
@@ -1005,8 +1057,8 @@ def main() -> None:
           "heyoka ÷ ours > 1: ours is faster.\n")
     print(table(rows))
     print(f"\nFixed cost of a call (a run of 1e-9 s on the double pendulum), inside the times "
-          f"above: our `model.simulate` {ours_call * 1e6:.1f} µs, heyoka's `propagate_until` "
-          f"{hey_call * 1e6:.1f} µs.\n")
+          f"above: our `model.simulate` {ours_call * 1e6:.1f} µs, our `Integrator.propagate_until` "
+          f"{ours_ig * 1e6:.1f} µs, heyoka's `propagate_until` {hey_call * 1e6:.1f} µs.\n")
     print("Checks:\n")
     print(checks(rows))
 

@@ -862,8 +862,9 @@ class Model:
         ``Solution.stats``; ``ig.method`` the method, once ``"auto"`` has chosen.
 
         >>> import lagrangian as lg
-        >>> ig = lg.scenes.simple_pendulum().integrator([0.1], [0.0], method="taylor",
-        ...                                            rtol=1e-12, atol=1e-12)
+        >>> th, = lg.coordinates("th")
+        >>> pendulum = lg.Model(coordinates=[th], kinetic=0.5 * th.d**2, potential=-lg.cos(th))
+        >>> ig = pendulum.integrator([0.1], [0.0], method="taylor", rtol=1e-12, atol=1e-12)
         >>> [ig.propagate_until(t) for t in (0.5, 1.0)]
         ['finished', 'finished']
         >>> ig.t

@@ -294,6 +294,36 @@ impl Method {
             })
             .collect()
     }
+
+    /// Whether this method can integrate `system` from this state ([`Method::Auto`] always
+    /// can).
+    ///
+    /// # Errors
+    /// [`Error::UnsupportedMethod`]: why not, and the methods that can.
+    pub fn check_fits<S: Dynamics + ?Sized>(
+        self,
+        system: &S,
+        t0: f64,
+        q0: &[f64],
+        qd0: &[f64],
+    ) -> Result<()> {
+        match self.visit(Fits {
+            system,
+            t0,
+            q0,
+            qd0,
+        }) {
+            Some(Err(why)) => Err(Error::UnsupportedMethod {
+                method: self.name(),
+                why,
+                fits: Method::fitting(system, t0, q0, qd0)
+                    .iter()
+                    .map(|m| m.name())
+                    .collect(),
+            }),
+            _ => Ok(()),
+        }
+    }
 }
 
 impl std::fmt::Display for Method {
@@ -779,21 +809,7 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
             }
             m => (m, None),
         };
-        if let Some(Err(why)) = method.visit(Fits {
-            system,
-            t0,
-            q0,
-            qd0,
-        }) {
-            return Err(Error::UnsupportedMethod {
-                method: method.name(),
-                why,
-                fits: Method::fitting(system, t0, q0, qd0)
-                    .iter()
-                    .map(|m| m.name())
-                    .collect(),
-            });
-        }
+        method.check_fits(system, t0, q0, qd0)?;
         options.check_method(method)?;
         if let (Some(dt), Some(true), true) = (options.dt, method.is_explicit(), check_stability) {
             stability::check(system, t0, q0, qd0, dt, method)?;

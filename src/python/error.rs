@@ -128,7 +128,11 @@ pub(crate) fn with_partial(
 }
 
 /// `err` carrying the last accepted state of a failed run as `t`, `q`, `qd`, when it had one.
-pub(crate) fn with_last(py: Python<'_>, err: PyErr, last: Option<(f64, Vec<f64>, Vec<f64>)>) -> PyErr {
+pub(crate) fn with_last(
+    py: Python<'_>,
+    err: PyErr,
+    last: Option<(f64, Vec<f64>, Vec<f64>)>,
+) -> PyErr {
     if let Some((t, q, qd)) = last {
         let value = err.value(py);
         let attach = || -> PyResult<()> {

@@ -8,9 +8,9 @@
 //! are parsed once, only the final state is kept, and nothing is made in Python but what is read.
 
 use super::{check_finite, check_vector, ctrl_c, error, guard, solution, states};
-use crate::{Dynamics, Error};
 use crate::integrators::{Method, Options, Output, Statistics, Status, solve_resumed};
 use crate::python::model::AnyModel;
+use crate::{Dynamics, Error};
 use numpy::PyArray1;
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
@@ -63,6 +63,7 @@ impl PyIntegrator {
         // A nominal span: the options do not depend on its direction (dt is a size here).
         options.validate(t0, t0 + 1.0)?;
         options.check_method(method)?;
+        method.check_fits(&*model, t0, &q0, &qd0)?;
         let mut y = q0;
         y.extend_from_slice(&qd0);
         Ok(Self {
@@ -101,6 +102,8 @@ impl PyIntegrator {
     /// Integrate from the current state to `t` (before the current time integrates backwards)
     /// and stand there. Returns ``"finished"`` when it reached `t`, ``"terminated"`` when a
     /// terminal event stopped it first (the integrator stands at the event; `event` names it).
+    // `Failed` is a few hundred bytes, once per call (as in `solve_partial`).
+    #[allow(clippy::result_large_err)]
     fn propagate_until(&mut self, py: Python<'_>, t: f64) -> PyResult<&'static str> {
         check_finite("t", t)?;
         if t == self.t {
@@ -119,7 +122,16 @@ impl PyIntegrator {
             catch_unwind(AssertUnwindSafe(|| {
                 let interrupt = ctrl_c(&pending);
                 let span = (t0, t);
-                solve_resumed(model, q, qd, span, method, options, Some(&interrupt), settling)
+                solve_resumed(
+                    model,
+                    q,
+                    qd,
+                    span,
+                    method,
+                    options,
+                    Some(&interrupt),
+                    settling,
+                )
             }))
         });
         let sol = match outcome {

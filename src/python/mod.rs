@@ -844,9 +844,9 @@ pub mod lagrangian_module {
     #[pymodule_export]
     use super::events::PyDense;
     #[pymodule_export]
-    use super::scenes::{scene_catalog, scene_drawing, scene_exact, scene_model, scene_pivot};
-    #[pymodule_export]
     use super::integrator::PyIntegrator;
+    #[pymodule_export]
+    use super::scenes::{scene_catalog, scene_drawing, scene_exact, scene_model, scene_pivot};
     #[pymodule_export]
     use super::solution::PySolution;
     #[pymodule_export]

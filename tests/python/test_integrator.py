@@ -109,6 +109,13 @@ def test_bad_input_and_failures_leave_the_integrator_where_it_stood():
         model.integrator([0.3], [-0.2], method="nonesuch")
     with pytest.raises(ValueError, match="q0"):
         model.integrator([0.3, 1.0], [-0.2])
+    # A method that cannot serve the model is refused when the integrator is made.
+    with pytest.raises(ValueError, match="taylor cannot integrate this system"):
+        lg.scenes.simple_pendulum().integrator([0.1], [0.0], method="taylor")
+    th, = lg.coordinates("th")
+    nonseparable = lg.Model(coordinates=[th], kinetic=0.5 * (2 + lg.cos(th)) * th.d**2)
+    with pytest.raises(ValueError, match="yoshida4 cannot integrate this system"):
+        nonseparable.integrator([0.1], [0.0], method="yoshida4", dt=0.01)
     ig = model.integrator([0.3], [-0.2], method="dop853", rtol=1e-10, atol=1e-10, max_steps=5)
     ig.propagate_until(0.01)
     before = (ig.t, ig.q.copy(), ig.qd.copy(), ig.stats)
@@ -134,3 +141,21 @@ def test_bad_input_and_failures_leave_the_integrator_where_it_stood():
     np.testing.assert_array_equal(after[2], before[2])
     assert ig.propagate_until(ig.t) == "finished"  # an empty span: nothing to do
     assert "dop853" in repr(ig)
+
+
+def test_readme_example_is_the_standard_map():
+    # Between kicks the rotor moves freely: θₙ = θₙ₋₁ + pₙ, pₙ = pₙ₋₁ + K sin θₙ₋₁ exactly.
+    from pathlib import Path
+
+    readme = (Path(__file__).parents[2] / "README.md").read_text()
+    section = readme[readme.index("## Runs taken piece by piece"):readme.index("## Ensembles")]
+    code = section.split("```python\n", 1)[1].split("```", 1)[0]
+    scope: dict = {}
+    exec(compile(code, "README.md", "exec"), scope)
+    ig = scope["ig"]
+    theta, p = 0.5, 0.2
+    for _ in range(20):
+        p += 0.5 * math.sin(theta)
+        theta += p
+    assert ig.t == 20.0
+    assert ig.q[0] == pytest.approx(theta, abs=1e-10) and ig.qd[0] == pytest.approx(p, abs=1e-10)
