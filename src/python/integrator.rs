@@ -1,18 +1,17 @@
 //! A run kept between calls: [`PyIntegrator`] (`lagrangian.Integrator`, made by
-//! `Model.integrator`) holds a state (t, q, q̇) and the method and options, checked once, and
-//! `propagate_until(t)` integrates that state to t in place.
+//! `Model.integrator`) holds a state (t, q, q̇) and the method and options, parsed and checked
+//! once, and `propagate_until(t)` integrates that state to t in place.
 //!
 //! Why: a short run through `simulate` pays for its arguments, its options, the `Solution` and
 //! its arrays on every call (most of a run of a few dozen steps: see the README's comparison
 //! with heyoka.py, whose `taylor_adaptive.propagate_until` is this interface). Here the options
 //! are parsed once, only the final state is kept, and nothing is made in Python but what is read.
 
-use super::{check_finite, check_vector, ctrl_c, error, guard, solution, states};
-use crate::integrators::{Method, Options, Output, Statistics, Status, solve_resumed};
+use super::{check_finite, ctrl_c, error, guard, interrupted, solution, states};
+use crate::integrators::{Method, Options, Output, Solution, Statistics, Status, solve_resumed};
 use crate::python::model::AnyModel;
 use crate::{Dynamics, Error};
 use numpy::PyArray1;
-use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -37,16 +36,19 @@ pub struct PyIntegrator {
     t: f64,
     /// q then q̇.
     y: Vec<f64>,
-    /// The last call's work, with the choice of `"auto"` kept from the first.
+    /// The last finished call's work, with the choice of `"auto"` kept from the first.
     stats: Option<Statistics>,
-    /// The terminal event that ended the last call (its index and name), if one did and the
-    /// state has not been assigned since: the next call starts on its root.
-    event: Option<(usize, String)>,
+    /// The name of the terminal event that ended the last call, if one did.
+    event: Option<String>,
+    /// The events whose root the integrator stands on (the last call's end, while `t` is not
+    /// assigned): the next call takes their sign a little into its first step, as a run does
+    /// after a reset, so that they do not fire again where they just did.
+    settling: Vec<usize>,
 }
 
 impl PyIntegrator {
-    /// An integrator at (t0, q0, q̇0); `options` are checked and their output set to the final
-    /// state only.
+    /// An integrator at (t0, q0, q̇0) with `method` and `options`, checked here once (each
+    /// call's run checks them again, at a fraction of its cost); the output is the final state.
     pub(super) fn new(
         model: Arc<AnyModel>,
         (t0, q0, qd0): (f64, Vec<f64>, Vec<f64>),
@@ -56,11 +58,11 @@ impl PyIntegrator {
     ) -> PyResult<Self> {
         let n = model.dof();
         check_finite("t0", t0)?;
-        check_vector("q0", &q0, n)?;
-        check_vector("qd0", &qd0, n)?;
+        super::check_vector("q0", &q0, n)?;
+        super::check_vector("qd0", &qd0, n)?;
         options.output = Output::Final;
         options.dense = false;
-        // A nominal span: the options do not depend on its direction (dt is a size here).
+        // Any span: with `Output::Final` the checks do not depend on it.
         options.validate(t0, t0 + 1.0)?;
         options.check_method(method)?;
         method.check_fits(&*model, t0, &q0, &qd0)?;
@@ -75,25 +77,58 @@ impl PyIntegrator {
             y,
             stats: None,
             event: None,
+            settling: Vec::new(),
         })
     }
 
-    /// A state vector assigned from Python: `n` finite numbers.
+    /// A state vector assigned from Python: the fast form read here, anything else converted
+    /// and checked by the package's `vector` (the constructor's), so both accept the same.
     fn vector(&self, what: &str, v: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
         let n = self.model.dof();
         if let Some(v) = states::vector(v, n) {
             return Ok(v);
         }
-        let v: Vec<f64> = v.extract().map_err(|_| {
-            PyTypeError::new_err(format!(
-                "{what} must be a sequence of {n} numbers, got {}",
-                v.get_type()
-                    .name()
-                    .map_or_else(|_| "?".into(), |s| s.to_string())
-            ))
-        })?;
-        check_vector(what, &v, n)?;
-        Ok(v)
+        let checked = v
+            .py()
+            .import("lagrangian._validate")?
+            .getattr("vector")?
+            .call1((what, v, n))?;
+        checked.extract()
+    }
+
+    /// Stand at the end of a finished call: its state, its work, and the events that ended it
+    /// or sit on their roots there (a terminal one, or a reset within round-off of the end).
+    fn stand(&mut self, sol: Solution) -> PyResult<&'static str> {
+        let n = self.model.dof();
+        let Some((t, q, qd)) = sol.last() else {
+            return Err(error::LagrangianError::new_err(
+                "internal error in lagrangian (a finished run kept no state); please report it",
+            ));
+        };
+        self.t = t;
+        self.y[..n].copy_from_slice(q);
+        self.y[n..].copy_from_slice(qd);
+        let near = |s: f64| (t - s).abs() <= 10.0 * f64::EPSILON * t.abs().max(s.abs());
+        self.settling = (sol.events.iter().enumerate())
+            .filter(|(_, found)| found.t.last().is_some_and(|&s| near(s)))
+            .map(|(i, _)| i)
+            .collect();
+        let mut stats = sol.stats;
+        if self.method == Method::Auto {
+            self.method = stats.method;
+        } else if let Some(first) = &self.stats {
+            stats.choice.clone_from(&first.choice);
+        }
+        self.stats = Some(stats);
+        self.event = match sol.status {
+            Status::Terminated { name, .. } => Some(name),
+            _ => None,
+        };
+        Ok(if self.event.is_some() {
+            "terminated"
+        } else {
+            "finished"
+        })
     }
 }
 
@@ -113,10 +148,7 @@ impl PyIntegrator {
         let n = self.model.dof();
         let (q, qd) = self.y.split_at(n);
         let (model, method, options, t0) = (&*self.model, self.method, &self.options, self.t);
-        let settling: &[usize] = match &self.event {
-            Some((i, _)) => std::slice::from_ref(i),
-            None => &[],
-        };
+        let settling = &self.settling[..];
         let pending: Mutex<Option<PyErr>> = Mutex::new(None);
         let outcome = py.detach(|| {
             catch_unwind(AssertUnwindSafe(|| {
@@ -134,37 +166,14 @@ impl PyIntegrator {
                 )
             }))
         });
-        let sol = match outcome {
-            Err(panic) => return Err(error::panic_error(panic)),
-            Ok(Err(failed)) => {
-                if let Error::Interrupted { t } = failed.error {
-                    let e = pending.lock().unwrap_or_else(|p| p.into_inner()).take();
-                    return Err(e.unwrap_or_else(|| Error::Interrupted { t }.into()));
-                }
-                return Err(error::with_last(py, failed.error.into(), failed.last));
-            }
-            Ok(Ok(sol)) => sol,
-        };
-        let (t_now, q, qd) = sol.last().expect("a finished run ends at a state");
-        self.t = t_now;
-        self.y[..n].copy_from_slice(q);
-        self.y[n..].copy_from_slice(qd);
-        let mut stats = sol.stats;
-        if self.method == Method::Auto {
-            self.method = stats.method;
-        } else if let Some(first) = &self.stats {
-            stats.choice.clone_from(&first.choice);
+        match outcome {
+            Err(panic) => Err(error::panic_error(panic)),
+            Ok(Err(failed)) => Err(match failed.error {
+                Error::Interrupted { t } => interrupted(&pending, t),
+                e => error::with_last(py, e.into(), failed.last),
+            }),
+            Ok(Ok(sol)) => self.stand(sol),
         }
-        self.stats = Some(stats);
-        self.event = match sol.status {
-            Status::Terminated { event, name, .. } => Some((event, name)),
-            _ => None,
-        };
-        Ok(if self.event.is_some() {
-            "terminated"
-        } else {
-            "finished"
-        })
     }
 
     /// The current time.
@@ -173,12 +182,15 @@ impl PyIntegrator {
         self.t
     }
 
-    /// Move to time `t`, the state unchanged.
+    /// Move to time `t`, the state unchanged (the events the integrator stood on the roots of no
+    /// longer settle there, unless `t` is unchanged).
     #[setter]
     fn set_t(&mut self, t: f64) -> PyResult<()> {
         check_finite("t", t)?;
+        if t != self.t {
+            self.settling.clear();
+        }
         self.t = t;
-        self.event = None;
         Ok(())
     }
 
@@ -193,7 +205,6 @@ impl PyIntegrator {
     fn set_q(&mut self, q: &Bound<'_, PyAny>) -> PyResult<()> {
         let q = self.vector("q", q)?;
         self.y[..q.len()].copy_from_slice(&q);
-        self.event = None;
         Ok(())
     }
 
@@ -203,13 +214,13 @@ impl PyIntegrator {
         PyArray1::from_slice(py, &self.y[self.model.dof()..])
     }
 
-    /// Assign the velocities: `dof` finite numbers.
+    /// Assign the velocities: `dof` finite numbers. At a terminal event the event keeps
+    /// settling on its root, so that an impact law of one's own (q̇ reversed) goes on from it.
     #[setter]
     fn set_qd(&mut self, qd: &Bound<'_, PyAny>) -> PyResult<()> {
         let qd = self.vector("qd", qd)?;
         let n = qd.len();
         self.y[n..].copy_from_slice(&qd);
-        self.event = None;
         Ok(())
     }
 
@@ -219,14 +230,13 @@ impl PyIntegrator {
         self.method.name()
     }
 
-    /// The terminal event that stopped the last call (its name), or `None` (also once the state
-    /// has been assigned).
+    /// The terminal event that stopped the last call (its name), or `None`.
     #[getter]
     fn event(&self) -> Option<&str> {
-        self.event.as_ref().map(|(_, name)| name.as_str())
+        self.event.as_deref()
     }
 
-    /// The work of the last call, as `Solution.stats` (`None` before the first);
+    /// The work of the last call that finished, as `Solution.stats` (`None` before one has);
     /// ``"choice"`` says why `"auto"` chose the method.
     #[getter]
     fn stats<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {

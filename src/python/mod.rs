@@ -144,6 +144,12 @@ fn ctrl_c(pending: &Mutex<Option<PyErr>>) -> impl Fn(f64) -> bool + '_ {
     }
 }
 
+/// The error of a run stopped by [`ctrl_c`]: the `KeyboardInterrupt` it left in `pending`.
+fn interrupted(pending: &Mutex<Option<PyErr>>, t: f64) -> PyErr {
+    let e = pending.lock().unwrap_or_else(|p| p.into_inner()).take();
+    e.unwrap_or_else(|| Error::Interrupted { t }.into())
+}
+
 /// A compiled model: a system stated in Python by its energies (or particles), or a Rust scene.
 ///
 /// Built by `lagrangian.Model` and `lagrangian.scenes`; immutable and safe to share between
@@ -606,8 +612,7 @@ impl PyModel {
             Ok(Err(failed)) => {
                 let (failed, energy) = *failed;
                 if let Error::Interrupted { t } = failed.error {
-                    let e = pending.lock().unwrap_or_else(|p| p.into_inner()).take();
-                    return Err(e.unwrap_or_else(|| Error::Interrupted { t }.into()));
+                    return Err(interrupted(&pending, t));
                 }
                 return Err(error::with_partial(py, failed, energy, conserved, &wrap));
             }
@@ -642,26 +647,21 @@ impl PyModel {
         backend: &str,
     ) -> PyResult<integrator::PyIntegrator> {
         guard(|| {
-            check_finite("t0", t0)?;
-            if let Some(dt) = dt.filter(|dt| !(*dt > 0.0 && dt.is_finite())) {
-                return Err(PyValueError::new_err(format!(
-                    "dt = {dt}: an integrator's fixed step is a finite size > 0 (each \
-                     propagate_until's target gives the direction)"
-                )));
-            }
             let n = self.model.dof();
             let backend = Backend::named(backend)?;
             let events = events
                 .into_iter()
                 .map(|spec| events::event(spec, n, backend))
                 .collect::<Result<Vec<_>, Error>>()?;
-            let (method, mut options) = run_options(
-                (t0, t0 + 1.0),
-                method,
-                Step { dt, rtol, atol },
-                max_steps,
-                (None, None),
-            )?;
+            let method = Method::from_str(method)?;
+            // A step size, as the Rust API states it: each call's span gives the direction.
+            let mut options = match dt {
+                Some(dt) => Options::fixed(dt),
+                None => Options::adaptive(rtol, atol),
+            };
+            if let Some(max_steps) = max_steps {
+                options.max_steps = count("max_steps", max_steps)?;
+            }
             let conserved = self.conserved(events.iter().any(|e| e.reset.is_some()));
             options.events = events;
             integrator::PyIntegrator::new(
