@@ -104,7 +104,7 @@ ci`` or ``pip install .``) into an environment with heyoka.py:
 
     python3 benches/taylor.py [--rounds R] [--scenes a,b,...] [--heyoka-budget S] [--json FILE]
 
-It takes about 8 minutes on a 2-core machine, most of it heyoka's builds for N = 8 and 16 (a
+It takes about 7 minutes on a 2-core machine, most of it heyoka's builds for N = 8 and 16 (a
 single build for N = 16 at order 8 took about 2 minutes); ``--heyoka-budget 30`` makes it about
 2 minutes at the cost of heyoka's tighter targets on those scenes. Not a test: timings depend on
 the machine and its load.
