@@ -643,9 +643,9 @@ pub fn solve_with_interrupt<S: Dynamics + ?Sized>(
     .map_err(|f| f.error)
 }
 
-/// [`solve_partial`] from the state where a terminal event of the same options stopped an
-/// earlier run: the events `settling` sit on their roots there, so their sign is taken a
-/// little into the first step (as after a reset) and the run does not stop again at its start.
+/// [`solve_partial`] from where an earlier run with the same options ended on the roots of the
+/// events `settling` (a terminal one, or any found within round-off of its end): their sign is
+/// taken a little into the first step, as after a reset, so they do not fire again at once.
 #[allow(clippy::too_many_arguments, clippy::result_large_err)]
 pub(crate) fn solve_resumed<S: Dynamics + ?Sized>(
     system: &S,
