@@ -855,8 +855,8 @@ class Model:
         going on from there (heyoka's ``propagate_until``; SciPy's solvers step the same way).
 
         For many short runs, or a loop that reads or changes the state between them (control,
-        co-simulation, impact laws of your own): the method and options are parsed and checked
-        once, only the final state is kept, and a call costs little beside its steps (a
+        co-simulation, impact laws of your own): the method and options are parsed once, only the
+        final state is kept, and a call costs little beside its steps (a
         ``simulate`` also builds a :class:`Solution`). ``ig.t``, ``ig.q``, ``ig.qd`` read the
         state (copies) and can be assigned, each checked as ``q0`` is; ``ig.stats`` is the work
         of the last call that finished, as in ``Solution.stats``; ``ig.method`` the method, once
@@ -880,11 +880,12 @@ class Model:
         method, rtol, atol, max_steps, events
             As in :meth:`simulate`, for every call (``max_steps`` is each call's budget).
             ``"auto"`` chooses at the first call, from the state and that call's span, and
-            keeps the method. Only terminal events act: one stops a call where it fires (the
-            call returns ``"terminated"`` and ``ig.event`` names it; ``terminal=k`` counts k
-            occurrences within one call), and the next call goes on from there without firing
-            it again, also after ``ig.q`` or ``ig.qd`` were assigned (an impact law: reverse
-            ``ig.qd`` and go on). Resets apply as in :meth:`simulate`; occurrences are not
+            keeps the method. A terminal event stops a call where it fires (the call returns
+            ``"terminated"`` and ``ig.event`` names it; ``terminal=k`` counts k occurrences
+            within one call), and the next call goes on from there without firing it again —
+            its sign is taken a thousandth into the first step — as long as ``ig.t`` is not
+            moved, also after ``ig.q`` or ``ig.qd`` were assigned (an impact law: reverse
+            ``ig.qd`` and go on). Resets apply as in :meth:`simulate`. Occurrences are not
             recorded (``simulate`` records them).
         dt : float, optional
             Fixed step size, > 0, for the fixed-step methods: each call divides its own span

@@ -1,6 +1,6 @@
 //! A run kept between calls: [`PyIntegrator`] (`lagrangian.Integrator`, made by
-//! `Model.integrator`) holds a state (t, q, q̇) and the method and options, parsed and checked
-//! once, and `propagate_until(t)` integrates that state to t in place.
+//! `Model.integrator`) holds a state (t, q, q̇) and the method and options, parsed once, and
+//! `propagate_until(t)` integrates that state to t in place.
 //!
 //! Why: a short run through `simulate` pays for its arguments, its options, the `Solution` and
 //! its arrays on every call (most of a run of a few dozen steps: see the README's comparison
@@ -13,6 +13,7 @@ use crate::python::model::AnyModel;
 use crate::{Dynamics, Error};
 use numpy::PyArray1;
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
 use pyo3::types::PyDict;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::{Arc, Mutex};
@@ -40,9 +41,10 @@ pub struct PyIntegrator {
     stats: Option<Statistics>,
     /// The name of the terminal event that ended the last call, if one did.
     event: Option<String>,
-    /// The events whose root the integrator stands on (the last call's end, while `t` is not
-    /// assigned): the next call takes their sign a little into its first step, as a run does
-    /// after a reset, so that they do not fire again where they just did.
+    /// The events whose root the integrator stands on (the last call's end, until `t` changes,
+    /// also when q or q̇ are assigned): the next call takes their sign a thousandth into its
+    /// first step, as a run does after a reset, so that they do not fire again where they just
+    /// did (a crossing before that thousandth is not seen).
     settling: Vec<usize>,
 }
 
@@ -88,17 +90,20 @@ impl PyIntegrator {
         if let Some(v) = states::vector(v, n) {
             return Ok(v);
         }
-        let checked = v
-            .py()
-            .import("lagrangian._validate")?
-            .getattr("vector")?
-            .call1((what, v, n))?;
-        checked.extract()
+        static VECTOR: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
+        let py = v.py();
+        let vector = VECTOR.get_or_try_init(py, || -> PyResult<Py<PyAny>> {
+            Ok(py
+                .import("lagrangian._validate")?
+                .getattr("vector")?
+                .unbind())
+        })?;
+        vector.bind(py).call1((what, v, n))?.extract()
     }
 
     /// Stand at the end of a finished call: its state, its work, and the events that ended it
     /// or sit on their roots there (a terminal one, or a reset within round-off of the end).
-    fn stand(&mut self, sol: Solution) -> PyResult<&'static str> {
+    fn stand(&mut self, sol: Solution, t0: f64) -> PyResult<&'static str> {
         let n = self.model.dof();
         let Some((t, q, qd)) = sol.last() else {
             return Err(error::LagrangianError::new_err(
@@ -108,7 +113,10 @@ impl PyIntegrator {
         self.t = t;
         self.y[..n].copy_from_slice(q);
         self.y[n..].copy_from_slice(qd);
-        let near = |s: f64| (t - s).abs() <= 10.0 * f64::EPSILON * t.abs().max(s.abs());
+        // Events found at one stop lie within round-off of each other, relative to t and to the
+        // step (at most the span).
+        let scale = t.abs().max((t - t0).abs());
+        let near = |s: f64| (t - s).abs() <= 10.0 * f64::EPSILON * scale.max(s.abs());
         self.settling = (sol.events.iter().enumerate())
             .filter(|(_, found)| found.t.last().is_some_and(|&s| near(s)))
             .map(|(i, _)| i)
@@ -172,7 +180,7 @@ impl PyIntegrator {
                 Error::Interrupted { t } => interrupted(&pending, t),
                 e => error::with_last(py, e.into(), failed.last),
             }),
-            Ok(Ok(sol)) => self.stand(sol),
+            Ok(Ok(sol)) => self.stand(sol, t0),
         }
     }
 

@@ -104,8 +104,16 @@ def test_impacts_of_ones_own_at_a_terminal_event():
         assert ig.propagate_until(100.0) == "terminated" and ig.event == "floor"
         assert ig.t == pytest.approx(t_impact, abs=1e-10), k
         assert ig.qd[0] == pytest.approx(-v1 * e ** (k - 1), rel=1e-10)
-        ig.qd = -e * ig.qd  # on the floor, going up: the next call does not stop here again
+        # Going up from just below the floor (as rounding may leave it): the next call does not
+        # stop here again, the event settling on its root while t stays.
+        ig.q, ig.qd = [-1e-13], -e * ig.qd
+        ig.t = ig.t  # not a move
         t_impact += 2 * e**k * v1 / g
+    # Moving t drops the settling: from below the floor going up, y = 0 is crossed at once.
+    ig.t, ig.q, ig.qd = ig.t + 1.0, [-1e-13], [1.0]
+    t_moved = ig.t
+    assert ig.propagate_until(t_moved + 1.0) == "terminated"
+    assert ig.t == pytest.approx(t_moved, abs=1e-12)
 
 
 def test_terminal_counts_start_afresh_at_each_call():
