@@ -10,7 +10,8 @@
 //! return owned vectors.
 
 use crate::Scalar;
-use crate::error::{Error, Result};
+use crate::checks::{check_state, finite};
+use crate::error::Result;
 use nalgebra::{DMatrix, DVector};
 
 /// What a system is made of, found from its parts (at compile time for Rust models).
@@ -147,50 +148,4 @@ pub(crate) fn energy_from_parts<S: Dynamics + ?Sized>(
     let l = system.lagrangian_at(t, q, qd)?;
     let h = p.iter().zip(qd).map(|(p, v)| p * v).sum::<f64>() - l;
     finite(&[h], "energy", t).map(|()| h)
-}
-
-/// Check lengths and finiteness of a state.
-pub(crate) fn check_state(n: usize, t: f64, q: &[f64], qd: Option<&[f64]>) -> Result<()> {
-    if q.len() != n {
-        return Err(Error::DimensionMismatch {
-            what: "q",
-            expected: n,
-            got: q.len(),
-        });
-    }
-    if let Some(qd) = qd {
-        if qd.len() != n {
-            return Err(Error::DimensionMismatch {
-                what: "qd",
-                expected: n,
-                got: qd.len(),
-            });
-        }
-        finite(qd, "velocity", t)?;
-    }
-    finite(&[t], "time", t)?;
-    finite(q, "coordinate", t)
-}
-
-/// `Err(NonFinite)` unless every value is finite.
-pub(crate) fn finite(values: &[f64], what: &'static str, t: f64) -> Result<()> {
-    if values.iter().all(|v| v.is_finite()) {
-        Ok(())
-    } else {
-        Err(Error::NonFinite { what, t })
-    }
-}
-
-/// Check the lengths the generic `*_into` methods are called with.
-pub(crate) fn check_lengths<D>(n: usize, q: &[D], qd: &[D], out: &[D]) -> Result<()> {
-    for (what, len) in [("q", q.len()), ("qd", qd.len()), ("output", out.len())] {
-        if len != n {
-            return Err(Error::DimensionMismatch {
-                what,
-                expected: n,
-                got: len,
-            });
-        }
-    }
-    Ok(())
 }

@@ -31,20 +31,30 @@
 //! assert_relative_eq!(qdd[0], -9.81 / 2.0 * 0.3_f64.sin(), epsilon = 1e-14);
 //! ```
 
+mod checks;
+mod derived;
 mod dynamics;
+mod energy_model;
 mod eom;
 mod error;
+mod expr;
 pub mod integrators;
 mod linalg;
 mod linearize;
+#[cfg(feature = "jit")]
+mod native;
 mod particles;
+mod program;
 #[cfg(feature = "python")]
 mod python;
 mod scalar;
 pub mod scenes;
+mod sensitivity;
 mod statics;
 mod system;
 pub mod tape;
+mod tape_particles;
+mod taylor;
 
 pub use dynamics::{Dynamics, Structure};
 pub use error::{Error, Result};

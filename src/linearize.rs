@@ -21,7 +21,8 @@
 //! its Schur form), in conjugate pairs λ, λ̄ or real pairs, each pair one mode with
 //! λ² + 2ζω λ + ω² = 0. Stability follows from the eigenvalues, with the reason stated.
 
-use crate::dynamics::{Dynamics, check_state, finite};
+use crate::checks::{check_state, finite};
+use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
 use crate::integrators::acceleration_jacobian;
 use crate::statics::{Stability, classify, static_residual, static_stiffness_of};

@@ -10,7 +10,8 @@
 //! with Cartesian forces F_j mapped by eq. 21/39. This is cheaper than differentiating T twice
 //! and gives the same accelerations as the energy route (tests prove it).
 
-use crate::dynamics::{Dynamics, Structure, check_lengths};
+use crate::checks::check_lengths;
+use crate::dynamics::{Dynamics, Structure};
 use crate::eom::{Forces, by_dof};
 use crate::error::Result;
 use crate::scalar::{Grad, grad_const, grad_part, grad_seed, with_buf};

@@ -35,7 +35,8 @@
 //! particle positions r(t, q)) through.
 
 use crate::Scalar;
-use crate::dynamics::{Dynamics, check_state};
+use crate::checks::check_state;
+use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
 use nalgebra::{Complex, DMatrix, DVector};
 use num_dual::{Dual, Dual64};

@@ -92,7 +92,8 @@ pub use solution::{Failed, Solution, Statistics};
 pub use symplectic::SymplecticTableau;
 pub use tableau::{Controller, DenseOutput, ErrorEstimate, StiffnessTest, Tableau};
 
-use crate::dynamics::{Dynamics, check_state};
+use crate::checks::check_state;
+use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
 use dense::Interpolant;
 use events::{Stop, Tracker};

@@ -101,7 +101,7 @@ impl Stepper {
         let y = run.y0.clone();
         let mut p = vec![0.0; n];
         run.system.momenta_into(run.t0, &y[..n], &y[n..], &mut p);
-        crate::dynamics::finite(&p, "momenta", run.t0)?;
+        crate::checks::finite(&p, "momenta", run.t0)?;
         let v_scale = newton::max_norm(&y[n..]);
         let zero = Dual64::from_re(0.0);
         Ok(Self {

@@ -109,7 +109,7 @@ pub(super) fn jacobian<S: Dynamics + ?Sized>(
     let mut fd = vec![Dual64::from_re(0.0); n];
     let mut lower = DMatrix::<f64>::zeros(n, 2 * n);
     acceleration_jacobian(system, t, &y, &mut xd, &mut fd, &mut lower)?;
-    crate::dynamics::finite(lower.as_slice(), "Jacobian", t)?;
+    crate::checks::finite(lower.as_slice(), "Jacobian", t)?;
     Ok(Array2::from_shape_fn((2 * n, 2 * n), |(i, j)| {
         if i < n {
             if j == n + i { 1.0 } else { 0.0 }

@@ -189,7 +189,7 @@ impl PyModel {
             for (k, out) in values.chunks_exact_mut(size).enumerate() {
                 let (q, qd) = states.state(k, n);
                 eval(states.t, q, qd, out)?;
-                crate::dynamics::finite(out, what, states.t)?;
+                crate::checks::finite(out, what, states.t)?;
             }
             let mut dims = states.rows.map(|k| vec![k]).unwrap_or_default();
             dims.extend_from_slice(shape);
@@ -351,8 +351,8 @@ impl PyModel {
                 cq.extend_from_slice(e.q(k));
                 cv.extend_from_slice(e.qd(k));
             }
-            crate::dynamics::finite(&cq, "Taylor coefficients", t)?;
-            crate::dynamics::finite(&cv, "Taylor coefficients", t)?;
+            crate::checks::finite(&cq, "Taylor coefficients", t)?;
+            crate::checks::finite(&cv, "Taylor coefficients", t)?;
             Ok((cq, cv))
         })?;
         let shape = [order + 1, n];

@@ -12,7 +12,8 @@ pub use kinetic::KineticEnergy;
 pub use potential::Potential;
 
 use crate::Scalar;
-use crate::dynamics::{Dynamics, Structure, check_lengths};
+use crate::checks::check_lengths;
+use crate::dynamics::{Dynamics, Structure};
 use crate::eom::passes::{InertiaOut, Wrt, gradient, inertia};
 use crate::eom::{self, Forces, by_dof};
 use crate::error::Result;

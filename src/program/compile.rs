@@ -4,8 +4,8 @@
 
 use super::analysis::{Flags, analyse};
 use super::ins::{Ins, Op, lower};
-use super::{Graph, Node, Unary};
 use crate::error::{Error, Result};
+use crate::expr::graph::{Graph, Node, Unary};
 
 /// What a tape may read: the number of coordinates and parameters, and which of t, q and q̇.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -57,17 +57,17 @@ impl Inputs {
 /// A node of the `f64` program that computes the constants from the parameters; operands index
 /// earlier constants.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) enum ConstOp {
+pub(crate) enum ConstOp {
     Lit(f64),
     Param(usize),
     Unary(Unary, usize),
-    Binary(super::Binary, usize, usize),
+    Binary(crate::expr::graph::Binary, usize, usize),
     PowI(usize, i32),
 }
 
 /// An input of a tape.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum Input {
+pub(crate) enum Input {
     Time,
     Coord(usize),
     Velocity(usize),
@@ -75,7 +75,7 @@ pub(super) enum Input {
 
 /// Where an output is read from.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) enum Out {
+pub(crate) enum Out {
     Slot(u32),
     Const(u32),
 }
@@ -83,14 +83,14 @@ pub(super) enum Out {
 /// A compiled expression with one or more outputs, not yet bound to parameter values.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Tape {
-    pub(super) inputs: Inputs,
+    pub(crate) inputs: Inputs,
     /// The slot each input that appears is written to.
-    pub(super) input_slots: Vec<(u32, Input)>,
-    pub(super) consts: Vec<ConstOp>,
-    pub(super) code: Vec<Ins>,
-    pub(super) slots: usize,
-    pub(super) outputs: Vec<Out>,
-    pub(super) flags: Flags,
+    pub(crate) input_slots: Vec<(u32, Input)>,
+    pub(crate) consts: Vec<ConstOp>,
+    pub(crate) code: Vec<Ins>,
+    pub(crate) slots: usize,
+    pub(crate) outputs: Vec<Out>,
+    pub(crate) flags: Flags,
 }
 
 /// No node (an unused destination or operand of a selected instruction).
@@ -356,8 +356,9 @@ fn allocate(nodes: &[Node], live: &[bool], selected: &[Selected], outputs: &[usi
 
 #[cfg(test)]
 mod tests {
-    use super::super::{Binary, Function, Graph, Unary};
     use super::*;
+    use crate::expr::graph::{Binary, Graph, Unary};
+    use crate::program::eval::Function;
     use approx::assert_relative_eq;
     use std::sync::Arc;
 

@@ -28,13 +28,15 @@ use std::sync::OnceLock;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
-use super::eom_program::EomGraph;
-use super::graph::{Binary, Graph, Node, Unary, sign};
 #[cfg(feature = "jit")]
-use super::taylor_native::{Buffers, Status, Step, StepControl};
+mod kernel;
+
 use crate::eom;
 use crate::error::{Error, Result};
+use crate::expr::graph::{Binary, Graph, Node, Unary, sign};
 use crate::linalg;
+#[cfg(feature = "jit")]
+use kernel::{Buffers, Status, Step, StepControl};
 
 /// One recurrence: coefficient k of row `out` (and of its partner rows) from the coefficients
 /// of its operands up to k and its own below k. Rows hold series; row r's coefficient j is at
@@ -151,7 +153,7 @@ fn conv(
 /// Which of a convolution's end terms read a coefficient of the order k being computed, and
 /// are added last ([`conv`]): (j = 0, j = k).
 #[inline(always)]
-pub(super) fn fresh_ends(lo: usize, hi: usize, kk: usize, k: usize) -> (bool, bool) {
+pub(crate) fn fresh_ends(lo: usize, hi: usize, kk: usize, k: usize) -> (bool, bool) {
     let first = k > 0 && lo == 0 && kk == k && lo <= hi;
     let last = k > 0 && hi == k && lo <= hi;
     (first, last)
@@ -203,7 +205,7 @@ fn conv_rows(
 /// `a` is valid for reads of `hi + 1` values and `b` of `kk + 1` (the kernel passes rows of a
 /// table it was checked against, with hi, kk below the row width), and lo ≤ kk when lo ≤ hi.
 #[cfg(feature = "jit")]
-pub(super) unsafe extern "C" fn lagrangian_conv(
+pub(crate) unsafe extern "C" fn lagrangian_conv(
     a: *const f64,
     b: *const f64,
     lo: i64,
@@ -241,7 +243,7 @@ impl Op {
 
     /// The functions of the maths library order 0 of this recurrence calls, by the names the
     /// compiled code imports them under (`native.rs`).
-    pub(super) fn libm(&self) -> &'static [&'static str] {
+    pub(crate) fn libm(&self) -> &'static [&'static str] {
         match self {
             Op::Exp { .. } => &["lagrangian_exp"],
             Op::Ln { .. } => &["lagrangian_ln"],
@@ -263,7 +265,7 @@ impl Op {
     /// past the order that computes them. The others are read at their own order only (and
     /// coefficient 0 of every row is computed apart, at order 0).
     #[cfg(feature = "jit")]
-    pub(super) fn history(&self) -> Vec<usize> {
+    pub(crate) fn history(&self) -> Vec<usize> {
         match *self {
             Op::Mul { a, b, .. } => vec![a, b],
             Op::Square { a, .. } => vec![a],
@@ -514,46 +516,46 @@ impl Op {
 /// The part of a graph that M and f need, lowered to recurrences, ready to expand.
 #[derive(Debug)]
 pub struct TaylorProgram {
-    pub(super) dof: usize,
+    pub(crate) dof: usize,
     /// Rows in the table: one per node, then the auxiliary rows.
-    pub(super) rows: usize,
+    pub(crate) rows: usize,
     /// The recurrences of the rows fixed by the parameters: run once per binding.
     fixed: Vec<Op>,
     /// The recurrences of the rows the state sets: what order 0 runs.
-    pub(super) order0: Vec<Op>,
+    pub(crate) order0: Vec<Op>,
     /// The recurrences of the nodes that depend on t, q or q̇: what orders ≥ 1 run.
-    pub(super) varying: Vec<Op>,
+    pub(crate) varying: Vec<Op>,
     /// Rows of the numbers and parameters (index into the parameters), written at binding.
     numbers: Vec<(usize, f64)>,
     params: Vec<(usize, usize)>,
     /// Rows of t and of each qᵢ, q̇ᵢ the model reads.
-    pub(super) time: Option<usize>,
-    pub(super) coords: Vec<Option<usize>>,
-    pub(super) velocities: Vec<Option<usize>>,
+    pub(crate) time: Option<usize>,
+    pub(crate) coords: Vec<Option<usize>>,
+    pub(crate) velocities: Vec<Option<usize>>,
     /// Rows of f.
-    pub(super) force: Vec<usize>,
+    pub(crate) force: Vec<usize>,
     /// Row of M(r, c) at r·n + c.
-    pub(super) mass_full: Vec<usize>,
+    pub(crate) mass_full: Vec<usize>,
     /// Whether M(r, c) (at r·n + c) depends on t or q: the entries that do not have Mⱼ = 0 for
     /// j ≥ 1 and no terms in Σⱼ Mⱼ q̈ₖ₋ⱼ (the diagonal of a chain's M, all of a constant M).
-    pub(super) mass_varying: Vec<bool>,
+    pub(crate) mass_varying: Vec<bool>,
     /// Whether M depends on the parameters alone (then M₀ is factored once per expansion's
     /// work space).
-    pub(super) mass_constant: bool,
+    pub(crate) mass_constant: bool,
     /// Which entries of M₀'s factor L (at r·n + c, below the diagonal) may be nonzero, when
     /// M's zeros by structure make some zero ([`linalg::ldlt_pattern`]; `None`: none do): the
     /// solves skip those (a diagonal M: the ball, Kepler in polar coordinates, the forced
     /// two-mass).
-    pub(super) factor_nonzero: Option<Vec<bool>>,
+    pub(crate) factor_nonzero: Option<Vec<bool>>,
     /// The recurrences as machine code, compiled at the first expansion (`None`: not allowed,
     /// or Cranelift could not compile them, and the interpreter runs).
     #[cfg(feature = "jit")]
-    native: OnceLock<Option<super::taylor_native::SeriesKernel>>,
+    native: OnceLock<Option<kernel::SeriesKernel>>,
     /// The whole expansion to order p unrolled into machine code, at index p, compiled after
     /// `UNROLL_AFTER` expansions to that order (`None`: too large to unroll, not allowed, or
     /// Cranelift failed), and the expansions to each order so far.
     #[cfg(feature = "jit")]
-    unrolled: Box<[OnceLock<Option<super::taylor_native::ExpansionKernel>>]>,
+    unrolled: Box<[OnceLock<Option<kernel::ExpansionKernel>>]>,
     #[cfg(feature = "jit")]
     expansions: Box<[AtomicUsize]>,
     #[cfg(feature = "jit")]
@@ -997,10 +999,10 @@ impl Derivatives<'_> {
 
 impl TaylorProgram {
     /// The nodes of `graph` that `eom`'s M and f read, lowered to recurrences.
-    pub fn new(graph: &Graph, eom: &EomGraph) -> Self {
+    pub fn new(graph: &Graph, dof: usize, mass_nodes: &[usize], force_nodes: &[usize]) -> Self {
         let all = graph.nodes();
         let mut needed = vec![false; all.len()];
-        for &o in eom.mass.iter().chain(&eom.force) {
+        for &o in mass_nodes.iter().chain(force_nodes) {
             needed[o] = true;
         }
         for k in (0..all.len()).rev() {
@@ -1029,7 +1031,6 @@ impl TaylorProgram {
             order0: Vec::new(),
             varying: Vec::new(),
         };
-        let dof = eom.dof;
         let (mut numbers, mut params) = (Vec::new(), Vec::new());
         let (mut time, mut coords, mut velocities) = (None, vec![None; dof], vec![None; dof]);
         let mut reach = vec![Reach::Fixed; kept.len()];
@@ -1223,8 +1224,8 @@ impl TaylorProgram {
                 low.push(op, var);
             }
         }
-        let mut mass: Vec<usize> = eom.mass.iter().map(|&o| row[o]).collect();
-        let mut force: Vec<usize> = eom.force.iter().map(|&o| row[o]).collect();
+        let mut mass: Vec<usize> = mass_nodes.iter().map(|&o| row[o]).collect();
+        let mut force: Vec<usize> = force_nodes.iter().map(|&o| row[o]).collect();
         let outside: HashSet<usize> = mass.iter().chain(&force).copied().collect();
         low.fold_quotients(&outside);
         low.fold_negations(&outside);
@@ -1318,14 +1319,12 @@ impl TaylorProgram {
     /// The recurrences as machine code, compiled on the first call (`None` without the `jit`
     /// feature, for an interpreted program, or where Cranelift failed).
     #[cfg(feature = "jit")]
-    fn kernel(&self) -> Option<&super::taylor_native::SeriesKernel> {
+    fn kernel(&self) -> Option<&kernel::SeriesKernel> {
         if !self.allow_native {
             return None;
         }
         self.native
-            .get_or_init(|| {
-                super::taylor_native::SeriesKernel::compile(&self.varying, self.rows).ok()
-            })
+            .get_or_init(|| kernel::SeriesKernel::compile(&self.varying, self.rows).ok())
             .as_ref()
     }
 
@@ -1334,13 +1333,13 @@ impl TaylorProgram {
     /// feature, for an interpreted program, for one too large to unroll, or where Cranelift
     /// failed.
     #[cfg(feature = "jit")]
-    fn unrolled(&self, order: usize) -> Option<&super::taylor_native::ExpansionKernel> {
+    fn unrolled(&self, order: usize) -> Option<&kernel::ExpansionKernel> {
         let cell = self.unrolled.get(order)?;
         if let Some(kernel) = cell.get() {
             return kernel.as_ref();
         }
         let count = self.expansions[order].fetch_add(1, Ordering::Relaxed);
-        if count < super::taylor_native::UNROLL_AFTER {
+        if count < kernel::UNROLL_AFTER {
             return None;
         }
         self.compile_unrolled(order)
@@ -1348,15 +1347,15 @@ impl TaylorProgram {
 
     /// The expansion to `order` unrolled, if it is compiled (not counted as an expansion).
     #[cfg(feature = "jit")]
-    fn compiled(&self, order: usize) -> Option<&super::taylor_native::ExpansionKernel> {
+    fn compiled(&self, order: usize) -> Option<&kernel::ExpansionKernel> {
         self.unrolled.get(order)?.get()?.as_ref()
     }
 
     #[cfg(feature = "jit")]
-    fn compile_unrolled(&self, order: usize) -> Option<&super::taylor_native::ExpansionKernel> {
+    fn compile_unrolled(&self, order: usize) -> Option<&kernel::ExpansionKernel> {
         self.unrolled
             .get(order)?
-            .get_or_init(|| super::taylor_native::ExpansionKernel::compile(self, order).ok())
+            .get_or_init(|| kernel::ExpansionKernel::compile(self, order).ok())
             .as_ref()
     }
 
@@ -2024,7 +2023,7 @@ mod tests {
         params: &[f64],
     ) -> (TaylorProgram, EnergyModel) {
         let eom = eom_graph(g, dof, parts).unwrap();
-        let program = TaylorProgram::new(g, &eom);
+        let program = TaylorProgram::new(g, eom.dof, &eom.mass, &eom.force);
         let f = |nodes: &[usize], inputs: Inputs| {
             Function::new(
                 Arc::new(Tape::new(g, nodes, inputs, "part").unwrap()),

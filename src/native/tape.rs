@@ -1,6 +1,5 @@
-//! Native code for a [`Tape`] (the `jit` feature): its `f64` program compiled by Cranelift to one
-//! machine-code function, [`NativeTape`], and a compiled tape bound to parameter values,
-//! [`NativeFunction`].
+//! A [`Tape`]'s `f64` program compiled by Cranelift to one machine-code function,
+//! [`NativeTape`], and a compiled tape bound to parameter values, [`NativeFunction`].
 //!
 //! The instructions are lowered through the same table as the interpreter (`ins.rs`, `emit`), so
 //! an instruction is added in one place. Slots become SSA values (the code is straight-line, so
@@ -13,87 +12,22 @@
 //! against the tape's sizes before emitting a load or store, and rejects a read of a slot never
 //! written; [`NativeTape::eval`] checks the slices' lengths against those sizes. The stack is
 //! probed inline, so a large frame cannot jump over the guard page. Anything the compiler cannot
-//! handle (no Cranelift backend for the host, a malformed tape, a Cranelift error) is an
-//! [`Error::InvalidInput`], on which the caller keeps the interpreter.
+//! handle is an [`Error::InvalidInput`], on which the caller keeps the interpreter.
 
-use super::Tape;
-use super::compile::{Input, Out};
-use super::eval::Function;
-use super::ins::{Emit, emit};
+use super::{BACKTRACKING_UP_TO, Code, declare, enter, fail, jit_module, link};
 use crate::error::{Error, Result};
+use crate::program::compile::{Input, Out, Tape};
+use crate::program::eval::Function;
+use crate::program::ins::{Emit, emit};
 use crate::scalar::with_buf;
 use cranelift_codegen::ir::{self, AbiParam, InstBuilder, MemFlagsData, Value, types};
-use cranelift_codegen::settings::{self, Configurable};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
-use cranelift_jit::{JITBuilder, JITModule};
-use cranelift_module::{FuncId, Linkage, Module, default_libcall_names};
+use cranelift_jit::JITModule;
+use cranelift_module::{FuncId, Linkage, Module};
 use std::sync::Arc;
-
-/// The largest tape (instructions) given Cranelift's backtracking register allocator; larger
-/// ones get the single-pass allocator. Measured (release, 2-core machine): backtracking
-/// compiles ~6.5 µs per instruction (a 10 200-instruction tape in 66 ms), single-pass ~1.6 µs
-/// (16 ms), and its code is 0–25 % slower (the double pendulum's T: 21.8 against 17.5 ns; a
-/// 32-link chain's T: 733 against 674 ns). So small tapes get the better code, and large ones
-/// a compile time that stays within the model-build budget.
-///
-/// Cranelift's own optimizer (`opt_level`) is off: the tape is already shared (hash-consed),
-/// folded and scheduled, and `speed` compiled ~30 % slower to code no faster (the chain's T:
-/// 741 against 674 ns).
-pub(super) const BACKTRACKING_UP_TO: usize = 10_000;
 
 /// The compiled function: constants, t, q, q̇, outputs.
 type Entry = unsafe extern "C" fn(*const f64, f64, *const f64, *const f64, *mut f64);
-
-/// Machine code and the Cranelift module that owns its memory: freed on drop, never changed
-/// after compilation. The home of the `unsafe` ownership of generated code, for [`NativeTape`]
-/// and the Taylor recurrences.
-pub(super) struct Code<E: Copy> {
-    /// `None` only while dropping.
-    module: Option<JITModule>,
-    entry: E,
-}
-
-// SAFETY: after `Code::new` the module is never mutated or read again except to free it in
-// `drop` (which needs `&mut self`, so no call can be running); the machine code is immutable, so
-// calling it from several threads at once is sound (each caller passes its own buffers).
-unsafe impl<E: Copy> Send for Code<E> {}
-// SAFETY: as for `Send`: `&self` gives access to nothing but the immutable code.
-unsafe impl<E: Copy> Sync for Code<E> {}
-
-impl<E: Copy> Code<E> {
-    /// The function `define` emits into `module` and returns the entry of; on failure the
-    /// module's memory is freed and the error returned.
-    pub(super) fn new(
-        mut module: JITModule,
-        define: impl FnOnce(&mut JITModule) -> Result<E>,
-    ) -> Result<Self> {
-        match define(&mut module) {
-            Ok(entry) => Ok(Self {
-                module: Some(module),
-                entry,
-            }),
-            Err(e) => {
-                // SAFETY: no pointer into the module was handed out.
-                unsafe { module.free_memory() };
-                Err(e)
-            }
-        }
-    }
-
-    /// The compiled function.
-    pub(super) fn entry(&self) -> E {
-        self.entry
-    }
-}
-
-impl<E: Copy> Drop for Code<E> {
-    fn drop(&mut self) {
-        if let Some(module) = self.module.take() {
-            // SAFETY: `entry` is only reachable through `&self`, which cannot outlive this call.
-            unsafe { module.free_memory() };
-        }
-    }
-}
 
 /// A tape compiled to machine code. Evaluate it with [`NativeTape::eval`], or bind it to
 /// parameter values with [`Function::compile_native`].
@@ -116,131 +50,11 @@ impl std::fmt::Debug for NativeTape {
     }
 }
 
-/// A Cranelift failure or unsupported tape.
-pub(super) fn fail(why: impl std::fmt::Display) -> Error {
-    Error::InvalidInput {
-        what: "native code",
-        why: why.to_string(),
-    }
-}
-
 /// Byte offset of element `i` of an `f64` array, if it fits an `i32`.
 fn offset(i: usize) -> Result<i32> {
     i.checked_mul(8)
         .and_then(|o| i32::try_from(o).ok())
         .ok_or_else(|| fail(format!("index {i} too large")))
-}
-
-macro_rules! wrappers {
-    ($($name:ident: $f:ident($($x:ident: $t:ty),*);)*) => {
-        $(
-            extern "C" fn $name($($x: $t),*) -> f64 {
-                f64::$f($($x),*)
-            }
-        )*
-        /// Register the `f64` functions the generated code calls, by symbol name.
-        fn register(jit: &mut JITBuilder) {
-            $(jit.symbol(stringify!($name), $name as *const u8);)*
-            jit.symbol("lagrangian_powi", lagrangian_powi as *const u8);
-            jit.symbol("lagrangian_sin_cos", lagrangian_sin_cos as *const u8);
-            jit.symbol("lagrangian_conv", super::taylor::lagrangian_conv as *const u8);
-            jit.symbol("lagrangian_ldlt", super::taylor_native::lagrangian_ldlt as *const u8);
-        }
-    };
-}
-
-wrappers! {
-    lagrangian_sin: sin(x: f64);
-    lagrangian_cos: cos(x: f64);
-    lagrangian_tan: tan(x: f64);
-    lagrangian_exp: exp(x: f64);
-    lagrangian_ln: ln(x: f64);
-    lagrangian_sinh: sinh(x: f64);
-    lagrangian_cosh: cosh(x: f64);
-    lagrangian_tanh: tanh(x: f64);
-    lagrangian_powf: powf(x: f64, y: f64);
-    lagrangian_atan2: atan2(x: f64, y: f64);
-}
-
-extern "C" fn lagrangian_powi(x: f64, n: i32) -> f64 {
-    x.powi(n)
-}
-
-/// `f64::sin_cos`: the sine, and the cosine written to `cos`.
-///
-/// # Safety
-/// `cos` is valid for a write of an `f64` (the generated code passes a slot of its frame).
-unsafe extern "C" fn lagrangian_sin_cos(x: f64, cos: *mut f64) -> f64 {
-    let (s, c) = x.sin_cos();
-    // SAFETY: see the function's contract.
-    unsafe { cos.write(c) };
-    s
-}
-
-/// A Cranelift module for the host, with the `f64` functions the generated code calls
-/// registered, with the backtracking register allocator or the single-pass one
-/// ([`BACKTRACKING_UP_TO`]).
-pub(super) fn jit_module(backtracking: bool) -> Result<JITModule> {
-    let mut flags = settings::builder();
-    let regalloc = if backtracking {
-        "backtracking"
-    } else {
-        "single_pass"
-    };
-    for (k, v) in [
-        ("opt_level", "none"),
-        ("regalloc_algorithm", regalloc),
-        ("enable_probestack", "true"),
-        ("probestack_strategy", "inline"),
-    ] {
-        flags.set(k, v).map_err(fail)?;
-    }
-    let isa = cranelift_native::builder()
-        .map_err(fail)?
-        .finish(settings::Flags::new(flags))
-        .map_err(fail)?;
-    let mut jit = JITBuilder::with_isa(isa, default_libcall_names());
-    register(&mut jit);
-    Ok(JITModule::new(jit))
-}
-
-/// A function with parameters `params` and no result (the host's default calling convention),
-/// declared in `module` as `name`, and the context to build it in.
-pub(super) fn declare(
-    module: &mut JITModule,
-    name: &str,
-    params: &[ir::Type],
-) -> Result<(FuncId, cranelift_codegen::Context)> {
-    let mut ctx = module.make_context();
-    let sig = &mut ctx.func.signature;
-    sig.params.extend(params.iter().map(|&t| AbiParam::new(t)));
-    let id = module
-        .declare_function(name, Linkage::Local, &ctx.func.signature)
-        .map_err(fail)?;
-    Ok((id, ctx))
-}
-
-/// Open the entry block of the function `b` builds (sealed: nothing jumps back to it) and give
-/// its parameters.
-pub(super) fn enter(b: &mut FunctionBuilder<'_>) -> Vec<Value> {
-    let entry = b.create_block();
-    b.append_block_params_for_function_params(entry);
-    b.switch_to_block(entry);
-    b.seal_block(entry);
-    b.block_params(entry).to_vec()
-}
-
-/// Compile the function built in `ctx`, declared as `id`, link the module, and give the
-/// function's address.
-pub(super) fn link(
-    module: &mut JITModule,
-    id: FuncId,
-    ctx: &mut cranelift_codegen::Context,
-) -> Result<*const u8> {
-    module.define_function(id, ctx).map_err(fail)?;
-    module.clear_context(ctx);
-    module.finalize_definitions().map_err(fail)?;
-    Ok(module.get_finalized_function(id))
 }
 
 impl NativeTape {
@@ -251,9 +65,10 @@ impl NativeTape {
     /// malformed (an index out of range, a slot read before it is written): fall back to the
     /// interpreter.
     pub fn compile(tape: &Tape) -> Result<Self> {
-        let code = Code::new(jit_module(tape.code.len() <= BACKTRACKING_UP_TO)?, |m| {
-            Self::define(m, tape)
-        })?;
+        let code = Code::new(
+            jit_module(tape.code.len() <= BACKTRACKING_UP_TO, &[])?,
+            |m| Self::define(m, tape),
+        )?;
         Ok(Self {
             code,
             consts: tape.consts.len(),
@@ -660,10 +475,11 @@ impl NativeFunction {
 
 #[cfg(test)]
 mod tests {
-    use super::super::compile::Inputs;
-    use super::super::ins::Ins;
-    use super::super::{Binary, Graph, Unary, models};
     use super::*;
+    use crate::derived::models;
+    use crate::expr::graph::{Binary, Graph, Unary};
+    use crate::program::compile::Inputs;
+    use crate::program::ins::Ins;
     use std::collections::BTreeSet;
     use std::time::Instant;
 

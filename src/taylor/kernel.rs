@@ -15,8 +15,8 @@
 //! an operation reads or writes is checked against the table's row count before any code is
 //! emitted, and the kernels' `run` check the buffers' lengths, the width and the order.
 
-use super::native::{BACKTRACKING_UP_TO, Code, declare, enter, fail, jit_module, link};
-use super::taylor::{LANES, Op, TaylorProgram, fresh_ends};
+use super::{LANES, Op, TaylorProgram, fresh_ends};
+use crate::native::{BACKTRACKING_UP_TO, Code, declare, enter, fail, jit_module, link};
 
 use crate::error::Result;
 use cranelift_codegen::ir::{
@@ -27,6 +27,14 @@ use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::JITModule;
 use cranelift_module::{Linkage, Module};
 use std::collections::{HashMap, HashSet};
+
+/// The Taylor kernels' own functions, handed to the code generator by name.
+fn symbols() -> [(&'static str, *const u8); 2] {
+    [
+        ("lagrangian_conv", super::lagrangian_conv as *const u8),
+        ("lagrangian_ldlt", lagrangian_ldlt as *const u8),
+    ]
+}
 
 /// Programs of up to this many recurrences get their convolutions as loops in the code, larger
 /// ones as calls of the interpreter's sum (`lagrangian_conv`). Measured (release, 2-core
@@ -89,7 +97,10 @@ impl SeriesKernel {
         }
         // About twenty instructions per recurrence with its loops, four with calls.
         let inline = ops.len() <= INLINE_UP_TO;
-        let module = jit_module(if inline { 20 } else { 4 } * ops.len() <= BACKTRACKING_UP_TO)?;
+        let module = jit_module(
+            if inline { 20 } else { 4 } * ops.len() <= BACKTRACKING_UP_TO,
+            &symbols(),
+        )?;
         let code = Code::new(module, |m| define(m, ops, inline))?;
         Ok(Self { code, rows })
     }
@@ -340,7 +351,7 @@ impl ExpansionKernel {
         // Straight-line code: the backtracking allocator at any size (measured: the single-pass
         // allocator's code ran the double pendulum's expansion to order 19 2.2× slower, 5.3
         // against 2.4 µs, and the 4-link chain's to order 12 2.2× slower).
-        let module = jit_module(true)?;
+        let module = jit_module(true, &symbols())?;
         let mut reversed_len = 0;
         let code = Code::new(module, |m| {
             let (expansion, reversed) = define_expansion(m, program, order)?;
@@ -843,7 +854,7 @@ fn fails(b: &mut FunctionBuilder<'_>, ok: Value, d: Value, floor: Value, infinit
 ///
 /// # Safety
 /// `m` is valid for reads and writes of n² `f64`.
-pub(super) unsafe extern "C" fn lagrangian_ldlt(m: *mut f64, n: usize) -> i32 {
+pub(crate) unsafe extern "C" fn lagrangian_ldlt(m: *mut f64, n: usize) -> i32 {
     // SAFETY: by the caller's contract.
     let m = unsafe { std::slice::from_raw_parts_mut(m, n * n) };
     i32::from(crate::linalg::ldlt_in_place(m, n).is_err())

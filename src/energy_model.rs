@@ -2,10 +2,12 @@
 //! eq. 55 program derived on its expression graph when it has one
 //! ([`EnergyModel::with_program`]), otherwise from one fused derivative pass of T.
 
-use super::jet::{Chain, Jet, Lagrange};
-use super::{EomFunction, Function, Input};
-use crate::dynamics::check_lengths;
+use crate::checks::check_lengths;
+use crate::derived::eom_program::EomFunction;
 use crate::eom::Forces;
+use crate::program::compile::Input;
+use crate::program::eval::Function;
+use crate::program::jet::{self, Chain, Jet, Lagrange};
 use crate::{Dynamics, Error, KineticEnergy, Result, Scalar, Structure, System};
 
 /// The [`System`] of tape functions an [`EnergyModel`] wraps.
@@ -236,14 +238,14 @@ impl Dynamics for EnergyModel {
     #[inline]
     fn momenta_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
         if let Some(program) = &self.program
-            && super::jet::is::<D, f64>()
+            && jet::is::<D, f64>()
         {
             // SAFETY: D is f64 (same TypeId), so these are identity casts.
             let (t, q, qd, out) = unsafe {
                 (
-                    *super::jet::cast::<D, f64>(&t),
-                    super::jet::cast_slice::<D, f64>(q),
-                    super::jet::cast_slice::<D, f64>(qd),
+                    *jet::cast::<D, f64>(&t),
+                    jet::cast_slice::<D, f64>(q),
+                    jet::cast_slice::<D, f64>(qd),
                     &mut *(out as *mut [D] as *mut [f64]),
                 )
             };
@@ -257,13 +259,13 @@ impl Dynamics for EnergyModel {
     }
     #[inline]
     fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
-        if (self.program.is_some() || self.fused) && super::jet::is::<D, f64>() {
+        if (self.program.is_some() || self.fused) && jet::is::<D, f64>() {
             // SAFETY: D is f64 (same TypeId), so these are identity casts.
             let (t, q, qd) = unsafe {
                 (
-                    *super::jet::cast::<D, f64>(&t),
-                    super::jet::cast_slice::<D, f64>(q),
-                    super::jet::cast_slice::<D, f64>(qd),
+                    *jet::cast::<D, f64>(&t),
+                    jet::cast_slice::<D, f64>(q),
+                    jet::cast_slice::<D, f64>(qd),
                 )
             };
             let out = unsafe { &mut *(out as *mut [D] as *mut [f64]) };
@@ -294,9 +296,9 @@ impl Dynamics for EnergyModel {
         let Some(program) = &self.program else {
             return crate::dynamics::energy_from_parts(self, t, q, qd);
         };
-        crate::dynamics::check_state(self.dof(), t, q, Some(qd))?;
+        crate::checks::check_state(self.dof(), t, q, Some(qd))?;
         let h = program.energy(t, q, qd);
-        crate::dynamics::finite(&[h], "energy", t).map(|()| h)
+        crate::checks::finite(&[h], "energy", t).map(|()| h)
     }
 }
 

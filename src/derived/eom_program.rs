@@ -1,27 +1,31 @@
 //! Eq. 55 as one compiled program: the entries of M and the force vector f derived on the
-//! expression graph ([`derive`](super::derive)) and compiled into one [`Tape`], so that the
+//! expression graph ([`derive`](crate::expr::derive)) and compiled into one [`Tape`], so that the
 //! accelerations at an `f64` state are one plain-`f64` run of that tape and an LDLᵀ solve — no
 //! dual numbers, no pass of T per direction.
 //!
 //! With L = T − U,
 //! M_ij = ∂²T/∂q̇ᵢ∂q̇ⱼ and fᵢ = Q″ᵢ + ∂L/∂qᵢ − (∂²L/∂q̇ᵢ∂q) q̇ − ∂²L/∂q̇ᵢ∂t − ∂Φ/∂q̇ᵢ,
-//! where ∂T/∂q̇, ∂L/∂q and ∂Φ/∂q̇ are one reverse sweep each ([`gradient`](super::gradient)), M's
+//! where ∂T/∂q̇, ∂L/∂q and ∂Φ/∂q̇ are one reverse sweep each ([`gradient`](crate::expr::derive::gradient)), M's
 //! columns one tangent sweep each, and the two mixed terms one tangent sweep of pᵢ = ∂T/∂q̇ᵢ along (q, t) ↦ (q̇, 1). Only
 //! what the model has is built: no Φ, no Q″, no t — nothing for them. The tape's outputs are M's
 //! upper triangle row by row, then f; the tape is what a native-code backend compiles, with the
 //! constants of [`EomFunction::constants`].
 
-use super::derive::{POSITION, Seeds, Simplify, TIME, VELOCITY, Wrt, gradient, reads, tangents};
-use super::jet::Num;
-use super::taylor::TaylorProgram;
-use super::{Function, Graph, Input, Inputs, Tape};
-use crate::dynamics::check_lengths;
+use crate::checks::check_lengths;
 use crate::eom;
 use crate::error::{Error, Result};
+use crate::expr::derive::{
+    POSITION, Seeds, Simplify, TIME, VELOCITY, Wrt, gradient, reads, tangents,
+};
+use crate::expr::graph::Graph;
 #[cfg(feature = "jit")]
 use crate::linalg::pivots_hold;
 use crate::linalg::{FactorFailure, ldlt_in_place};
+use crate::program::compile::{Input, Inputs, Tape};
+use crate::program::eval::Function;
+use crate::program::jet::Num;
 use crate::scalar::{Scalar, with_buf};
+use crate::taylor::TaylorProgram;
 use std::sync::Arc;
 
 /// The energies of a model as nodes of one [`Graph`]: T, and optionally U, Rayleigh's Φ and Q″
@@ -401,7 +405,7 @@ fn columns(graph: &mut Graph, n: usize, roots: &[usize]) -> Result<Vec<usize>> {
 struct Part {
     tape: Arc<Tape>,
     #[cfg(feature = "jit")]
-    native: Option<Arc<super::NativeTape>>,
+    native: Option<Arc<crate::native::tape::NativeTape>>,
 }
 
 impl Part {
@@ -420,7 +424,9 @@ impl Part {
         Self {
             // Any failure of Cranelift leaves the interpreter.
             #[cfg(feature = "jit")]
-            native: super::NativeTape::compile(&tape).ok().map(Arc::new),
+            native: crate::native::tape::NativeTape::compile(&tape)
+                .ok()
+                .map(Arc::new),
             tape: tape.into(),
         }
     }
@@ -453,7 +459,7 @@ impl Part {
 struct BoundPart {
     function: Function,
     #[cfg(feature = "jit")]
-    native: Option<Arc<super::NativeTape>>,
+    native: Option<Arc<crate::native::tape::NativeTape>>,
 }
 
 impl BoundPart {
@@ -479,7 +485,7 @@ pub struct EomProgram {
     /// The tape as machine code (feature `jit`); `None` where it could not be compiled, and
     /// then the interpreter runs it (same results, bit for bit).
     #[cfg(feature = "jit")]
-    native: Option<Arc<super::NativeTape>>,
+    native: Option<Arc<crate::native::tape::NativeTape>>,
     /// The momenta p = ∂L/∂q̇.
     momenta: Part,
     /// The energy function h = q̇·p − L, which `simulate` reports at every output step.
@@ -551,7 +557,7 @@ impl EomProgram {
             momenta,
             energy,
             qp_form,
-            taylor: Arc::new(TaylorProgram::new(graph, eom)),
+            taylor: Arc::new(TaylorProgram::new(graph, eom.dof, &eom.mass, &eom.force)),
             #[cfg(feature = "jit")]
             qp_jacobian: None,
             #[cfg(feature = "jit")]

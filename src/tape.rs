@@ -71,35 +71,17 @@
 //! # Ok::<(), lagrangian::Error>(())
 //! ```
 
-mod analysis;
-mod compile;
-mod derive;
-mod energy;
-mod eom_program;
-mod eval;
-mod graph;
-mod ins;
-mod jet;
-pub mod models;
+pub use crate::derived::eom_program::{
+    Energies, EomFunction, EomGraph, EomProgram, eom_graph, particle_kinetic,
+};
+pub use crate::derived::models;
+pub use crate::energy_model::{EnergyModel, TapeSystem};
+pub use crate::expr::derive::{Seeds, Wrt, gradient, tangent, tangents};
+pub use crate::expr::graph::{Binary, Graph, Node, Unary};
 #[cfg(feature = "jit")]
-mod native;
-mod particles;
-mod sensitivity;
-mod taylor;
-#[cfg(feature = "jit")]
-mod taylor_native;
-
-use compile::Input;
-pub use compile::{Inputs, Tape};
-pub use derive::{Seeds, Wrt, gradient, tangent, tangents};
-pub use energy::{EnergyModel, TapeSystem};
-pub use eom_program::{Energies, EomFunction, EomGraph, EomProgram, eom_graph, particle_kinetic};
-pub use eval::Function;
-pub use graph::{Binary, Graph, Node, Unary};
-#[cfg(feature = "jit")]
-pub use native::{NativeFunction, NativeTape};
-pub use particles::TapeParticles;
-pub use sensitivity::input_matrix;
-#[cfg(feature = "jit")]
-pub(crate) use taylor::RowEnd;
-pub use taylor::{Expansion, MAX_TAYLOR_ORDER, StepRule, TaylorProgram};
+pub use crate::native::tape::{NativeFunction, NativeTape};
+pub use crate::program::compile::{Inputs, Tape};
+pub use crate::program::eval::Function;
+pub use crate::sensitivity::input_matrix;
+pub use crate::tape_particles::TapeParticles;
+pub use crate::taylor::{Expansion, MAX_TAYLOR_ORDER, StepRule, TaylorProgram};

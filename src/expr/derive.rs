@@ -11,7 +11,7 @@
 //!
 //! |x| has the derivative x/|x|·ẋ, which is not finite at x = 0 (the graph has no sign function).
 
-use super::{Binary, Graph, Node, Unary};
+use super::graph::{Binary, Graph, Node, Unary};
 use crate::error::Result;
 
 /// The tangents of the inputs for one sweep; inputs without a seed have tangent zero.
@@ -226,7 +226,7 @@ pub fn gradient(
 /// Node construction with the simplifications of a derivative: 0·x = 0, 1·x = x, x ± 0 = x,
 /// −(−x) = x, operations on numbers folded, and operands of + and · in a canonical order so that
 /// a + b and b + a are one node.
-pub(super) struct Simplify<'g>(pub(super) &'g mut Graph);
+pub(crate) struct Simplify<'g>(pub(crate) &'g mut Graph);
 
 impl Simplify<'_> {
     fn num(&self, i: usize) -> Option<f64> {
@@ -245,7 +245,7 @@ impl Simplify<'_> {
         x.is_finite().then(|| self.0.constant(x))
     }
 
-    pub(super) fn add(&mut self, a: usize, b: usize) -> Result<usize> {
+    pub(crate) fn add(&mut self, a: usize, b: usize) -> Result<usize> {
         if self.is(a, 0.0) {
             return Ok(b);
         }
@@ -281,7 +281,7 @@ impl Simplify<'_> {
         }
     }
 
-    pub(super) fn sub(&mut self, a: usize, b: usize) -> Result<usize> {
+    pub(crate) fn sub(&mut self, a: usize, b: usize) -> Result<usize> {
         if self.is(b, 0.0) {
             return Ok(a);
         }
@@ -303,7 +303,7 @@ impl Simplify<'_> {
         self.0.binary(Binary::Sub, a, b)
     }
 
-    pub(super) fn mul(&mut self, a: usize, b: usize) -> Result<usize> {
+    pub(crate) fn mul(&mut self, a: usize, b: usize) -> Result<usize> {
         if self.is(a, 0.0) || self.is(b, 0.0) {
             return Ok(self.0.constant(0.0));
         }
@@ -327,7 +327,7 @@ impl Simplify<'_> {
         self.0.binary(Binary::Mul, a.min(b), a.max(b))
     }
 
-    pub(super) fn div(&mut self, a: usize, b: usize) -> Result<usize> {
+    pub(crate) fn div(&mut self, a: usize, b: usize) -> Result<usize> {
         if self.is(a, 0.0) {
             return Ok(self.0.constant(0.0));
         }
@@ -345,7 +345,7 @@ impl Simplify<'_> {
         self.0.binary(Binary::Div, a, b)
     }
 
-    pub(super) fn neg(&mut self, a: usize) -> Result<usize> {
+    pub(crate) fn neg(&mut self, a: usize) -> Result<usize> {
         match self.0.nodes()[a] {
             Node::Const(x) => Ok(self.0.constant(-x)),
             Node::Unary(Unary::Neg, x) => Ok(x),
@@ -532,7 +532,7 @@ impl Simplify<'_> {
     }
 
     /// `a + b` with `None` for zero.
-    pub(super) fn sum(&mut self, a: Option<usize>, b: Option<usize>) -> Result<Option<usize>> {
+    pub(crate) fn sum(&mut self, a: Option<usize>, b: Option<usize>) -> Result<Option<usize>> {
         Ok(match (a, b) {
             (Some(x), Some(z)) => Some(self.add(x, z)?),
             (x, z) => x.or(z),
@@ -540,7 +540,7 @@ impl Simplify<'_> {
     }
 
     /// `a − b` with `None` for zero.
-    pub(super) fn diff(&mut self, a: Option<usize>, b: Option<usize>) -> Result<Option<usize>> {
+    pub(crate) fn diff(&mut self, a: Option<usize>, b: Option<usize>) -> Result<Option<usize>> {
         Ok(match (a, b) {
             (Some(x), Some(z)) => Some(self.sub(x, z)?),
             (x, None) => x,
@@ -550,7 +550,7 @@ impl Simplify<'_> {
 }
 
 /// What each node reads, as bits: [`TIME`], [`POSITION`], [`VELOCITY`].
-pub(super) fn reads(graph: &Graph) -> Vec<u8> {
+pub(crate) fn reads(graph: &Graph) -> Vec<u8> {
     let nodes = graph.nodes();
     let mut r = vec![0u8; nodes.len()];
     for (i, node) in nodes.iter().enumerate() {
@@ -567,11 +567,11 @@ pub(super) fn reads(graph: &Graph) -> Vec<u8> {
 }
 
 /// A node reads t.
-pub(super) const TIME: u8 = 1;
+pub(crate) const TIME: u8 = 1;
 /// A node reads a coordinate.
-pub(super) const POSITION: u8 = 2;
+pub(crate) const POSITION: u8 = 2;
 /// A node reads a velocity.
-pub(super) const VELOCITY: u8 = 4;
+pub(crate) const VELOCITY: u8 = 4;
 
 #[cfg(test)]
 mod tests {

@@ -6,24 +6,25 @@
 //! constant quadratic coefficients (then M = ∂²T/∂q̇² is constant and factored once). The
 //! analysis is conservative: m l² (cos²θ + sin²θ) θ̇² is reported as not constant.
 
-use super::{Binary, Inputs, Node, Unary};
+use super::compile::Inputs;
 use crate::error::{Error, Result};
+use crate::expr::graph::{Binary, Node, Unary};
 
 /// Structure read off a compiled expression.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) struct Flags {
-    pub(super) time: bool,
-    pub(super) position: bool,
-    pub(super) velocity: bool,
+pub(crate) struct Flags {
+    pub(crate) time: bool,
+    pub(crate) position: bool,
+    pub(crate) velocity: bool,
     /// A polynomial of degree ≤ 2 in q̇ whose quadratic coefficients are constant.
-    pub(super) constant_hessian: bool,
+    pub(crate) constant_hessian: bool,
 }
 
 /// The result of [`analyse`].
-pub(super) struct Analysis {
-    pub(super) flags: Flags,
+pub(crate) struct Analysis {
+    pub(crate) flags: Flags,
     /// Per node: whether it is a function of numbers and parameters only.
-    pub(super) is_const: Vec<bool>,
+    pub(crate) is_const: Vec<bool>,
 }
 
 /// The shape of a node as a polynomial in q̇: for each degree 0, 1, 2 whether such terms exist
@@ -79,7 +80,7 @@ fn poly_scalar(a: Poly) -> Option<bool> {
 ///
 /// # Errors
 /// [`Error::InvalidInput`] when a live node reads something `inputs` does not allow.
-pub(super) fn analyse(
+pub(crate) fn analyse(
     nodes: &[Node],
     live: &[bool],
     outputs: &[usize],

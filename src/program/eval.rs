@@ -3,8 +3,7 @@
 //! evaluated as plain-array jets (`jet.rs`) — and [`Function`], a tape bound to parameter values,
 //! which is a kinetic energy, potential, dissipation function or set of generalized forces.
 
-use super::Tape;
-use super::compile::{ConstOp, Input, Out};
+use super::compile::{ConstOp, Input, Out, Tape};
 use super::ins::step;
 use super::jet::{self, Arith, Convert, First, Jet, Num, Second};
 use crate::eom::passes::CHUNK;
@@ -40,7 +39,7 @@ pass_chunks!(assert_pass_chunks);
 
 impl Tape {
     /// Run the constant program on parameter values.
-    pub(super) fn constants(&self, params: &[f64]) -> Result<Vec<f64>> {
+    pub(crate) fn constants(&self, params: &[f64]) -> Result<Vec<f64>> {
         if params.len() != self.inputs.params {
             return Err(Error::DimensionMismatch {
                 what: "parameters",
@@ -82,7 +81,7 @@ impl Tape {
     /// `pass_chunks!`) are evaluated as plain-array jets (see [`jet`]); every other scalar
     /// with its own arithmetic.
     #[inline]
-    pub(super) fn eval<D: Scalar>(
+    pub(crate) fn eval<D: Scalar>(
         &self,
         consts: &[f64],
         t: D,
@@ -165,7 +164,7 @@ impl Tape {
     /// # Panics
     /// If `consts` are not this tape's constants.
     #[inline(always)]
-    pub(super) fn run<A: Arith>(
+    pub(crate) fn run<A: Arith>(
         &self,
         consts: &[f64],
         input: impl Fn(Input) -> A,
@@ -200,7 +199,7 @@ impl Tape {
 /// Which path each evaluation took (tests only): the scalar types that fell back to the generic
 /// path although they carry derivative parts as `Option`s, and the number of jet evaluations.
 #[cfg(test)]
-pub(super) mod path {
+pub(crate) mod path {
     use num_dual::{Dual2_64, Dual64};
     use std::cell::RefCell;
 
@@ -215,7 +214,7 @@ pub(super) mod path {
             || super::jet::is::<D, Dual2_64>()
     }
 
-    pub(in crate::tape) fn record<D: 'static>(jet: bool) {
+    pub(crate) fn record<D: 'static>(jet: bool) {
         SEEN.with(|s| {
             let mut s = s.borrow_mut();
             if jet {
@@ -230,7 +229,7 @@ pub(super) mod path {
     }
 
     /// The fallbacks and jet evaluations recorded on this thread since the last call.
-    pub(in crate::tape) fn take() -> (Vec<&'static str>, usize) {
+    pub(crate) fn take() -> (Vec<&'static str>, usize) {
         SEEN.with(|s| std::mem::take(&mut *s.borrow_mut()))
     }
 }
@@ -244,8 +243,8 @@ pub(super) mod path {
 /// tape.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Function {
-    pub(super) tape: Arc<Tape>,
-    pub(super) consts: Arc<[f64]>,
+    pub(crate) tape: Arc<Tape>,
+    pub(crate) consts: Arc<[f64]>,
 }
 
 impl Function {
@@ -393,8 +392,11 @@ impl GeneralizedForces for Option<Function> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{Binary, EnergyModel, Graph, Inputs, TapeParticles, Unary};
     use super::*;
+    use crate::energy_model::EnergyModel;
+    use crate::expr::graph::{Binary, Graph, Unary};
+    use crate::program::compile::Inputs;
+    use crate::tape_particles::TapeParticles;
     use crate::{Dynamics, ParticleSystem};
     use approx::assert_relative_eq;
     use num_dual::Dual64;

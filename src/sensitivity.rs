@@ -6,7 +6,11 @@
 //! evaluated at the operating point and solved with M there. A parameter may enter anywhere: a
 //! generalized force, the potential, or M itself (a mass).
 
-use super::{Energies, Function, Graph, Inputs, Seeds, Tape, eom_graph, tangents};
+use crate::derived::eom_program::{Energies, eom_graph};
+use crate::expr::derive::{Seeds, tangents};
+use crate::expr::graph::Graph;
+use crate::program::compile::{Inputs, Tape};
+use crate::program::eval::Function;
 use crate::{Error, Linearization, Result};
 use nalgebra::DMatrix;
 use std::sync::Arc;

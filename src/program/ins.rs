@@ -14,13 +14,13 @@
 //! says so.
 
 use super::jet::Arith;
-use super::{Binary, Unary};
 #[cfg(feature = "jit")]
 use crate::error::Result;
+use crate::expr::graph::{Binary, Unary};
 
 /// What an instruction computes, before slots are assigned.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) enum Op {
+pub(crate) enum Op {
     Un(Unary),
     Sqr,
     PowI(i32),
@@ -64,7 +64,7 @@ macro_rules! instruction_set {
         /// One instruction over slots: destination first, then operand slots or constant
         /// indices (see the module docs for the accumulator forms).
         #[derive(Debug, Clone, Copy, PartialEq)]
-        pub(super) enum Ins {
+        pub(crate) enum Ins {
             $($u(u32, u32), $ua(u32),)*
             $($c(u32, u32, u32), $ca(u32, u32), $cc(u32, u32, u32), $cca(u32, u32),)*
             $(
@@ -82,7 +82,7 @@ macro_rules! instruction_set {
         /// The instruction for `op` writing slot(s) `d`, reading operand slots `a`, `b`, with
         /// the operand equal to the accumulator (if any) read from it: `from_acc` is 1 for the
         /// first operand, 2 for the second, 0 for none.
-        pub(super) fn lower(op: Op, d: [u32; 2], a: u32, b: u32, from_acc: u8) -> Ins {
+        pub(crate) fn lower(op: Op, d: [u32; 2], a: u32, b: u32, from_acc: u8) -> Ins {
             let d0 = d[0];
             match (op, from_acc) {
                 $(
@@ -120,7 +120,7 @@ macro_rules! instruction_set {
 
         /// One instruction on the slots `s` with the constants `c`.
         #[inline(always)]
-        pub(super) fn step<A: Arith>(ins: &Ins, c: &[f64], s: &mut [A], acc: &mut A) {
+        pub(crate) fn step<A: Arith>(ins: &Ins, c: &[f64], s: &mut [A], acc: &mut A) {
             // SAFETY (every `get_unchecked`, here and in `put!`): `Tape::new` gives every slot
             // an index below the tape's slot count and every constant an index below its
             // constant program's length; `Tape::run` hands `step` a buffer of that many slots
@@ -168,7 +168,7 @@ macro_rules! instruction_set {
         /// Lower one instruction through `e` (native code, `native.rs`): the same table as
         /// [`step`], with the arithmetic of [`Emit`] instead of [`Arith`].
         #[cfg(feature = "jit")]
-        pub(super) fn emit<E: Emit>(ins: &Ins, e: &mut E) -> Result<()> {
+        pub(crate) fn emit<E: Emit>(ins: &Ins, e: &mut E) -> Result<()> {
             match *ins {
                 $(
                     Ins::$u(d, a) => {
@@ -282,7 +282,7 @@ macro_rules! instruction_set {
 /// `V` of the generated code, with constants as values too, and the reads and writes of slots,
 /// constants and the accumulator, each checked (an error, not a panic, for a malformed tape).
 #[cfg(feature = "jit")]
-pub(super) trait Emit {
+pub(crate) trait Emit {
     type V: Copy;
     /// The value in slot `i`.
     fn slot(&mut self, i: u32) -> Result<Self::V>;

@@ -1,8 +1,8 @@
 //! [`TapeParticles`]: point masses whose positions are a tape, the particle route for models
 //! stated at run time.
 
-use super::Function;
 use crate::error::{Error, Result};
+use crate::program::eval::Function;
 use crate::{Particles, Scalar};
 
 /// Point masses whose positions are a tape: the particle route for models stated at run time.

@@ -280,14 +280,14 @@ impl Graph {
     }
 
     /// The index of `node` if the graph holds it (as stored: no rewriting of powers).
-    pub(super) fn find(&self, node: Node) -> Option<usize> {
+    pub(crate) fn find(&self, node: Node) -> Option<usize> {
         self.index.get(&Key(node)).copied()
     }
 }
 
 impl Unary {
     /// The function on a number (the constant program's arithmetic).
-    pub(super) fn apply(self, x: f64) -> f64 {
+    pub(crate) fn apply(self, x: f64) -> f64 {
         match self {
             Unary::Neg => -x,
             Unary::Sin => x.sin(),
@@ -307,7 +307,7 @@ impl Unary {
 
 impl Binary {
     /// The function on numbers (the constant program's arithmetic).
-    pub(super) fn apply(self, a: f64, b: f64) -> f64 {
+    pub(crate) fn apply(self, a: f64, b: f64) -> f64 {
         match self {
             Binary::Add => a + b,
             Binary::Sub => a - b,
@@ -321,7 +321,7 @@ impl Binary {
 
 /// [`Unary::Sign`] on a number.
 #[inline(always)]
-pub(super) fn sign(x: f64) -> f64 {
+pub(crate) fn sign(x: f64) -> f64 {
     if x > 0.0 { 1.0 } else { -1.0 }
 }
 

@@ -21,8 +21,9 @@
 //! # Ok::<(), lagrangian::Error>(())
 //! ```
 
-use super::{Binary, Energies, Graph, Unary};
+use super::eom_program::Energies;
 use crate::error::Result;
+use crate::expr::graph::{Binary, Graph, Unary};
 
 /// The double pendulum in its textbook form, parameters (m₁, m₂, l₁, l₂, g):
 /// T = ½ (m₁ + m₂) l₁² θ̇₁² + ½ m₂ l₂² θ̇₂² + m₂ l₁ l₂ θ̇₁ θ̇₂ cos(θ₁ − θ₂),

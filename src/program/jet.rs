@@ -20,7 +20,7 @@ use num_dual::{Derivative, DualSVec64, HyperDualVec64};
 use std::any::TypeId;
 
 /// The operations of a tape instruction.
-pub(super) trait Arith: Copy {
+pub(crate) trait Arith: Copy {
     fn cst(x: f64) -> Self;
     fn zero() -> Self {
         Self::cst(0.0)
@@ -53,7 +53,7 @@ pub(super) trait Arith: Copy {
     fn cosh(self) -> Self;
     fn tanh(self) -> Self;
     fn abs(self) -> Self;
-    /// [`Unary::Sign`](super::Unary::Sign): a step, so its derivatives are zero.
+    /// [`Unary::Sign`](crate::expr::graph::Unary::Sign): a step, so its derivatives are zero.
     fn sign(self) -> Self;
     fn sqr(self) -> Self;
     fn powi(self, n: i32) -> Self;
@@ -96,7 +96,7 @@ fn tanh<D: Scalar>(x: D) -> D {
 /// Any [`Scalar`], evaluated with its own (num-dual) arithmetic.
 #[derive(Debug, Clone, Copy)]
 #[repr(transparent)]
-pub(super) struct Num<D>(pub(super) D);
+pub(crate) struct Num<D>(pub(crate) D);
 
 impl<D: Scalar> Arith for Num<D> {
     #[inline(always)]
@@ -218,7 +218,7 @@ impl<D: Scalar> Arith for Num<D> {
     }
     #[inline(always)]
     fn sign(self) -> Self {
-        Num(D::from(super::graph::sign(self.0.re())))
+        Num(D::from(crate::expr::graph::sign(self.0.re())))
     }
     #[inline(always)]
     fn sqr(self) -> Self {
@@ -231,7 +231,7 @@ impl<D: Scalar> Arith for Num<D> {
 }
 
 /// A truncated Taylor expansion to which the chain rule applies: the jets below.
-pub(super) trait Chain: Copy {
+pub(crate) trait Chain: Copy {
     fn re(&self) -> f64;
     fn cst(x: f64) -> Self;
     /// f(self) from f and its first two derivatives at the real part.
@@ -248,9 +248,9 @@ pub(super) trait Chain: Copy {
 
 /// First derivatives in `K` directions: `DualSVec64<K>` without the `Option`.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct First<const K: usize> {
-    pub(super) re: f64,
-    pub(super) e: [f64; K],
+pub(crate) struct First<const K: usize> {
+    pub(crate) re: f64,
+    pub(crate) e: [f64; K],
 }
 
 impl<const K: usize> Chain for First<K> {
@@ -316,11 +316,11 @@ impl<const K: usize> Chain for First<K> {
 /// First derivatives in `M` and `N` directions and the mixed second derivatives:
 /// `HyperDualSVec64<M, N>` without the `Option`s.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct Second<const M: usize, const N: usize> {
-    pub(super) re: f64,
-    pub(super) e1: [f64; M],
-    pub(super) e2: [f64; N],
-    pub(super) e12: [[f64; N]; M],
+pub(crate) struct Second<const M: usize, const N: usize> {
+    pub(crate) re: f64,
+    pub(crate) e1: [f64; M],
+    pub(crate) e2: [f64; N],
+    pub(crate) e12: [[f64; N]; M],
 }
 
 impl<const M: usize, const N: usize> Chain for Second<M, N> {
@@ -421,9 +421,9 @@ impl<const M: usize, const N: usize> Chain for Second<M, N> {
 /// and second directions (q̇, the motion (q̇, 1) in (q, t)) gives M and the mixed terms, and the
 /// first-order part `g` in the directions q gives ∂T/∂q.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct Lagrange<const N: usize, const N1: usize> {
-    pub(super) s: Second<N, N1>,
-    pub(super) g: [f64; N],
+pub(crate) struct Lagrange<const N: usize, const N1: usize> {
+    pub(crate) s: Second<N, N1>,
+    pub(crate) g: [f64; N],
 }
 
 impl<const N: usize, const N1: usize> Chain for Lagrange<N, N1> {
@@ -492,7 +492,7 @@ impl<const N: usize, const N1: usize> Chain for Lagrange<N, N1> {
 /// Jets get the tape's arithmetic from the chain rule.
 #[derive(Debug, Clone, Copy)]
 #[repr(transparent)]
-pub(super) struct Jet<J>(pub(super) J);
+pub(crate) struct Jet<J>(pub(crate) J);
 
 impl<J: Chain> Arith for Jet<J> {
     #[inline(always)]
@@ -691,7 +691,7 @@ impl<J: Chain> Arith for Jet<J> {
     }
     #[inline(always)]
     fn sign(self) -> Self {
-        Jet(J::cst(super::graph::sign(self.0.re())))
+        Jet(J::cst(crate::expr::graph::sign(self.0.re())))
     }
     #[inline(always)]
     fn sqr(self) -> Self {
@@ -715,7 +715,7 @@ impl<J: Chain> Arith for Jet<J> {
 }
 
 /// Conversions between a num-dual type and its jet.
-pub(super) trait Convert<D>: Arith {
+pub(crate) trait Convert<D>: Arith {
     fn from_dual(x: &D) -> Self;
     fn into_dual(self) -> D;
 }
@@ -773,7 +773,7 @@ impl<const M: usize, const N: usize> Convert<HyperDualVec64<Const<M>, Const<N>>>
 
 /// Whether `D` is exactly `T`.
 #[inline(always)]
-pub(super) fn is<D: 'static, T: 'static>() -> bool {
+pub(crate) fn is<D: 'static, T: 'static>() -> bool {
     TypeId::of::<D>() == TypeId::of::<T>()
 }
 
@@ -782,7 +782,7 @@ pub(super) fn is<D: 'static, T: 'static>() -> bool {
 /// # Safety
 /// `D` and `T` must be the same type.
 #[inline(always)]
-pub(super) unsafe fn cast<D, T>(x: &D) -> &T {
+pub(crate) unsafe fn cast<D, T>(x: &D) -> &T {
     // SAFETY: the caller guarantees D == T.
     unsafe { &*(x as *const D as *const T) }
 }
@@ -792,7 +792,7 @@ pub(super) unsafe fn cast<D, T>(x: &D) -> &T {
 /// # Safety
 /// `D` and `T` must be the same type.
 #[inline(always)]
-pub(super) unsafe fn cast_slice<D, T>(x: &[D]) -> &[T] {
+pub(crate) unsafe fn cast_slice<D, T>(x: &[D]) -> &[T] {
     // SAFETY: the caller guarantees D == T.
     unsafe { &*(x as *const [D] as *const [T]) }
 }
@@ -802,7 +802,7 @@ pub(super) unsafe fn cast_slice<D, T>(x: &[D]) -> &[T] {
 /// # Safety
 /// `D` and `T` must be the same type.
 #[inline(always)]
-pub(super) unsafe fn uncast<T, D>(x: T) -> D {
+pub(crate) unsafe fn uncast<T, D>(x: T) -> D {
     let x = std::mem::ManuallyDrop::new(x);
     // SAFETY: the caller guarantees D == T, so the bits are a valid D; `x` is not dropped twice.
     unsafe { std::mem::transmute_copy::<T, D>(&x) }

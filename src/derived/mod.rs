@@ -1,0 +1,11 @@
+//! Eq. 55 derived on the expression graph and compiled: `eom_program.rs` ([`EomGraph`] — M's
+//! entries and one force vector as nodes — [`EomProgram`] and its bound [`EomFunction`], which
+//! owns the Taylor program of the same M and f), and `models.rs` (ready-made graphs of a few
+//! systems). It sits above the Taylor lowering, which it hands M's and f's nodes.
+//!
+//! [`EomGraph`]: eom_program::EomGraph
+//! [`EomProgram`]: eom_program::EomProgram
+//! [`EomFunction`]: eom_program::EomFunction
+
+pub(crate) mod eom_program;
+pub mod models;
