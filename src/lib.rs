@@ -55,6 +55,8 @@ mod system;
 pub mod tape;
 mod tape_particles;
 mod taylor;
+#[cfg(test)]
+mod tests;
 
 pub use dynamics::{Dynamics, Structure};
 pub use error::{Error, Result};

@@ -1,4 +1,4 @@
-//! The Taylor recurrences ([`Op`]) as machine code (feature `jit`), in two forms.
+//! The Taylor recurrences ([`SeriesOp`]) as machine code (feature `jit`), in two forms.
 //!
 //! - [`ExpansionKernel`]: for a small program, the whole expansion to one order p — every
 //!   order's recurrences, fₖ − Σⱼ Mⱼ q̈ₖ₋ⱼ, the solve with M₀ and the coefficients of q and q̇
@@ -9,13 +9,15 @@
 //!   programs) or a call of the interpreter's own sum (large ones, [`INLINE_UP_TO`]), so the
 //!   code grows with the graph and not with the order.
 //!
-//! The operations and their order are those of [`Op::apply`] and `Expansion::expand` (the same
+//! The operations and their order are those of [`SeriesOp::apply`] and `Expansion::expand` (the same
 //! four lanes per sum, no fused multiply–add), so the coefficients are bit-identical to the
 //! interpreter's, which stays the fallback and the reference. Safety by construction: every row
 //! an operation reads or writes is checked against the table's row count before any code is
 //! emitted, and the kernels' `run` check the buffers' lengths, the width and the order.
 
-use super::{LANES, Op, TaylorProgram, fresh_ends};
+use super::abi::{Buffers, KernelStatus, StepArgs, StepControl};
+use super::lower::Recurrences;
+use super::series::{LANES, SeriesOp, fresh_ends};
 use crate::native::{BACKTRACKING_UP_TO, Code, declare, enter, fail, jit_module, link};
 
 use crate::error::Result;
@@ -31,7 +33,10 @@ use std::collections::{HashMap, HashSet};
 /// The Taylor kernels' own functions, handed to the code generator by name.
 fn symbols() -> [(&'static str, *const u8); 2] {
     [
-        ("lagrangian_conv", super::lagrangian_conv as *const u8),
+        (
+            "lagrangian_conv",
+            super::series::lagrangian_conv as *const u8,
+        ),
         ("lagrangian_ldlt", lagrangian_ldlt as *const u8),
     ]
 }
@@ -48,7 +53,7 @@ const INLINE_UP_TO: usize = 400;
 /// The compiled function: order k, row width w, the table.
 type Entry = unsafe extern "C" fn(i64, i64, *mut f64);
 
-/// The recurrences of one [`TaylorProgram`](super::TaylorProgram) as machine code.
+/// The recurrences of one [`Recurrences`](super::Recurrences) as machine code.
 pub(crate) struct SeriesKernel {
     code: Code<Entry>,
     rows: usize,
@@ -63,25 +68,25 @@ impl std::fmt::Debug for SeriesKernel {
 }
 
 /// Every row an operation reads or writes.
-fn rows_of(op: &Op) -> Vec<usize> {
+fn rows_of(op: &SeriesOp) -> Vec<usize> {
     match *op {
-        Op::Copy { out, a }
-        | Op::Neg { out, a }
-        | Op::Exp { out, a }
-        | Op::Ln { out, a }
-        | Op::Sqrt { out, a }
-        | Op::Abs { out, a }
-        | Op::Sign { out, a }
-        | Op::Square { out, a } => vec![out, a],
-        Op::Recip { out, b } => vec![out, b],
-        Op::Add { out, a, b }
-        | Op::Sub { out, a, b }
-        | Op::Mul { out, a, b }
-        | Op::Div { out, a, b } => vec![out, a, b],
-        Op::Scale { out, a, c } | Op::DivC { out, a, c } => vec![out, a, c],
-        Op::SinCos { s, c, a, da, .. } => [s, c, a].into_iter().chain(da).collect(),
-        Op::Tan { out, w, a, .. } => vec![out, w, a],
-        Op::Atan2 { out, y, x, d, r } => vec![out, y, x, d, r],
+        SeriesOp::Copy { out, a }
+        | SeriesOp::Neg { out, a }
+        | SeriesOp::Exp { out, a }
+        | SeriesOp::Ln { out, a }
+        | SeriesOp::Sqrt { out, a }
+        | SeriesOp::Abs { out, a }
+        | SeriesOp::Sign { out, a }
+        | SeriesOp::Square { out, a } => vec![out, a],
+        SeriesOp::Recip { out, b } => vec![out, b],
+        SeriesOp::Add { out, a, b }
+        | SeriesOp::Sub { out, a, b }
+        | SeriesOp::Mul { out, a, b }
+        | SeriesOp::Div { out, a, b } => vec![out, a, b],
+        SeriesOp::Scale { out, a, c } | SeriesOp::DivC { out, a, c } => vec![out, a, c],
+        SeriesOp::SinCos { s, c, a, da, .. } => [s, c, a].into_iter().chain(da).collect(),
+        SeriesOp::Tan { out, w, a, .. } => vec![out, w, a],
+        SeriesOp::Atan2 { out, y, x, d, r } => vec![out, y, x, d, r],
     }
 }
 
@@ -91,7 +96,7 @@ impl SeriesKernel {
     /// # Errors
     /// [`Error::InvalidInput`](crate::Error::InvalidInput) when a row is out of range, Cranelift
     /// has no backend for the host or fails: the interpreter runs the recurrences instead.
-    pub(crate) fn compile(ops: &[Op], rows: usize) -> Result<Self> {
+    pub(crate) fn compile(ops: &[SeriesOp], rows: usize) -> Result<Self> {
         if let Some(r) = ops.iter().flat_map(rows_of).find(|&r| r >= rows) {
             return Err(fail(format!("row {r} of a table of {rows}")));
         }
@@ -123,7 +128,7 @@ impl SeriesKernel {
 }
 
 /// Generate, compile and link the recurrences for any order (k and w read at run time).
-fn define(module: &mut JITModule, ops: &[Op], inline: bool) -> Result<Entry> {
+fn define(module: &mut JITModule, ops: &[SeriesOp], inline: bool) -> Result<Entry> {
     let config = module.target_config();
     let ptr = config.pointer_type();
     let (id, mut ctx) = declare(module, "series", &[types::I64, types::I64, ptr])?;
@@ -165,7 +170,7 @@ fn define(module: &mut JITModule, ops: &[Op], inline: bool) -> Result<Entry> {
 }
 
 /// Programs whose whole expansion ([`ExpansionKernel`]) comes to at most this many instructions
-/// (estimated by [`TaylorProgram::expansion_instructions`]) may get it compiled, unrolled;
+/// (estimated by [`Recurrences::expansion_instructions`]) may get it compiled, unrolled;
 /// larger ones run the recurrences of [`SeriesKernel`] order by order, with the rest of the
 /// expansion in Rust.
 /// Compilation grows faster than the program (2-core machine, release, 2026-11-27): about
@@ -192,7 +197,7 @@ pub(crate) const UNROLL_AFTER: usize = 10_000;
 /// coordinate i at k·n + i), of q̈ (coordinate i's order k at i·w + k), M₀ factored, the work
 /// space of reversed series ([`ExpansionKernel::reversed_len`]); then, for a step (a null
 /// `StepControl` for the expansion alone), the step's control, the state y, the compensation
-/// and the new state. It returns a [`Status`].
+/// and the new state. It returns a [`KernelStatus`].
 type ExpansionEntry = unsafe extern "C" fn(
     *mut f64,
     *mut f64,
@@ -212,7 +217,7 @@ type Order0Entry = unsafe extern "C" fn(*mut f64, *const f64, *const f64, *mut f
 
 /// The entry of an [`ExpansionKernel`]'s row of steps ([`ExpansionKernel::steps`]): the
 /// arguments of [`ExpansionEntry`] (M₀'s factor written, y read and written), then the most
-/// steps to take and where to write how many were taken. It returns the [`Status`] of the step
+/// steps to take and where to write how many were taken. It returns the [`KernelStatus`] of the step
 /// that ended the row.
 type StepsEntry = unsafe extern "C" fn(
     *mut f64,
@@ -237,55 +242,7 @@ struct Entries {
     steps: StepsEntry,
 }
 
-/// What a step needs besides the expansion and the state, read and written by the compiled
-/// step ([`ExpansionKernel::step`]) at the offsets of this layout: the rule of
-/// `Expansion::step`, then its outcome.
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Default)]
-pub(crate) struct StepControl {
-    /// The time of the state.
-    pub t: f64,
-    pub rule: super::StepRule,
-    /// Written: the time the step reaches.
-    pub t_new: f64,
-    /// Written: the step size refused as too small.
-    pub h: f64,
-}
-
-/// What the compiled expansion returns.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Status {
-    /// The expansion alone, done.
-    Expanded = 0,
-    /// A step, taken (`last`: to t_end).
-    Step = 1,
-    Last = 2,
-    /// A coefficient of q̈ is not finite.
-    Coefficient = 3,
-    /// The step size is not above the floor (refused, the step size in `StepControl::h`).
-    TooSmall = 4,
-    /// A value of the new state is not finite.
-    State = 5,
-    /// M₀ did not factor (only from [`ExpansionKernel::steps`], which does not say why: the
-    /// step is to be taken again by `Expansion::step`, whose error names the failure).
-    Unfactored = 6,
-}
-
-impl Status {
-    fn from_code(code: i32) -> Self {
-        [
-            Self::Expanded,
-            Self::Step,
-            Self::Last,
-            Self::Coefficient,
-            Self::TooSmall,
-            Self::State,
-            Self::Unfactored,
-        ][code as usize]
-    }
-}
-
-/// The whole expansion of a small [`TaylorProgram`] to one order p, and the Taylor step from it,
+/// The whole expansion of a small [`Recurrences`] to one order p, and the Taylor step from it,
 /// as straight-line machine code in two functions either side of the factorization of M₀
 /// (which may fail, and is reported from Rust): order 0 of every row from q₀ and q̇₀ (the maths
 /// library's functions called as the interpreter calls them), then, given M₀ factored, orders
@@ -322,7 +279,7 @@ impl ExpansionKernel {
     /// [`Error::InvalidInput`](crate::Error::InvalidInput) when the expansion is too large to
     /// unroll, a row is out of range, or Cranelift has no backend for the host or fails: the
     /// recurrences then run order by order.
-    pub(crate) fn compile(program: &TaylorProgram, order: usize) -> Result<Self> {
+    pub(crate) fn compile(program: &Recurrences, order: usize) -> Result<Self> {
         let size = program.expansion_instructions(order);
         if order == 0 || size > UNROLL_UP_TO {
             return Err(fail(format!("{size} instructions to unroll")));
@@ -417,21 +374,21 @@ impl ExpansionKernel {
 
     /// Run the expansion: `table` holds order 0 of every row, q and q̇ their order 0, `m0` M₀'s
     /// LDLᵀ factor; `reversed` is work space of [`reversed_len`](Self::reversed_len) entries.
-    /// [`Status::Expanded`], or [`Status::Coefficient`] when a coefficient of q̈ is not finite.
+    /// [`KernelStatus::Expanded`], or [`KernelStatus::Coefficient`] when a coefficient of q̈ is not finite.
     ///
     /// # Panics
     /// If a buffer is shorter than the expansion's layout.
-    pub(crate) fn run(&self, buffers: Buffers<'_>) -> Status {
+    pub(crate) fn run(&self, buffers: Buffers<'_>) -> KernelStatus {
         self.call(buffers, None)
     }
 
     /// Run the expansion and take the step `Expansion::step` takes from the state y with
     /// `control`, writing the new state and compensation into `lost` and `y_new` (see
-    /// [`Status`] and [`StepControl`] for the outcome).
+    /// [`KernelStatus`] and [`StepControl`] for the outcome).
     ///
     /// # Panics
     /// If a buffer is shorter than the expansion's layout.
-    pub(crate) fn step(&self, buffers: Buffers<'_>, step: Step<'_>) -> Status {
+    pub(crate) fn step(&self, buffers: Buffers<'_>, step: StepArgs<'_>) -> KernelStatus {
         let n = self.dof;
         assert!(
             step.y.len() >= 2 * n && step.lost.len() >= 2 * n && step.y_new.len() >= 2 * n,
@@ -445,8 +402,8 @@ impl ExpansionKernel {
     /// factor (where M varies: otherwise `buffers.m0` holds M's factor for good), then
     /// [`step`](Self::step) from y; a step that is neither the last nor failed moves y to its
     /// new state and `control.t` to its time. The status of the step that ended the row
-    /// ([`Status::Step`] when `limit` were taken, [`Status::Unfactored`] when M₀ did not
-    /// factor), and how many steps were taken before it (all `limit` for [`Status::Step`]).
+    /// ([`KernelStatus::Step`] when `limit` were taken, [`KernelStatus::Unfactored`] when M₀ did not
+    /// factor), and how many steps were taken before it (all `limit` for [`KernelStatus::Step`]).
     /// The same steps, bit for bit, as that many calls of order 0, `Expansion`'s factor and
     /// [`step`](Self::step).
     ///
@@ -458,7 +415,7 @@ impl ExpansionKernel {
         control: &mut StepControl,
         [y, lost, y_new]: [&mut [f64]; 3],
         limit: usize,
-    ) -> (Status, usize) {
+    ) -> (KernelStatus, usize) {
         let n = self.dof;
         self.check(&b);
         assert!(
@@ -485,7 +442,7 @@ impl ExpansionKernel {
                 &mut taken,
             )
         };
-        (Status::from_code(code), taken)
+        (KernelStatus::from_code(code), taken)
     }
 
     /// That the buffers hold an expansion of this kernel's layout.
@@ -503,7 +460,7 @@ impl ExpansionKernel {
         );
     }
 
-    fn call(&self, b: Buffers<'_>, step: Option<Step<'_>>) -> Status {
+    fn call(&self, b: Buffers<'_>, step: Option<StepArgs<'_>>) -> KernelStatus {
         self.check(&b);
         let (control, y, lost, y_new) = match step {
             Some(s) => (
@@ -539,34 +496,15 @@ impl ExpansionKernel {
                 y_new,
             )
         };
-        Status::from_code(code)
+        KernelStatus::from_code(code)
     }
-}
-
-/// A step's control, the state it starts from, the compensation (read and written) and the new
-/// state, as [`ExpansionKernel::step`] reads and writes them.
-pub(crate) struct Step<'a> {
-    pub control: &'a mut StepControl,
-    pub y: &'a [f64],
-    pub lost: &'a mut [f64],
-    pub y_new: &'a mut [f64],
-}
-
-/// The work space of an expansion, as [`ExpansionKernel::run`] reads and writes it.
-pub(crate) struct Buffers<'a> {
-    pub table: &'a mut [f64],
-    pub q: &'a mut [f64],
-    pub v: &'a mut [f64],
-    pub qdd: &'a mut [f64],
-    pub m0: &'a mut [f64],
-    pub reversed: &'a mut [f64],
 }
 
 /// Generate, compile and link order 0 of the expansion: the leaves' rows, then `order0`'s
 /// recurrences at k = 0.
 fn define_order0(
     module: &mut JITModule,
-    program: &TaylorProgram,
+    program: &Recurrences,
     order: usize,
 ) -> Result<Order0Entry> {
     let config = module.target_config();
@@ -628,7 +566,7 @@ fn define_order0(
 /// reversed rows it needs ([`Gen::mirror`]).
 fn define_expansion(
     module: &mut JITModule,
-    program: &TaylorProgram,
+    program: &Recurrences,
     order: usize,
 ) -> Result<(ExpansionEntry, usize)> {
     let config = module.target_config();
@@ -668,7 +606,7 @@ fn define_expansion(
 /// calls made one by one from Rust, without the Rust around each.
 fn define_steps(
     module: &mut JITModule,
-    program: &TaylorProgram,
+    program: &Recurrences,
     order: usize,
     order0: Order0Entry,
     expansion: ExpansionEntry,
@@ -735,7 +673,7 @@ fn define_steps(
                 b.inst_results(call)[0]
             };
             let factored = b.create_block();
-            let unfactored = b.ins().iconst(types::I32, Status::Unfactored as i64);
+            let unfactored = b.ins().iconst(types::I32, KernelStatus::Unfactored as i64);
             b.ins().brif(
                 failed,
                 exit,
@@ -751,7 +689,7 @@ fn define_steps(
         let status = b.inst_results(call)[0];
         let step = b
             .ins()
-            .icmp_imm_s(condcodes::IntCC::Equal, status, Status::Step as i64);
+            .icmp_imm_s(condcodes::IntCC::Equal, status, KernelStatus::Step as i64);
         let commit = b.create_block();
         b.ins().brif(
             step,
@@ -868,7 +806,7 @@ pub(crate) unsafe extern "C" fn lagrangian_ldlt(m: *mut f64, n: usize) -> i32 {
 fn emit_expansion(
     func: &mut cranelift_codegen::ir::Function,
     config: cranelift_codegen::isa::TargetFrontendConfig,
-    program: &TaylorProgram,
+    program: &Recurrences,
     order: usize,
     libm: &[(&'static str, FuncRef)],
     backwards: &[(Operand, bool)],
@@ -889,7 +827,8 @@ fn emit_expansion(
         }
         // Only the coefficients read at later orders are stored (the others are forwarded
         // within their order): the rows the sums read, and the entries of M that vary.
-        let mut history: HashSet<usize> = program.varying.iter().flat_map(Op::history).collect();
+        let mut history: HashSet<usize> =
+            program.varying.iter().flat_map(SeriesOp::history).collect();
         for (e, &m) in program.mass_full.iter().enumerate() {
             if program.mass_varying[e] {
                 history.insert(m);
@@ -1014,7 +953,7 @@ enum Top {
     Degree(usize),
     /// min(k − 1, d): a sum over a polynomial of degree d up to k − 1.
     BelowDegree(usize),
-    /// ⌊(k − 1)/2⌋: the first half of a square's sum ([`Op::Square`]).
+    /// ⌊(k − 1)/2⌋: the first half of a square's sum ([`SeriesOp::Square`]).
     Half,
 }
 
@@ -1037,7 +976,7 @@ struct Gen<'a> {
     /// `lagrangian_conv`, imported, when convolutions with an index read at run time are calls
     /// of it; `None`: loops in the code.
     calls: Option<FuncRef>,
-    /// The maths library's functions order 0 calls, imported ([`Op::libm`]).
+    /// The maths library's functions order 0 calls, imported ([`SeriesOp::libm`]).
     libm: Vec<(&'static str, FuncRef)>,
     /// Straight-line code (every index fixed, one block): each constant is made once, and an
     /// entry stored in the order at hand is read from the value stored, not from memory (the
@@ -1453,8 +1392,8 @@ impl<'a> Gen<'a> {
         }
     }
 
-    /// The end of the unrolled expansion: the status [`Status::Coefficient`] when `check` (the
-    /// sum of q̈ₖ − q̈ₖ) is not 0, else [`Status::Expanded`] without a step control (a null
+    /// The end of the unrolled expansion: the status [`KernelStatus::Coefficient`] when `check` (the
+    /// sum of q̈ₖ − q̈ₖ) is not 0, else [`KernelStatus::Expanded`] without a step control (a null
     /// `control`), else the step `Expansion::step` takes, with its operations in its order:
     /// the norms of `Expansion::norms`, Jorba and Zou's step size, the floor and the end of the
     /// span, then `Expansion::advance` from y into `y_new` and `lost`.
@@ -1467,19 +1406,19 @@ impl<'a> Gen<'a> {
         order: usize,
     ) {
         use std::mem::offset_of;
-        let status = |g: &mut Self, s: Status| g.b.ins().iconst(types::I32, s as i64);
+        let status = |g: &mut Self, s: KernelStatus| g.b.ins().iconst(types::I32, s as i64);
         let done = self.b.create_block();
         self.b.append_block_param(done, types::I32);
         // A coefficient that is not finite, or the expansion alone.
         let finite = self.b.ins().fcmp(condcodes::FloatCC::Equal, check, check);
         let (expanded, stepping) = (self.b.create_block(), self.b.create_block());
-        let failed = status(self, Status::Coefficient);
+        let failed = status(self, KernelStatus::Coefficient);
         self.b
             .ins()
             .brif(finite, expanded, &[], done, &[BlockArg::Value(failed)]);
         self.b.switch_to_block(expanded);
         self.b.seal_block(expanded);
-        let alone = status(self, Status::Expanded);
+        let alone = status(self, KernelStatus::Expanded);
         self.b
             .ins()
             .brif(control, stepping, &[], done, &[BlockArg::Value(alone)]);
@@ -1540,7 +1479,7 @@ impl<'a> Gen<'a> {
         self.b.seal_block(refused);
         let at_h = field(offset_of!(StepControl, h));
         self.b.ins().store(Self::flags(), h, control, at_h);
-        let s = status(self, Status::TooSmall);
+        let s = status(self, KernelStatus::TooSmall);
         self.b.ins().jump(done, &[BlockArg::Value(s)]);
         self.b.switch_to_block(ahead);
         self.b.seal_block(ahead);
@@ -1593,9 +1532,9 @@ impl<'a> Gen<'a> {
         }
         let finite = self.b.ins().fcmp(condcodes::FloatCC::Equal, check, check);
         let (step, last_step, state) = (
-            status(self, Status::Step),
-            status(self, Status::Last),
-            status(self, Status::State),
+            status(self, KernelStatus::Step),
+            status(self, KernelStatus::Last),
+            status(self, KernelStatus::State),
         );
         let taken = self.b.ins().select(last, last_step, step);
         let s = self.b.ins().select(finite, taken, state);
@@ -1844,7 +1783,7 @@ impl<'a> Gen<'a> {
         self.b.ins().fadd(low, high)
     }
 
-    /// A square's coefficient k from twice its half sum ([`Op::Square`]): plus a²ₖ/₂ where k is
+    /// A square's coefficient k from twice its half sum ([`SeriesOp::Square`]): plus a²ₖ/₂ where k is
     /// even.
     fn square_middle(&mut self, a: usize, twice: Value) -> Value {
         match self.k {
@@ -1902,9 +1841,9 @@ impl<'a> Gen<'a> {
         self.b.inst_results(call)[0]
     }
 
-    /// Coefficient 0 of `op`'s rows, as [`Op::apply`] computes it for k = 0; `ptr` is the
+    /// Coefficient 0 of `op`'s rows, as [`SeriesOp::apply`] computes it for k = 0; `ptr` is the
     /// pointer type.
-    fn op0(&mut self, op: &Op, ptr: types::Type) {
+    fn op0(&mut self, op: &SeriesOp, ptr: types::Type) {
         self.k = Ix::Fixed(0);
         let unary = |g: &mut Self, out: usize, a: usize, name: &str| {
             let x = g.at0(a);
@@ -1912,19 +1851,19 @@ impl<'a> Gen<'a> {
             g.store_k(out, y);
         };
         match *op {
-            Op::Recip { out, b } => {
+            SeriesOp::Recip { out, b } => {
                 let (one, x) = (self.f64(1.0), self.at0(b));
                 let y = self.b.ins().fdiv(one, x);
                 self.store_k(out, y);
             }
-            Op::Exp { out, a } => unary(self, out, a, "lagrangian_exp"),
-            Op::Ln { out, a } => unary(self, out, a, "lagrangian_ln"),
-            Op::Sqrt { out, a } => {
+            SeriesOp::Exp { out, a } => unary(self, out, a, "lagrangian_exp"),
+            SeriesOp::Ln { out, a } => unary(self, out, a, "lagrangian_ln"),
+            SeriesOp::Sqrt { out, a } => {
                 let x = self.at0(a);
                 let y = self.b.ins().sqrt(x);
                 self.store_k(out, y);
             }
-            Op::SinCos {
+            SeriesOp::SinCos {
                 s,
                 c,
                 a,
@@ -1934,7 +1873,7 @@ impl<'a> Gen<'a> {
                 unary(self, s, a, "lagrangian_sinh");
                 unary(self, c, a, "lagrangian_cosh");
             }
-            Op::SinCos { s, c, a, .. } => {
+            SeriesOp::SinCos { s, c, a, .. } => {
                 // One call: the cosine comes back through an 8-byte slot of the frame.
                 let slot = self.b.create_sized_stack_slot(StackSlotData::new(
                     StackSlotKind::ExplicitSlot,
@@ -1948,7 +1887,7 @@ impl<'a> Gen<'a> {
                 self.store_k(s, sv);
                 self.store_k(c, cv);
             }
-            Op::Tan {
+            SeriesOp::Tan {
                 out,
                 w,
                 a,
@@ -1970,12 +1909,12 @@ impl<'a> Gen<'a> {
                 let wv = self.b.ins().fadd(one, sq);
                 self.store_k(w, wv);
             }
-            Op::Abs { out, a } => {
+            SeriesOp::Abs { out, a } => {
                 let x = self.at0(a);
                 let y = self.b.ins().fabs(x);
                 self.store_k(out, y);
             }
-            Op::Sign { out, a } => {
+            SeriesOp::Sign { out, a } => {
                 // 1 for a > 0, −1 otherwise (NaN included), as `graph::sign`.
                 let x = self.at0(a);
                 let zero = self.f64(0.0);
@@ -1984,7 +1923,7 @@ impl<'a> Gen<'a> {
                 let y = self.b.ins().select(positive, one, minus_one);
                 self.store_k(out, y);
             }
-            Op::Atan2 { out, y, x, d, .. } => {
+            SeriesOp::Atan2 { out, y, x, d, .. } => {
                 let xx = self.conv(x, x, 0, Top::K, Ix::Fixed(0), false);
                 let yy = self.conv(y, y, 0, Top::K, Ix::Fixed(0), false);
                 let d0 = self.b.ins().fadd(xx, yy);
@@ -1994,70 +1933,70 @@ impl<'a> Gen<'a> {
                 self.store_k(out, theta);
             }
             // The same formula at every order.
-            Op::Copy { .. }
-            | Op::Neg { .. }
-            | Op::Add { .. }
-            | Op::Sub { .. }
-            | Op::Scale { .. }
-            | Op::Mul { .. }
-            | Op::Square { .. }
-            | Op::DivC { .. }
-            | Op::Div { .. } => self.op(op),
+            SeriesOp::Copy { .. }
+            | SeriesOp::Neg { .. }
+            | SeriesOp::Add { .. }
+            | SeriesOp::Sub { .. }
+            | SeriesOp::Scale { .. }
+            | SeriesOp::Mul { .. }
+            | SeriesOp::Square { .. }
+            | SeriesOp::DivC { .. }
+            | SeriesOp::Div { .. } => self.op(op),
         }
     }
 
-    /// Coefficient k of `op`'s rows, as [`Op::apply`] computes it for k ≥ 1.
-    fn op(&mut self, op: &Op) {
+    /// Coefficient k of `op`'s rows, as [`SeriesOp::apply`] computes it for k ≥ 1.
+    fn op(&mut self, op: &SeriesOp) {
         let (k, inv_k) = (self.k, self.inv_k);
         let (out, value) = match *op {
-            Op::Copy { out, a } => (out, self.at_k(a)),
-            Op::Neg { out, a } => {
+            SeriesOp::Copy { out, a } => (out, self.at_k(a)),
+            SeriesOp::Neg { out, a } => {
                 let x = self.at_k(a);
                 (out, self.b.ins().fneg(x))
             }
-            Op::Add { out, a, b } => {
+            SeriesOp::Add { out, a, b } => {
                 let (x, y) = (self.at_k(a), self.at_k(b));
                 (out, self.b.ins().fadd(x, y))
             }
-            Op::Sub { out, a, b } => {
+            SeriesOp::Sub { out, a, b } => {
                 let (x, y) = (self.at_k(a), self.at_k(b));
                 (out, self.b.ins().fsub(x, y))
             }
-            Op::Scale { out, a, c } => {
+            SeriesOp::Scale { out, a, c } => {
                 let (x, y) = (self.at_k(a), self.at0(c));
                 (out, self.b.ins().fmul(x, y))
             }
-            Op::Mul { out, a, b } => (out, self.conv(a, b, 0, Top::K, k, false)),
-            Op::Square { out, a } if k == Ix::Fixed(0) => {
+            SeriesOp::Mul { out, a, b } => (out, self.conv(a, b, 0, Top::K, k, false)),
+            SeriesOp::Square { out, a } if k == Ix::Fixed(0) => {
                 (out, self.conv(a, a, 0, Top::K, k, false))
             }
-            Op::Square { out, a } => {
+            SeriesOp::Square { out, a } => {
                 let half = self.conv(a, a, 0, Top::Half, k, false);
                 let twice = self.b.ins().fadd(half, half);
                 (out, self.square_middle(a, twice))
             }
-            Op::DivC { out, a, c } => {
+            SeriesOp::DivC { out, a, c } => {
                 let (x, y) = (self.at_k(a), self.at0(c));
                 (out, self.b.ins().fdiv(x, y))
             }
-            Op::Div { out, a, b } => {
+            SeriesOp::Div { out, a, b } => {
                 let x = self.at_k(a);
                 let s = self.conv(b, out, 1, Top::K, k, false);
                 let n = self.b.ins().fsub(x, s);
                 let d = self.at0(b);
                 (out, self.b.ins().fdiv(n, d))
             }
-            Op::Recip { out, b } => {
+            SeriesOp::Recip { out, b } => {
                 let s = self.conv(b, out, 1, Top::K, k, false);
                 let n = self.b.ins().fneg(s);
                 let d = self.at0(b);
                 (out, self.b.ins().fdiv(n, d))
             }
-            Op::Exp { out, a } => {
+            SeriesOp::Exp { out, a } => {
                 let s = self.conv(a, out, 1, Top::K, k, true);
                 (out, self.b.ins().fmul(s, inv_k))
             }
-            Op::Ln { out, a } => {
+            SeriesOp::Ln { out, a } => {
                 let s = self.conv(out, a, 1, Top::Below, k, true);
                 let s = self.b.ins().fmul(s, inv_k);
                 let x = self.at_k(a);
@@ -2065,7 +2004,7 @@ impl<'a> Gen<'a> {
                 let d = self.at0(a);
                 (out, self.b.ins().fdiv(n, d))
             }
-            Op::Sqrt { out, a } => {
+            SeriesOp::Sqrt { out, a } => {
                 let s = self.conv(out, out, 1, Top::Below, k, false);
                 let x = self.at_k(a);
                 let n = self.b.ins().fsub(x, s);
@@ -2074,7 +2013,7 @@ impl<'a> Gen<'a> {
                 let d = self.b.ins().fmul(two, r0);
                 (out, self.b.ins().fdiv(n, d))
             }
-            Op::SinCos {
+            SeriesOp::SinCos {
                 s,
                 c,
                 a,
@@ -2118,7 +2057,7 @@ impl<'a> Gen<'a> {
                 self.store_k(s, sv);
                 (c, cv)
             }
-            Op::Tan {
+            SeriesOp::Tan {
                 out,
                 w,
                 a,
@@ -2135,7 +2074,7 @@ impl<'a> Gen<'a> {
                 };
                 (w, sq)
             }
-            Op::Abs { out, a } => {
+            SeriesOp::Abs { out, a } => {
                 let x = self.at_k(a);
                 let x0 = self.at0(a);
                 let zero = self.f64(0.0);
@@ -2143,8 +2082,8 @@ impl<'a> Gen<'a> {
                 let m = self.b.ins().fneg(x);
                 (out, self.b.ins().select(positive, x, m))
             }
-            Op::Sign { out, .. } => (out, self.f64(0.0)),
-            Op::Atan2 { out, y, x, d, r } => {
+            SeriesOp::Sign { out, .. } => (out, self.f64(0.0)),
+            SeriesOp::Atan2 { out, y, x, d, r } => {
                 let xx = self.conv(x, x, 0, Top::K, k, false);
                 let yy = self.conv(y, y, 0, Top::K, k, false);
                 let dk = self.b.ins().fadd(xx, yy);
