@@ -6,7 +6,7 @@
 //! constant quadratic coefficients (then M = ∂²T/∂q̇² is constant and factored once). The
 //! analysis is conservative: m l² (cos²θ + sin²θ) θ̇² is reported as not constant.
 
-use super::compile::Inputs;
+use super::inputs::Inputs;
 use crate::error::{Error, Result};
 use crate::expr::graph::{Binary, Node, Unary};
 

@@ -712,4 +712,56 @@ mod tests {
         let (fallbacks, jets) = path::take();
         assert_eq!((fallbacks.len(), jets), (1, 0), "{fallbacks:?}");
     }
+
+    /// (From `compile.rs`: the tapes checked by evaluating them.)
+    fn graph_of(build: impl FnOnce(&mut Graph) -> Result<Vec<usize>>) -> (Graph, Vec<usize>) {
+        let mut g = Graph::new();
+        let outs = build(&mut g).unwrap();
+        (g, outs)
+    }
+
+    #[test]
+    fn tape_reuses_slots() {
+        // A long chain x + x + … needs two slots however long it is.
+        let (g, outs) = graph_of(|g| {
+            let x = g.coord(0);
+            let mut s = g.unary(Unary::Sin, x)?;
+            for k in 0..50 {
+                let c = g.constant(k as f64);
+                let p = g.binary(Binary::Mul, x, c)?;
+                let e = g.unary(Unary::Exp, p)?;
+                s = g.binary(Binary::Add, s, e)?;
+            }
+            Ok(vec![s])
+        });
+        let tape = Tape::new(&g, &outs, Inputs::potential(1, 0), "test").unwrap();
+        assert!(tape.slots <= 3, "{} slots", tape.slots);
+        let f = Function::new(tape.into(), &[]).unwrap();
+        let want: f64 = 0.1f64.sin() + (0..50).map(|k| (0.1 * k as f64).exp()).sum::<f64>();
+        assert_relative_eq!(f.eval(0.0, &[0.1], &[]), want, max_relative = 1e-14);
+    }
+
+    #[test]
+    fn tape_folds_parameters_into_constants() {
+        // T = ½ m l² θ̇²: one square and one product with a constant, whatever m and l are.
+        let (g, outs) = graph_of(|g| {
+            let (m, l) = (g.param(0), g.param(1));
+            let half = g.constant(0.5);
+            let l2 = g.powi(l, 2)?;
+            let k = g.binary(Binary::Mul, half, m)?;
+            let k = g.binary(Binary::Mul, k, l2)?;
+            let w = g.velocity(0);
+            let w2 = g.powi(w, 2)?;
+            Ok(vec![g.binary(Binary::Mul, k, w2)?])
+        });
+        let tape = Arc::new(Tape::new(&g, &outs, Inputs::kinetic(1, 2), "T").unwrap());
+        // The square of q̇ and the product with ½ m l²; the input is no instruction.
+        assert_eq!(tape.instructions(), 2);
+        assert!(tape.constant_mass_matrix());
+        assert!(!tape.depends_on_position() && !tape.depends_on_time());
+        let f = Function::new(tape, &[2.0, 3.0]).unwrap();
+        assert_relative_eq!(f.eval(0.0, &[0.0], &[0.5]), 0.5 * 2.0 * 9.0 * 0.25);
+        let f = f.with_parameters(&[1.0, 1.0]).unwrap();
+        assert_relative_eq!(f.eval(0.0, &[0.0], &[0.5]), 0.125);
+    }
 }

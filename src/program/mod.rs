@@ -11,5 +11,6 @@
 pub(crate) mod analysis;
 pub(crate) mod compile;
 pub(crate) mod eval;
+pub(crate) mod inputs;
 pub(crate) mod ins;
 pub(crate) mod jet;
