@@ -95,7 +95,7 @@ impl NativeTape {
             let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
             let p = enter(&mut b);
             let (consts_ptr, t, q, qd, out) = (p[0], p[1], p[2], p[3], p[4]);
-            let mut g = Gen {
+            let mut g = TapeEmitter {
                 module,
                 b,
                 funcs: Vec::new(),
@@ -189,7 +189,7 @@ impl NativeTape {
 }
 
 /// The code generator of one tape.
-struct Gen<'a> {
+struct TapeEmitter<'a> {
     module: &'a mut JITModule,
     b: FunctionBuilder<'a>,
     /// The imported functions used so far.
@@ -206,7 +206,7 @@ struct Gen<'a> {
     failed: Option<Error>,
 }
 
-impl Gen<'_> {
+impl TapeEmitter<'_> {
     fn load(&mut self, base: Value, i: usize) -> Result<Value> {
         let off = offset(i)?;
         Ok(self.b.ins().load(
@@ -250,7 +250,7 @@ impl Gen<'_> {
     }
 }
 
-impl Emit for Gen<'_> {
+impl Emit for TapeEmitter<'_> {
     type V = Value;
 
     fn slot(&mut self, i: u32) -> Result<Value> {

@@ -28,6 +28,8 @@
 //! [`Expansion`]: the one place that chooses compiled or interpreted expansion).
 
 mod abi;
+#[cfg(feature = "jit")]
+mod emit;
 mod expansion;
 #[cfg(feature = "jit")]
 mod kernel;
