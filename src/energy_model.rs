@@ -97,7 +97,7 @@ impl EnergyModel {
     }
 
     /// The model with its accelerations at `f64` states from `program`: eq. 55 derived on the
-    /// expression graph of the same energies ([`EomProgram`](super::EomProgram)), bound to the
+    /// expression graph of the same energies ([`EomProgram`](crate::tape::EomProgram)), bound to the
     /// same parameter values.
     ///
     /// # Errors

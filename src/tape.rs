@@ -27,19 +27,20 @@
 //! narrow the gap between a model stated at run time and one written in Rust through
 //! [`System`](crate::System); they do not close it (an interpreter still pays per instruction).
 //!
-//! Where things live: `graph.rs` ([`Graph`], [`Node`], [`Unary`], [`Binary`], hash-consing),
-//! `analysis.rs` (what a tape reads, its polynomial structure in q̇), `compile.rs` ([`Tape::new`]
-//! step by step, [`Inputs`]), `ins.rs` (the instruction set as one table), `eval.rs`
-//! ([`Function`], the evaluation and its jet fast path), `jet.rs` (the jet arithmetic),
-//! `particles.rs` ([`TapeParticles`]) and `energy.rs` ([`EnergyModel`]). With the `jit` feature,
-//! `native.rs` compiles a tape's `f64` program to machine code with Cranelift (`NativeTape`,
-//! `NativeFunction`, `Function::compile_native`); the interpreter stays the fallback and the
-//! reference it is tested against.
+//! This module is the public face of those models: it re-exports what they are made of from
+//! their homes, lowest first — the expression graph and its derivatives (`src/expr/`), the flat
+//! program and its interpreter (`src/program/`), machine code by Cranelift with the `jit`
+//! feature (`src/native/`: `NativeTape`, `NativeFunction`, `Function::compile_native`; the
+//! interpreter stays the fallback and the reference it is tested against), the Taylor series
+//! and step (`src/taylor/`: [`TaylorProgram`], [`Expansion`]), eq. 55 on the graph, compiled
+//! (`src/derived/`: [`eom_graph`], [`EomProgram`], [`EomFunction`], [`models`]), and the run-time
+//! routes ([`EnergyModel`], [`TapeParticles`]) with the input matrix of a linearization
+//! ([`input_matrix`]).
 //!
-//! Derivatives as expressions: `derive.rs` ([`tangent`], [`tangents`], [`Seeds`], [`gradient`])
-//! differentiates on the graph itself (forward mode and reverse-mode gradients, simplified and hash-consed as it builds), and
-//! `eom_program.rs` ([`eom_graph`], [`EomProgram`], [`EomFunction`]) derives eq. 55 — M's entries
-//! and one force vector — as nodes and compiles them into one tape evaluated in plain `f64`.
+//! Derivatives as expressions: [`tangent`], [`tangents`], [`Seeds`] and [`gradient`]
+//! differentiate on the graph itself (forward mode and reverse-mode gradients, simplified and
+//! hash-consed as it builds), and [`eom_graph`] derives eq. 55 — M's entries and one force
+//! vector — as nodes, which [`EomProgram`] compiles into one tape evaluated in plain `f64`.
 //!
 //! ```
 //! use lagrangian::tape::{Binary, Function, Graph, Inputs, Tape, Unary};

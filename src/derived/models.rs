@@ -3,7 +3,7 @@
 //! models start from the same graphs.
 //!
 //! Each function adds its nodes to the graph and returns the [`Energies`] (T and U) as nodes;
-//! compile them with [`Tape::new`](super::Tape::new) or [`EomProgram`](super::EomProgram).
+//! compile them with [`Tape::new`](crate::tape::Tape::new) or [`EomProgram`](crate::tape::EomProgram).
 //!
 //! ```
 //! use lagrangian::tape::{Function, Graph, Inputs, Tape, models};

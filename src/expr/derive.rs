@@ -7,7 +7,7 @@
 //! t ↦ 1 for the derivative along the motion, or a parameter ↦ 1 for ∂/∂pᵢ). A node none of whose operands has a tangent has
 //! none either (`None`, an exact zero), so a subgraph that does not read a seeded input costs
 //! nothing. Construction simplifies 0·x, 1·x, x ± 0, −(−x) and operations on numbers; parameters
-//! stay symbolic (they are bound later, by [`Function::new`](super::Function::new)).
+//! stay symbolic (they are bound later, by [`Function::new`](crate::tape::Function::new)).
 //!
 //! |x| has the derivative x/|x|·ẋ, which is not finite at x = 0 (the graph has no sign function).
 
@@ -45,7 +45,7 @@ impl Seeds {
     }
 
     /// Parameter i ↦ `tangent` (a node): derivatives with respect to a parameter, such as the
-    /// input matrix B of a linearization ([`input_matrix`](super::input_matrix)).
+    /// input matrix B of a linearization ([`input_matrix`](crate::tape::input_matrix)).
     pub fn param(mut self, i: usize, tangent: usize) -> Self {
         self.seeds.push((Node::Param(i), tangent));
         self

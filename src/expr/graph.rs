@@ -110,7 +110,7 @@ pub enum Node {
     /// A number.
     Const(f64),
     /// Parameter `i`, a number fixed when the tape is bound
-    /// ([`Function::new`](super::Function::new)).
+    /// ([`Function::new`](crate::tape::Function::new)).
     Param(usize),
     /// The time t.
     Time,

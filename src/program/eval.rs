@@ -239,7 +239,7 @@ pub(crate) mod path {
 /// It is a kinetic energy, potential, dissipation function (first output) or set of
 /// generalized forces (one output per coordinate), with structure flags read off the tape. As a
 /// potential it is evaluated with q̇ = 0 (compile potentials with
-/// [`Inputs::potential`](super::Inputs::potential), which rejects velocities). Cloning shares the
+/// [`Inputs::potential`](crate::tape::Inputs::potential), which rejects velocities). Cloning shares the
 /// tape.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Function {
