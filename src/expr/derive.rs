@@ -11,6 +11,7 @@
 //!
 //! |x| has the derivative x/|x|·ẋ, which is not finite at x = 0 (the graph has no sign function).
 
+use super::functions::unary_functions;
 use super::graph::{Binary, Graph, Node, Unary};
 use crate::error::Result;
 
@@ -401,57 +402,26 @@ impl Simplify<'_> {
         d.map(|d| self.mul(d, x)).transpose()
     }
 
-    /// The tangent of `y = f(a)` (node `y`) with ȧ = `da`.
+    /// The tangent of `y = f(a)` (node `y`) with ȧ = `da`: each function's rule is its entry
+    /// in the table of `functions.rs`.
     fn unary_tangent(&mut self, f: Unary, a: usize, y: usize, da: usize) -> Result<Option<usize>> {
-        let da = Some(da);
-        match f {
-            Unary::Neg => da.map(|d| self.neg(d)).transpose(),
-            Unary::Sin => {
-                let c = self.unary(Unary::Cos, a)?;
-                self.mul_opt(da, c)
-            }
-            Unary::Cos => {
-                let s = self.unary(Unary::Sin, a)?;
-                let ns = self.neg(s)?;
-                self.mul_opt(da, ns)
-            }
-            Unary::Tan => {
-                // (1 + tan²a) ȧ
-                let one = self.0.constant(1.0);
-                let y2 = self.powi(y, 2)?;
-                let k = self.add(one, y2)?;
-                self.mul_opt(da, k)
-            }
-            Unary::Exp => self.mul_opt(da, y),
-            Unary::Ln => da.map(|d| self.div(d, a)).transpose(),
-            Unary::Sqrt => {
-                // ȧ / (2 √a)
-                let two = self.0.constant(2.0);
-                let k = self.mul(two, y)?;
-                da.map(|d| self.div(d, k)).transpose()
-            }
-            Unary::Sinh => {
-                let c = self.unary(Unary::Cosh, a)?;
-                self.mul_opt(da, c)
-            }
-            Unary::Cosh => {
-                let s = self.unary(Unary::Sinh, a)?;
-                self.mul_opt(da, s)
-            }
-            Unary::Tanh => {
-                // (1 − tanh²a) ȧ
-                let one = self.0.constant(1.0);
-                let y2 = self.powi(y, 2)?;
-                let k = self.sub(one, y2)?;
-                self.mul_opt(da, k)
-            }
-            Unary::Abs => {
-                // sign(a) ȧ, with the dual numbers' sign at a = 0 (a / |a| would be 0/0 there)
-                let sign = self.unary(Unary::Sign, a)?;
-                self.mul_opt(da, sign)
-            }
-            Unary::Sign => Ok(None),
+        macro_rules! tangents {
+            ($($name:ident {
+                doc: $doc:expr,
+                value: |$x:ident| $value:expr,
+                tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
+                libm: $($sym:ident = $f:ident)?,
+            })*) => {
+                match f {
+                    $(Unary::$name => {
+                        #[allow(unused_variables)]
+                        let ($d, $a, $y, $da) = (&mut *self, a, y, Some(da));
+                        $tangent
+                    })*
+                }
+            };
         }
+        unary_functions!(tangents)
     }
 
     /// The tangent of `y = f(a, b)` (node `y`) with ȧ = `da`, ḃ = `db` (`None` for zero).

@@ -1,39 +1,44 @@
 //! The expression graph a tape is compiled from: nodes in topological order, equal
 //! subexpressions stored once (hash-consing).
 
+use super::functions::unary_functions;
 use crate::error::{Error, Result};
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
 
-/// Functions of one argument.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Unary {
-    /// −x
-    Neg,
-    /// sin x
-    Sin,
-    /// cos x
-    Cos,
-    /// tan x
-    Tan,
-    /// eˣ
-    Exp,
-    /// ln x
-    Ln,
-    /// √x
-    Sqrt,
-    /// sinh x
-    Sinh,
-    /// cosh x
-    Cosh,
-    /// tanh x
-    Tanh,
-    /// |x|
-    Abs,
-    /// The slope of |x| as the dual numbers take it: 1 for x > 0, −1 otherwise (so at 0 it is
-    /// −1, as num-dual's `abs`). The derivative of |x| on the graph, finite at x = 0.
-    Sign,
+/// Generates [`Unary`], `Unary::ALL` and `Unary::apply` from the table of `functions.rs`.
+macro_rules! unary_enum {
+    ($($name:ident {
+        doc: $doc:expr,
+        value: |$x:ident| $value:expr,
+        tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
+        libm: $($sym:ident = $f:ident)?,
+    })*) => {
+        /// Functions of one argument.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+        pub enum Unary {
+            $(#[doc = $doc] $name,)*
+        }
+
+        impl Unary {
+            /// Every function of one argument (for tests and generators that must cover them
+            /// all).
+            pub const ALL: [Unary; [$(stringify!($name)),*].len()] = [$(Unary::$name),*];
+
+            /// The function on a number (the constant program's arithmetic).
+            pub(crate) fn apply(self, x: f64) -> f64 {
+                match self {
+                    $(Unary::$name => {
+                        let $x = x;
+                        $value
+                    })*
+                }
+            }
+        }
+    };
 }
+
+unary_functions!(unary_enum);
 
 /// Functions of two arguments.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -52,24 +57,6 @@ pub enum Binary {
     Atan2,
 }
 
-impl Unary {
-    /// Every function of one argument (for tests and generators that must cover them all).
-    pub const ALL: [Unary; 12] = [
-        Unary::Neg,
-        Unary::Sin,
-        Unary::Cos,
-        Unary::Tan,
-        Unary::Exp,
-        Unary::Ln,
-        Unary::Sqrt,
-        Unary::Sinh,
-        Unary::Cosh,
-        Unary::Tanh,
-        Unary::Abs,
-        Unary::Sign,
-    ];
-}
-
 impl Binary {
     /// Every function of two arguments.
     pub const ALL: [Binary; 6] = [
@@ -82,23 +69,10 @@ impl Binary {
     ];
 }
 
-/// `ALL` lists every variant: a new one fails to compile here until it is added there.
+/// `Binary::ALL` lists every variant: a new one fails to compile here until it is added there
+/// (`Unary::ALL` is generated from the table).
 #[allow(dead_code)]
-fn every_function_is_listed(u: Unary, b: Binary) {
-    match u {
-        Unary::Neg
-        | Unary::Sin
-        | Unary::Cos
-        | Unary::Tan
-        | Unary::Exp
-        | Unary::Ln
-        | Unary::Sqrt
-        | Unary::Sinh
-        | Unary::Cosh
-        | Unary::Tanh
-        | Unary::Abs
-        | Unary::Sign => {}
-    }
+fn every_function_is_listed(b: Binary) {
     match b {
         Binary::Add | Binary::Sub | Binary::Mul | Binary::Div | Binary::Pow | Binary::Atan2 => {}
     }
@@ -282,26 +256,6 @@ impl Graph {
     /// The index of `node` if the graph holds it (as stored: no rewriting of powers).
     pub(crate) fn find(&self, node: Node) -> Option<usize> {
         self.index.get(&Key(node)).copied()
-    }
-}
-
-impl Unary {
-    /// The function on a number (the constant program's arithmetic).
-    pub(crate) fn apply(self, x: f64) -> f64 {
-        match self {
-            Unary::Neg => -x,
-            Unary::Sin => x.sin(),
-            Unary::Cos => x.cos(),
-            Unary::Tan => x.tan(),
-            Unary::Exp => x.exp(),
-            Unary::Ln => x.ln(),
-            Unary::Sqrt => x.sqrt(),
-            Unary::Sinh => x.sinh(),
-            Unary::Cosh => x.cosh(),
-            Unary::Tanh => x.tanh(),
-            Unary::Abs => x.abs(),
-            Unary::Sign => sign(x),
-        }
     }
 }
 

@@ -4,4 +4,5 @@
 //! of the run-time models: it names nothing above it.
 
 pub(crate) mod derive;
+pub(crate) mod functions;
 pub(crate) mod graph;

@@ -99,6 +99,7 @@ macro_rules! wrappers {
         /// Register the `f64` functions the generated code calls, by symbol name.
         fn register(jit: &mut JITBuilder) {
             $(jit.symbol(stringify!($name), $name as *const u8);)*
+            register_unary(jit);
             jit.symbol("lagrangian_powi", lagrangian_powi as *const u8);
             jit.symbol("lagrangian_sin_cos", lagrangian_sin_cos as *const u8);
         }
@@ -106,17 +107,33 @@ macro_rules! wrappers {
 }
 
 wrappers! {
-    lagrangian_sin: sin(x: f64);
-    lagrangian_cos: cos(x: f64);
-    lagrangian_tan: tan(x: f64);
-    lagrangian_exp: exp(x: f64);
-    lagrangian_ln: ln(x: f64);
-    lagrangian_sinh: sinh(x: f64);
-    lagrangian_cosh: cosh(x: f64);
-    lagrangian_tanh: tanh(x: f64);
     lagrangian_powf: powf(x: f64, y: f64);
     lagrangian_atan2: atan2(x: f64, y: f64);
 }
+
+/// The maths library's functions of one argument that the generated code calls, from the table
+/// of `expr/functions.rs` (a function with no entry there is an instruction of its own).
+macro_rules! unary_wrappers {
+    ($($name:ident {
+        doc: $doc:expr,
+        value: |$x:ident| $value:expr,
+        tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
+        libm: $($sym:ident = $f:ident)?,
+    })*) => {
+        $($(
+            extern "C" fn $sym(x: f64) -> f64 {
+                f64::$f(x)
+            }
+        )?)*
+
+        /// Register them by symbol name.
+        fn register_unary(jit: &mut JITBuilder) {
+            $($(jit.symbol(stringify!($sym), $sym as *const u8);)?)*
+        }
+    };
+}
+
+crate::expr::functions::unary_functions!(unary_wrappers);
 
 extern "C" fn lagrangian_powi(x: f64, n: i32) -> f64 {
     x.powi(n)

@@ -4,7 +4,7 @@
 
 use super::analysis::{Flags, analyse};
 pub use super::inputs::Inputs;
-use super::ins::{Ins, Op, lower};
+use super::ins::{Ins, InsOp, lower};
 use crate::error::{Error, Result};
 use crate::expr::graph::{Graph, Node, Unary};
 
@@ -51,7 +51,7 @@ pub struct Tape {
 const NONE: usize = usize::MAX;
 
 /// An instruction on node ids: (op, destination nodes, operand nodes).
-type Selected = (Op, [usize; 2], [usize; 2]);
+type Selected = (InsOp, [usize; 2], [usize; 2]);
 
 /// The code and slots of [`allocate`].
 struct Lowered {
@@ -216,21 +216,21 @@ fn select(graph: &Graph, live: &[bool], is_const: &[bool], const_of: &[usize]) -
                 match (partner, f) {
                     (Some(j), Unary::Sin) => {
                         emitted[j] = true;
-                        (Op::SinCos, [i, j], [a, NONE])
+                        (InsOp::SinCos, [i, j], [a, NONE])
                     }
                     (Some(j), _) => {
                         emitted[j] = true;
-                        (Op::SinCos, [j, i], [a, NONE])
+                        (InsOp::SinCos, [j, i], [a, NONE])
                     }
-                    (None, _) => (Op::Un(f), [i, NONE], [a, NONE]),
+                    (None, _) => (InsOp::Un(f), [i, NONE], [a, NONE]),
                 }
             }
-            Node::PowI(a, 2) => (Op::Sqr, [i, NONE], [a, NONE]),
-            Node::PowI(a, k) => (Op::PowI(k), [i, NONE], [a, NONE]),
+            Node::PowI(a, 2) => (InsOp::Sqr, [i, NONE], [a, NONE]),
+            Node::PowI(a, k) => (InsOp::PowI(k), [i, NONE], [a, NONE]),
             Node::Binary(f, a, b) => match (is_const[a], is_const[b]) {
-                (false, false) => (Op::Bin(f), [i, NONE], [a, b]),
-                (false, true) => (Op::BinVC(f, c(b)), [i, NONE], [a, NONE]),
-                (true, false) => (Op::BinCV(f, c(a)), [i, NONE], [b, NONE]),
+                (false, false) => (InsOp::Bin(f), [i, NONE], [a, b]),
+                (false, true) => (InsOp::BinVC(f, c(b)), [i, NONE], [a, NONE]),
+                (true, false) => (InsOp::BinCV(f, c(a)), [i, NONE], [b, NONE]),
                 (true, true) => unreachable!("constant nodes are in the constant program"),
             },
             Node::Const(_) | Node::Param(_) => unreachable!("constants are not emitted"),

@@ -1,5 +1,5 @@
 //! The instruction set, stated once: `instruction_set!` generates from one table the [`Ins`]
-//! enum, the lowering of an [`Op`] to an instruction ([`lower`]) and its evaluation ([`step`]).
+//! enum, the lowering of an [`InsOp`] to an instruction ([`lower`]) and its evaluation ([`step`]).
 //!
 //! Every result is stored in its slot and also kept in an accumulator; the `…A` forms take their
 //! (first) variable operand from the accumulator and the `…B` forms their second, so that a
@@ -20,7 +20,7 @@ use crate::expr::graph::{Binary, Unary};
 
 /// What an instruction computes, before slots are assigned.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) enum Op {
+pub(crate) enum InsOp {
     Un(Unary),
     Sqr,
     PowI(i32),
@@ -82,39 +82,39 @@ macro_rules! instruction_set {
         /// The instruction for `op` writing slot(s) `d`, reading operand slots `a`, `b`, with
         /// the operand equal to the accumulator (if any) read from it: `from_acc` is 1 for the
         /// first operand, 2 for the second, 0 for none.
-        pub(crate) fn lower(op: Op, d: [u32; 2], a: u32, b: u32, from_acc: u8) -> Ins {
+        pub(crate) fn lower(op: InsOp, d: [u32; 2], a: u32, b: u32, from_acc: u8) -> Ins {
             let d0 = d[0];
             match (op, from_acc) {
                 $(
-                    (Op::Un(Unary::$uf), 0) => Ins::$u(d0, a),
-                    (Op::Un(Unary::$uf), _) => Ins::$ua(d0),
+                    (InsOp::Un(Unary::$uf), 0) => Ins::$u(d0, a),
+                    (InsOp::Un(Unary::$uf), _) => Ins::$ua(d0),
                 )*
                 $(
-                    (Op::Bin(Binary::$cf), 0) => Ins::$c(d0, a, b),
-                    (Op::Bin(Binary::$cf), 1) => Ins::$ca(d0, b),
-                    (Op::Bin(Binary::$cf), _) => Ins::$ca(d0, a),
-                    (Op::BinVC(Binary::$cf, c) | Op::BinCV(Binary::$cf, c), 0) => {
+                    (InsOp::Bin(Binary::$cf), 0) => Ins::$c(d0, a, b),
+                    (InsOp::Bin(Binary::$cf), 1) => Ins::$ca(d0, b),
+                    (InsOp::Bin(Binary::$cf), _) => Ins::$ca(d0, a),
+                    (InsOp::BinVC(Binary::$cf, c) | InsOp::BinCV(Binary::$cf, c), 0) => {
                         Ins::$cc(d0, a, c)
                     }
-                    (Op::BinVC(Binary::$cf, c) | Op::BinCV(Binary::$cf, c), _) => {
+                    (InsOp::BinVC(Binary::$cf, c) | InsOp::BinCV(Binary::$cf, c), _) => {
                         Ins::$cca(d0, c)
                     }
                 )*
                 $(
-                    (Op::Bin(Binary::$of), 0) => Ins::$o(d0, a, b),
-                    (Op::Bin(Binary::$of), 1) => Ins::$oa(d0, b),
-                    (Op::Bin(Binary::$of), _) => Ins::$ob(d0, a),
-                    (Op::BinVC(Binary::$of, c), 0) => Ins::$oc(d0, a, c),
-                    (Op::BinVC(Binary::$of, c), _) => Ins::$oca(d0, c),
-                    (Op::BinCV(Binary::$of, c), 0) => Ins::$co(d0, a, c),
-                    (Op::BinCV(Binary::$of, c), _) => Ins::$coa(d0, c),
+                    (InsOp::Bin(Binary::$of), 0) => Ins::$o(d0, a, b),
+                    (InsOp::Bin(Binary::$of), 1) => Ins::$oa(d0, b),
+                    (InsOp::Bin(Binary::$of), _) => Ins::$ob(d0, a),
+                    (InsOp::BinVC(Binary::$of, c), 0) => Ins::$oc(d0, a, c),
+                    (InsOp::BinVC(Binary::$of, c), _) => Ins::$oca(d0, c),
+                    (InsOp::BinCV(Binary::$of, c), 0) => Ins::$co(d0, a, c),
+                    (InsOp::BinCV(Binary::$of, c), _) => Ins::$coa(d0, c),
                 )*
-                (Op::Sqr, 0) => Ins::Sqr(d0, a),
-                (Op::Sqr, _) => Ins::SqrA(d0),
-                (Op::PowI(k), 0) => Ins::PowI(d0, a, k),
-                (Op::PowI(k), _) => Ins::PowIA(d0, k),
-                (Op::SinCos, 0) => Ins::SinCos(d0, d[1], a),
-                (Op::SinCos, _) => Ins::SinCosA(d0, d[1]),
+                (InsOp::Sqr, 0) => Ins::Sqr(d0, a),
+                (InsOp::Sqr, _) => Ins::SqrA(d0),
+                (InsOp::PowI(k), 0) => Ins::PowI(d0, a, k),
+                (InsOp::PowI(k), _) => Ins::PowIA(d0, k),
+                (InsOp::SinCos, 0) => Ins::SinCos(d0, d[1], a),
+                (InsOp::SinCos, _) => Ins::SinCosA(d0, d[1]),
             }
         }
 
