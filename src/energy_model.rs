@@ -313,7 +313,11 @@ impl Dynamics for EnergyModel {
 mod tests {
     use super::*;
     use crate::ParticleSystem;
-    use crate::tape::{Binary, Energies, EomProgram, Graph, Inputs, Tape, TapeParticles, Unary};
+    use crate::derived::eom_program::{Energies, EomProgram};
+    use crate::expr::graph::{Binary, Graph, Unary};
+    use crate::program::compile::Tape;
+    use crate::program::inputs::Inputs;
+    use crate::tape_particles::TapeParticles;
     use approx::assert_relative_eq;
     use std::sync::Arc;
 

@@ -9,8 +9,9 @@
 use crate::derived::eom_program::{Energies, eom_graph};
 use crate::expr::derive::{Seeds, tangents};
 use crate::expr::graph::Graph;
-use crate::program::compile::{Inputs, Tape};
+use crate::program::compile::Tape;
 use crate::program::eval::Function;
+use crate::program::inputs::Inputs;
 use crate::{Error, Linearization, Result};
 use nalgebra::DMatrix;
 use std::sync::Arc;
@@ -95,7 +96,8 @@ pub fn input_matrix(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tape::{Binary, EnergyModel, Unary};
+    use crate::energy_model::EnergyModel;
+    use crate::expr::graph::{Binary, Unary};
     use approx::assert_relative_eq;
 
     /// A pendulum with a torque F: T = ½ m l² θ̇², U = −m g l cos θ, Q = F; parameters

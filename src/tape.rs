@@ -81,8 +81,9 @@ pub use crate::expr::derive::{Seeds, Wrt, gradient, tangent, tangents};
 pub use crate::expr::graph::{Binary, Graph, Node, Unary};
 #[cfg(feature = "jit")]
 pub use crate::native::tape::{NativeFunction, NativeTape};
-pub use crate::program::compile::{Inputs, Tape};
+pub use crate::program::compile::Tape;
 pub use crate::program::eval::Function;
+pub use crate::program::inputs::Inputs;
 pub use crate::sensitivity::input_matrix;
 pub use crate::tape_particles::TapeParticles;
 pub use crate::taylor::{Expansion, MAX_TAYLOR_ORDER, StepRule, TaylorProgram};

@@ -21,8 +21,9 @@ use crate::expr::graph::Graph;
 #[cfg(feature = "jit")]
 use crate::linalg::pivots_hold;
 use crate::linalg::{FactorFailure, ldlt_in_place};
-use crate::program::compile::{Input, Inputs, Tape};
+use crate::program::compile::{Input, Tape};
 use crate::program::eval::Function;
+use crate::program::inputs::Inputs;
 use crate::program::jet::Num;
 use crate::scalar::{Scalar, with_buf};
 use crate::taylor::TaylorProgram;

@@ -119,8 +119,8 @@ macro_rules! unary_functions {
             }
             Sign {
                 doc: "The slope of |x| as the dual numbers take it: 1 for x > 0, −1 otherwise (so \
-              at 0 it is −1, as num-dual's `abs`). The derivative of |x| on the graph, \
-              finite at x = 0.",
+      at 0 it is −1, as num-dual's `abs`). The derivative of |x| on the graph, \
+      finite at x = 0.",
                 value: |x| sign(x),
                 tangent: |d, a, y, da| Ok(None),
                 libm: ,

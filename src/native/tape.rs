@@ -477,7 +477,7 @@ impl NativeFunction {
 mod tests {
     use super::*;
     use crate::expr::graph::{Binary, Graph, Unary};
-    use crate::program::compile::Inputs;
+    use crate::program::inputs::Inputs;
     use crate::program::ins::Ins;
     use std::collections::BTreeSet;
     use std::time::Instant;

@@ -3,7 +3,7 @@
 //! instruction selection, and slot allocation with lowering to [`Ins`].
 
 use super::analysis::{Flags, analyse};
-pub use super::inputs::Inputs;
+use super::inputs::Inputs;
 use super::ins::{Ins, InsOp, lower};
 use crate::error::{Error, Result};
 use crate::expr::graph::{Graph, Node, Unary};

@@ -395,7 +395,7 @@ mod tests {
     use super::*;
     use crate::energy_model::EnergyModel;
     use crate::expr::graph::{Binary, Graph, Unary};
-    use crate::program::compile::Inputs;
+    use crate::program::inputs::Inputs;
     use crate::tape_particles::TapeParticles;
     use crate::{Dynamics, ParticleSystem};
     use approx::assert_relative_eq;

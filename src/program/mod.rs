@@ -5,7 +5,7 @@
 //! the expression graph ([`crate::expr`]) and nothing above it.
 //!
 //! [`Tape`]: compile::Tape
-//! [`Inputs`]: compile::Inputs
+//! [`Inputs`]: inputs::Inputs
 //! [`Function`]: eval::Function
 
 pub(crate) mod analysis;

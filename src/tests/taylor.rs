@@ -3,10 +3,15 @@
 //! up to the routes and the solvers, so they live in this room above both, not inline in
 //! `crate::taylor`.
 
+use crate::derived::eom_program::{Energies, eom_graph};
+use crate::derived::models;
 use crate::dynamics::Dynamics;
+use crate::energy_model::EnergyModel;
 use crate::expr::graph::{Binary, Graph, Unary};
 use crate::integrators::{Method, Options, solve};
-use crate::tape::{Energies, EnergyModel, Function, Inputs, Tape, eom_graph, models};
+use crate::program::compile::Tape;
+use crate::program::eval::Function;
+use crate::program::inputs::Inputs;
 use crate::taylor::TaylorProgram;
 use crate::taylor::series::SeriesOp;
 use std::sync::Arc;
