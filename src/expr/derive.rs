@@ -411,6 +411,7 @@ impl Simplify<'_> {
                 value: |$x:ident| $value:expr,
                 tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
                 libm: $($sym:ident = $f:ident)?,
+                ins: $u:ident, $ua:ident: $m:ident,
             })*) => {
                 match f {
                     $(Unary::$name => {

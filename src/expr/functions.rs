@@ -2,13 +2,16 @@
 //! number, its derivative on the graph, and the maths library's function the compiled code
 //! calls for it. The table is a macro that hands the list to a macro of the file that needs a
 //! piece of it — `graph.rs` generates [`Unary`](super::graph::Unary), `Unary::ALL` and
-//! `Unary::apply` from it, `derive.rs` the tangent rule, and `src/native/mod.rs` the `extern "C"`
-//! wrappers it registers — so a new function's value, derivative and maths-library call are one
-//! entry here. (Its jet arithmetic, its instruction and its Taylor recurrence are still written
-//! in their own floors: `program/jet.rs`, `program/ins.rs`, `native/tape.rs`, `taylor/`.)
+//! `Unary::apply` from it, `derive.rs` the tangent rule, `program/ins.rs` the instructions (and
+//! the `Emit` methods), `program/jet.rs` the `Arith` methods' declarations, `src/native/mod.rs`
+//! the `extern "C"` wrappers it registers and `native/tape.rs` the calls of them — so a new
+//! function's value, derivative, instruction and maths-library call are one entry here. Its jet
+//! arithmetic (`program/jet.rs`: how dual numbers carry it) and its Taylor recurrence
+//! (`taylor/series.rs`, lowered in `taylor/lower.rs`, emitted in `taylor/emit.rs`) are written in
+//! their own floors: five files for a new function, against seven before.
 //!
 //! Each entry: `Variant { doc, value: |x| f(x), tangent: |d, a, y, da| ẏ, libm: symbol = f64
-//! method or nothing }`, where the tangent gets the graph builder `d`, the argument's node `a`,
+//! method or nothing, ins: slot form, accumulator form: method }`, where the tangent gets the graph builder `d`, the argument's node `a`,
 //! the function's node `y` and the argument's tangent `da` (an `Option`, always `Some`), and
 //! gives ẏ (`None` for zero); the arithmetic is exactly the former match arms', so the graphs
 //! and their values are the same bits.
@@ -22,6 +25,7 @@ macro_rules! unary_functions {
                 value: |x| -x,
                 tangent: |d, a, y, da| da.map(|g| d.neg(g)).transpose(),
                 libm: ,
+                ins: Neg, NegA: neg,
             }
             Sin {
                 doc: "sin x",
@@ -31,6 +35,7 @@ macro_rules! unary_functions {
                     d.mul_opt(da, c)
                 },
                 libm: lagrangian_sin = sin,
+                ins: Sin, SinA: sin,
             }
             Cos {
                 doc: "cos x",
@@ -41,6 +46,7 @@ macro_rules! unary_functions {
                     d.mul_opt(da, ns)
                 },
                 libm: lagrangian_cos = cos,
+                ins: Cos, CosA: cos,
             }
             Tan {
                 doc: "tan x",
@@ -53,18 +59,21 @@ macro_rules! unary_functions {
                     d.mul_opt(da, k)
                 },
                 libm: lagrangian_tan = tan,
+                ins: Tan, TanA: tan,
             }
             Exp {
                 doc: "eˣ",
                 value: |x| x.exp(),
                 tangent: |d, a, y, da| d.mul_opt(da, y),
                 libm: lagrangian_exp = exp,
+                ins: Exp, ExpA: exp,
             }
             Ln {
                 doc: "ln x",
                 value: |x| x.ln(),
                 tangent: |d, a, y, da| da.map(|g| d.div(g, a)).transpose(),
                 libm: lagrangian_ln = ln,
+                ins: Ln, LnA: ln,
             }
             Sqrt {
                 doc: "√x",
@@ -76,6 +85,7 @@ macro_rules! unary_functions {
                     da.map(|g| d.div(g, k)).transpose()
                 },
                 libm: ,
+                ins: Sqrt, SqrtA: sqrt,
             }
             Sinh {
                 doc: "sinh x",
@@ -85,6 +95,7 @@ macro_rules! unary_functions {
                     d.mul_opt(da, c)
                 },
                 libm: lagrangian_sinh = sinh,
+                ins: Sinh, SinhA: sinh,
             }
             Cosh {
                 doc: "cosh x",
@@ -94,6 +105,7 @@ macro_rules! unary_functions {
                     d.mul_opt(da, s)
                 },
                 libm: lagrangian_cosh = cosh,
+                ins: Cosh, CoshA: cosh,
             }
             Tanh {
                 doc: "tanh x",
@@ -106,6 +118,7 @@ macro_rules! unary_functions {
                     d.mul_opt(da, k)
                 },
                 libm: lagrangian_tanh = tanh,
+                ins: Tanh, TanhA: tanh,
             }
             Abs {
                 doc: "|x|",
@@ -116,14 +129,16 @@ macro_rules! unary_functions {
                     d.mul_opt(da, sign)
                 },
                 libm: ,
+                ins: Abs, AbsA: abs,
             }
             Sign {
                 doc: "The slope of |x| as the dual numbers take it: 1 for x > 0, −1 otherwise (so \
-      at 0 it is −1, as num-dual's `abs`). The derivative of |x| on the graph, \
-      finite at x = 0.",
+at 0 it is −1, as num-dual's `abs`). The derivative of |x| on the graph, \
+finite at x = 0.",
                 value: |x| sign(x),
                 tangent: |d, a, y, da| Ok(None),
                 libm: ,
+                ins: Sign, SignA: sign,
             }
         }
     };

@@ -13,6 +13,7 @@ macro_rules! unary_enum {
         value: |$x:ident| $value:expr,
         tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
         libm: $($sym:ident = $f:ident)?,
+        ins: $u:ident, $ua:ident: $m:ident,
     })*) => {
         /// Functions of one argument.
         #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -119,6 +119,7 @@ macro_rules! unary_wrappers {
         value: |$x:ident| $value:expr,
         tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
         libm: $($sym:ident = $f:ident)?,
+        ins: $u:ident, $ua:ident: $m:ident,
     })*) => {
         $($(
             extern "C" fn $sym(x: f64) -> f64 {

@@ -16,6 +16,7 @@
 
 use super::{BACKTRACKING_UP_TO, Code, declare, enter, fail, jit_module, link};
 use crate::error::{Error, Result};
+use crate::expr::functions::unary_functions;
 use crate::program::compile::{Input, Out, Tape};
 use crate::program::eval::Function;
 use crate::program::ins::{Emit, emit};
@@ -250,8 +251,28 @@ impl TapeEmitter<'_> {
     }
 }
 
+/// The [`Emit`] methods of the functions of one argument that call the maths library: a call
+/// of the wrapper registered under the symbol of their entry in `expr/functions.rs`.
+macro_rules! libm_calls {
+    ($($name:ident {
+        doc: $doc:expr,
+        value: |$x:ident| $value:expr,
+        tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
+        libm: $($sym:ident = $f:ident)?,
+        ins: $u:ident, $ua:ident: $m:ident,
+    })*) => {
+        $($(
+            fn $m(&mut self, a: Value) -> Value {
+                self.call(stringify!($sym), &[a])
+            }
+        )?)*
+    };
+}
+
 impl Emit for TapeEmitter<'_> {
     type V = Value;
+
+    unary_functions!(libm_calls);
 
     fn slot(&mut self, i: u32) -> Result<Value> {
         self.slots
@@ -344,12 +365,6 @@ impl Emit for TapeEmitter<'_> {
     fn c_atan2(&mut self, a: Value, c: Value) -> Value {
         self.atan2(c, a)
     }
-    fn sin(&mut self, a: Value) -> Value {
-        self.call("lagrangian_sin", &[a])
-    }
-    fn cos(&mut self, a: Value) -> Value {
-        self.call("lagrangian_cos", &[a])
-    }
     fn sin_cos(&mut self, a: Value) -> (Value, Value) {
         // One call: the cosine comes back through an 8-byte slot of this function's frame.
         let slot = *self.cos_slot.get_or_insert_with(|| {
@@ -364,26 +379,8 @@ impl Emit for TapeEmitter<'_> {
         let c = self.b.ins().stack_load(self.ptr, types::F64, slot, 0);
         (s, c)
     }
-    fn tan(&mut self, a: Value) -> Value {
-        self.call("lagrangian_tan", &[a])
-    }
-    fn exp(&mut self, a: Value) -> Value {
-        self.call("lagrangian_exp", &[a])
-    }
-    fn ln(&mut self, a: Value) -> Value {
-        self.call("lagrangian_ln", &[a])
-    }
     fn sqrt(&mut self, a: Value) -> Value {
         self.b.ins().sqrt(a)
-    }
-    fn sinh(&mut self, a: Value) -> Value {
-        self.call("lagrangian_sinh", &[a])
-    }
-    fn cosh(&mut self, a: Value) -> Value {
-        self.call("lagrangian_cosh", &[a])
-    }
-    fn tanh(&mut self, a: Value) -> Value {
-        self.call("lagrangian_tanh", &[a])
     }
     fn abs(&mut self, a: Value) -> Value {
         self.b.ins().fabs(a)

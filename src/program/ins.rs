@@ -6,8 +6,8 @@
 //! value consumed by the very next instruction never makes a round trip through memory (an
 //! interpreter's store-to-load stalls cost more than the dual-number arithmetic itself).
 //!
-//! To add a function of one argument: a [`Unary`] variant, its [`Arith`] method (`jet.rs`), its
-//! `f64` meaning (`Unary::apply`) and one line in the `unary` block below. A function of two
+//! To add a function of one argument: its entry in the table of `expr/functions.rs` (which gives
+//! the `unary` block below) and its [`Arith`] arithmetic (`jet.rs`). A function of two
 //! arguments: one line in `commutative` or `ordered`, which also gives its forms with a constant
 //! operand (`x op c`, and `c op x` for the ordered ones). With the `jit` feature, a new
 //! [`Arith`] method also needs its [`Emit`] twin (its native code, `native.rs`): the compiler
@@ -16,6 +16,7 @@
 use super::jet::Arith;
 #[cfg(feature = "jit")]
 use crate::error::Result;
+use crate::expr::functions::unary_functions;
 use crate::expr::graph::{Binary, Unary};
 
 /// What an instruction computes, before slots are assigned.
@@ -278,6 +279,20 @@ macro_rules! instruction_set {
     };
 }
 
+/// The [`Emit`] methods of the functions of one argument, from their table.
+#[cfg(feature = "jit")]
+macro_rules! emit_methods {
+    ($($name:ident {
+        doc: $doc:expr,
+        value: |$x:ident| $value:expr,
+        tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
+        libm: $($sym:ident = $f:ident)?,
+        ins: $u:ident, $ua:ident: $m:ident,
+    })*) => {
+        $(fn $m(&mut self, a: Self::V) -> Self::V;)*
+    };
+}
+
 /// A code generator for the instruction set (`native.rs`): [`Arith`]'s operations on the values
 /// `V` of the generated code, with constants as values too, and the reads and writes of slots,
 /// constants and the accumulator, each checked (an error, not a panic, for a malformed tape).
@@ -296,7 +311,6 @@ pub(crate) trait Emit {
     fn sub(&mut self, a: Self::V, b: Self::V) -> Self::V;
     fn mul(&mut self, a: Self::V, b: Self::V) -> Self::V;
     fn div(&mut self, a: Self::V, b: Self::V) -> Self::V;
-    fn neg(&mut self, a: Self::V) -> Self::V;
     fn add_c(&mut self, a: Self::V, c: Self::V) -> Self::V;
     fn sub_c(&mut self, a: Self::V, c: Self::V) -> Self::V;
     fn c_sub(&mut self, a: Self::V, c: Self::V) -> Self::V;
@@ -309,45 +323,35 @@ pub(crate) trait Emit {
     fn atan2(&mut self, a: Self::V, b: Self::V) -> Self::V;
     fn atan2_c(&mut self, a: Self::V, c: Self::V) -> Self::V;
     fn c_atan2(&mut self, a: Self::V, c: Self::V) -> Self::V;
-    fn sin(&mut self, a: Self::V) -> Self::V;
-    fn cos(&mut self, a: Self::V) -> Self::V;
     fn sin_cos(&mut self, a: Self::V) -> (Self::V, Self::V);
-    fn tan(&mut self, a: Self::V) -> Self::V;
-    fn exp(&mut self, a: Self::V) -> Self::V;
-    fn ln(&mut self, a: Self::V) -> Self::V;
-    fn sqrt(&mut self, a: Self::V) -> Self::V;
-    fn sinh(&mut self, a: Self::V) -> Self::V;
-    fn cosh(&mut self, a: Self::V) -> Self::V;
-    fn tanh(&mut self, a: Self::V) -> Self::V;
-    fn abs(&mut self, a: Self::V) -> Self::V;
-    fn sign(&mut self, a: Self::V) -> Self::V;
     fn sqr(&mut self, a: Self::V) -> Self::V;
     fn powi(&mut self, a: Self::V, n: i32) -> Self::V;
+    unary_functions!(emit_methods);
 }
 
-instruction_set! {
-    unary {
-        Neg => Neg, NegA: neg;
-        Sin => Sin, SinA: sin;
-        Cos => Cos, CosA: cos;
-        Tan => Tan, TanA: tan;
-        Exp => Exp, ExpA: exp;
-        Ln => Ln, LnA: ln;
-        Sqrt => Sqrt, SqrtA: sqrt;
-        Sinh => Sinh, SinhA: sinh;
-        Cosh => Cosh, CoshA: cosh;
-        Tanh => Tanh, TanhA: tanh;
-        Abs => Abs, AbsA: abs;
-        Sign => Sign, SignA: sign;
-    }
-    commutative {
-        Add => Add, AddA: add; AddC, AddCA: add_c;
-        Mul => Mul, MulA: mul; MulC, MulCA: mul_c;
-    }
-    ordered {
-        Sub => Sub, SubA, SubB: sub; SubC, SubCA: sub_c; CSub, CSubA: c_sub;
-        Div => Div, DivA, DivB: div; DivC, DivCA: div_c; CDiv, CDivA: c_div;
-        Pow => Pow, PowA, PowB: powd; PowC, PowCA: pow_c; CPow, CPowA: c_pow;
-        Atan2 => Atan2, Atan2A, Atan2B: atan2; Atan2C, Atan2CA: atan2_c; CAtan2, CAtan2A: c_atan2;
-    }
+/// The table, its `unary` block from the functions of one argument (`expr/functions.rs`).
+macro_rules! instruction_set_of {
+    ($($name:ident {
+        doc: $doc:expr,
+        value: |$x:ident| $value:expr,
+        tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
+        libm: $($sym:ident = $f:ident)?,
+        ins: $u:ident, $ua:ident: $m:ident,
+    })*) => {
+        instruction_set! {
+            unary { $($u => $u, $ua: $m;)* }
+            commutative {
+                Add => Add, AddA: add; AddC, AddCA: add_c;
+                Mul => Mul, MulA: mul; MulC, MulCA: mul_c;
+            }
+            ordered {
+                Sub => Sub, SubA, SubB: sub; SubC, SubCA: sub_c; CSub, CSubA: c_sub;
+                Div => Div, DivA, DivB: div; DivC, DivCA: div_c; CDiv, CDivA: c_div;
+                Pow => Pow, PowA, PowB: powd; PowC, PowCA: pow_c; CPow, CPowA: c_pow;
+                Atan2 => Atan2, Atan2A, Atan2B: atan2; Atan2C, Atan2CA: atan2_c; CAtan2, CAtan2A: c_atan2;
+            }
+        }
+    };
 }
+
+unary_functions!(instruction_set_of);

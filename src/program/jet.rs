@@ -15,9 +15,24 @@
 //! `Option` parts and keep their own arithmetic.
 
 use crate::Scalar;
+use crate::expr::functions::unary_functions;
 use nalgebra::{Const, SMatrix, SVector};
 use num_dual::{Derivative, DualSVec64, HyperDualVec64};
 use std::any::TypeId;
+
+/// The [`Arith`] methods of the functions of one argument, from their table
+/// (`expr/functions.rs`; `sign` is a step, so its derivatives are zero).
+macro_rules! arith_methods {
+    ($($name:ident {
+        doc: $doc:expr,
+        value: |$x:ident| $value:expr,
+        tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
+        libm: $($sym:ident = $f:ident)?,
+        ins: $u:ident, $ua:ident: $m:ident,
+    })*) => {
+        $(#[doc = $doc] fn $m(self) -> Self;)*
+    };
+}
 
 /// The operations of a tape instruction.
 pub(crate) trait Arith: Copy {
@@ -29,7 +44,6 @@ pub(crate) trait Arith: Copy {
     fn sub(self, o: Self) -> Self;
     fn mul(self, o: Self) -> Self;
     fn div(self, o: Self) -> Self;
-    fn neg(self) -> Self;
     fn add_c(self, c: f64) -> Self;
     fn sub_c(self, c: f64) -> Self;
     fn c_sub(self, c: f64) -> Self;
@@ -42,21 +56,10 @@ pub(crate) trait Arith: Copy {
     fn atan2(self, o: Self) -> Self;
     fn atan2_c(self, c: f64) -> Self;
     fn c_atan2(self, c: f64) -> Self;
-    fn sin(self) -> Self;
-    fn cos(self) -> Self;
     fn sin_cos(self) -> (Self, Self);
-    fn tan(self) -> Self;
-    fn exp(self) -> Self;
-    fn ln(self) -> Self;
-    fn sqrt(self) -> Self;
-    fn sinh(self) -> Self;
-    fn cosh(self) -> Self;
-    fn tanh(self) -> Self;
-    fn abs(self) -> Self;
-    /// [`Unary::Sign`](crate::expr::graph::Unary::Sign): a step, so its derivatives are zero.
-    fn sign(self) -> Self;
     fn sqr(self) -> Self;
     fn powi(self, n: i32) -> Self;
+    unary_functions!(arith_methods);
 }
 
 /// atan2(y, x) of dual numbers with derivatives wherever (x, y) ≠ 0: num-dual's is atan(y/x),
