@@ -2,4 +2,5 @@
 //! graph, a route, an integrator): here, in a room above every other, so that no file draws an
 //! arrow up to reach them.
 
+mod eval_paths;
 mod taylor;
