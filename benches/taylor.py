@@ -516,7 +516,7 @@ class Side:
 
 # A model's Taylor expansions to one order run order by order until it has expanded to that
 # order this many times, then the whole expansion is compiled unrolled (`UNROLL_AFTER` in
-# src/tape/taylor_native.rs, about the break-even of compiling).
+# src/taylor/kernel.rs, about the break-even of compiling).
 UNROLL_AFTER = 10_000
 
 

@@ -52,7 +52,7 @@ from taylor import SCENES, Scene, n_pendulum, our_model  # noqa: E402
 
 TOLERANCES = (1e-6, 1e-9, 1e-12, 1e-15)
 EVERY = 2**62
-UNROLL_AFTER = 10_000  # src/tape/taylor_native.rs
+UNROLL_AFTER = 10_000  # src/taylor/kernel.rs
 
 Case = Tuple[Any, List[float], List[float], float]
 

@@ -194,7 +194,7 @@ pub(crate) fn ldlt_pattern(n: usize, zero: impl Fn(usize) -> bool) -> Vec<bool> 
 /// [`ldlt_pattern`]) says are zero: each row's other terms summed in `dot`'s lanes by their
 /// rank among the terms kept (so the roundings may differ from `ldlt_solve`'s where a row is
 /// partly zero; with every entry nonzero it is `ldlt_solve` bit for bit). Unrolled Taylor
-/// expansions solve as this does (`taylor_native.rs`).
+/// expansions solve as this does (`taylor/kernel.rs`).
 pub(crate) fn ldlt_solve_pattern(f: &[f64], n: usize, nonzero: &[bool], b: &mut [f64]) {
     for i in 1..n {
         let row = &nonzero[i * n..i * n + i];

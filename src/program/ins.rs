@@ -10,7 +10,7 @@
 //! the `unary` block below) and its [`Arith`] arithmetic (`jet.rs`). A function of two
 //! arguments: one line in `commutative` or `ordered`, which also gives its forms with a constant
 //! operand (`x op c`, and `c op x` for the ordered ones). With the `jit` feature, a new
-//! [`Arith`] method also needs its [`Emit`] twin (its native code, `native.rs`): the compiler
+//! [`Arith`] method also needs its [`Emit`] twin (its native code, `native/tape.rs`): the compiler
 //! says so.
 
 use super::jet::Arith;
@@ -166,7 +166,7 @@ macro_rules! instruction_set {
             }
         }
 
-        /// Lower one instruction through `e` (native code, `native.rs`): the same table as
+        /// Lower one instruction through `e` (native code, `native/tape.rs`): the same table as
         /// [`step`], with the arithmetic of [`Emit`] instead of [`Arith`].
         #[cfg(feature = "jit")]
         pub(crate) fn emit<E: Emit>(ins: &Ins, e: &mut E) -> Result<()> {
@@ -293,7 +293,7 @@ macro_rules! emit_methods {
     };
 }
 
-/// A code generator for the instruction set (`native.rs`): [`Arith`]'s operations on the values
+/// A code generator for the instruction set (`native/tape.rs`): [`Arith`]'s operations on the values
 /// `V` of the generated code, with constants as values too, and the reads and writes of slots,
 /// constants and the accumulator, each checked (an error, not a panic, for a malformed tape).
 #[cfg(feature = "jit")]

@@ -253,7 +253,7 @@ impl<'a> SeriesEmitter<'a> {
     }
 
     /// Σⱼ₌ₗₒ..ₕᵢ [j] aⱼ b_(kk − j) at order k with every index known at compilation, in the order
-    /// of `conv` in `taylor.rs`: the terms that read no coefficient of order k in the lanes
+    /// of `conv` in `series.rs`: the terms that read no coefficient of order k in the lanes
     /// (four or more of them in two two-lane vectors, [`SeriesEmitter::vector_lanes`]), then the j = 0 term
     /// reading b_k, then the j = k term reading a_k.
     pub(crate) fn sum(
@@ -670,7 +670,7 @@ impl<'a> SeriesEmitter<'a> {
         self.store(r, k, v);
     }
 
-    /// The sum of `terms` in the lanes and order of `conv` in `taylor.rs` (and of
+    /// The sum of `terms` in the lanes and order of `conv` in `series.rs` (and of
     /// `linalg::dot`): term i into lane i mod 4 while four are left, the rest into lane 0, then
     /// (l₀ + l₁) + (l₂ + l₃), each lane from +0. A lane no term reached stays +0 and is left
     /// out of the last sums: a lane that did start from +0 is never −0 (a sum is −0 only when
@@ -694,7 +694,7 @@ impl<'a> SeriesEmitter<'a> {
         add(low, high).unwrap_or(zero)
     }
 
-    /// Σⱼ₌ₗₒ..ₕᵢ [j] aⱼ b_(kk − j) of rows a and b, hi given by `top`, as `conv` in `taylor.rs`
+    /// Σⱼ₌ₗₒ..ₕᵢ [j] aⱼ b_(kk − j) of rows a and b, hi given by `top`, as `conv` in `series.rs`
     /// sums it: straight-line code when the order is known at compilation ([`SeriesEmitter::sum`]); else
     /// a call of `lagrangian_conv` (large programs), or the terms that read no coefficient of
     /// order k in a loop in the code and then the others.

@@ -209,7 +209,7 @@ impl SeriesOp {
     }
 
     /// The functions of the maths library order 0 of this recurrence calls, by the names the
-    /// compiled code imports them under (`native.rs`).
+    /// compiled code imports them under (`native/mod.rs`).
     pub(crate) fn libm(&self) -> &'static [&'static str] {
         match self {
             SeriesOp::Exp { .. } => &["lagrangian_exp"],

@@ -6,7 +6,7 @@
 //! dual-number passes ([`EnergyModel`]) on models kept inside their domains.
 //!
 //! `NativeTape` itself is checked instruction by instruction against the interpreter in
-//! `src/tape/native.rs`; here the whole path — derivation, compilation, the LDLᵀ tail — is.
+//! `src/native/tape.rs`; here the whole path — derivation, compilation, the LDLᵀ tail — is.
 
 use lagrangian::tape::{
     Binary, Energies, EnergyModel, EomFunction, EomProgram, Function, Graph, Inputs, StepRule,
