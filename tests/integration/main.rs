@@ -27,3 +27,4 @@ mod stability;
 mod statics;
 mod tape_speed;
 mod taylor;
+mod taylor_series;
