@@ -13,8 +13,16 @@ fn main() {
     let system = ForcedTwoMass::new(m1, m2, k1, k2).system(); // the free system
     let found = modes(&system, 0.0, &[0.0, 0.0]).unwrap();
     // 2ω⁴ − 120ω² + 600 = 0
-    assert_relative_eq!(found.frequencies[0], (30.0 - 600.0_f64.sqrt()).sqrt(), max_relative = 1e-13);
-    assert_relative_eq!(found.frequencies[1], (30.0 + 600.0_f64.sqrt()).sqrt(), max_relative = 1e-13);
+    assert_relative_eq!(
+        found.frequencies[0],
+        (30.0 - 600.0_f64.sqrt()).sqrt(),
+        max_relative = 1e-13
+    );
+    assert_relative_eq!(
+        found.frequencies[1],
+        (30.0 + 600.0_f64.sqrt()).sqrt(),
+        max_relative = 1e-13
+    );
     assert_eq!(found.stability, Stability::Stable);
     // The forced response to F cos Ωt, F = (1, 0): amplitude (K − Ω² M)⁻¹ F, near and far from
     // resonance.
@@ -24,5 +32,8 @@ fn main() {
         (&lin.k - &lin.m * (w * w)).lu().solve(&f).unwrap().norm()
     };
     assert!(amplitude(found.frequencies[0] * 1.001) > 100.0 * amplitude(0.0));
-    println!("ω = {:.12}, {:.12} rad/s", found.frequencies[0], found.frequencies[1]);
+    println!(
+        "ω = {:.12}, {:.12} rad/s",
+        found.frequencies[0], found.frequencies[1]
+    );
 }
