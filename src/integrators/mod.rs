@@ -430,7 +430,8 @@ impl<S: Dynamics + ?Sized> Run<'_, S> {
         (self.t_end - self.t0).signum()
     }
 
-    /// The number of equal fixed steps, checked against `max_steps` before the first one.
+    /// The number of equal fixed steps, checked against `max_steps` before the first one
+    /// ([`Options::fixed`] sets no budget: the steps asked for are taken).
     pub(crate) fn fixed_steps(&self, dt: f64) -> Result<usize> {
         let span = (self.t_end - self.t0).abs();
         // A span that is a whole number of steps up to round-off takes that many.
@@ -441,6 +442,7 @@ impl<S: Dynamics + ?Sized> Run<'_, S> {
             return Err(Error::TooManySteps {
                 t: self.t0,
                 steps: self.options.max_steps,
+                needed: Some((steps as usize).saturating_add(taken)),
             });
         }
         Ok(steps as usize)
@@ -905,7 +907,11 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
                 }
                 let attempts = run.stats.accepted_steps + run.stats.rejected_steps;
                 if attempts >= run.options.max_steps {
-                    return Err(Error::TooManySteps { t, steps: attempts });
+                    return Err(Error::TooManySteps {
+                        t,
+                        steps: attempts,
+                        needed: None,
+                    });
                 }
                 run.events.restart(t, &after, &fired)?;
                 run.t0 = t;

@@ -612,7 +612,11 @@ impl Stepper {
             let (t_new, h, result, err) = loop {
                 let attempts = run.stats.accepted_steps + run.stats.rejected_steps;
                 if attempts >= opts.max_steps {
-                    return Err(Error::TooManySteps { t, steps: attempts });
+                    return Err(Error::TooManySteps {
+                        t,
+                        steps: attempts,
+                        needed: None,
+                    });
                 }
                 if h_abs < floor {
                     return Err(match (newton_failure, non_finite) {

@@ -141,6 +141,7 @@ impl TaylorStepper {
             return Err(Error::TooManySteps {
                 t: self.t,
                 steps: attempts,
+                needed: None,
             });
         }
         run.poll(self.t)?;
