@@ -68,7 +68,7 @@ mod dense;
 mod ensemble;
 mod events;
 mod gauss;
-mod newton;
+mod implicit;
 mod options;
 mod radau;
 mod runge_kutta;
@@ -84,9 +84,6 @@ pub use dense::{Dense, DenseParts};
 #[cfg(feature = "parallel")]
 pub use ensemble::{RunResult, Systems, solve_many};
 pub use events::{Condition, Direction, Event, Occurrences, Reset, Status};
-pub(crate) use newton::acceleration_jacobian;
-#[cfg(test)]
-pub(crate) use newton::jacobian;
 pub use options::{Options, Output};
 pub use solution::{Failed, Solution, Statistics};
 pub use symplectic::SymplecticTableau;

@@ -5,7 +5,7 @@
 //! ([`crate::integrators::acceleration_jacobian`]); no finite differences.
 
 use crate::Dynamics;
-use crate::integrators::acceleration_jacobian;
+use crate::dynamics::acceleration_jacobian;
 use nalgebra::DMatrix;
 use num_dual::Dual64;
 use numpy::ndarray::{Array2, ArrayViewD, Axis, Dimension, Ix1, Ix2, IxDyn};
