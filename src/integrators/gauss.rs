@@ -25,12 +25,12 @@
 //! come from the previous step's collocation polynomial.
 
 use super::implicit::{FixedSteps, ImplicitStep, Legendre};
-use crate::dynamics::jacobian;
-use crate::nonlinear::{self, Convergence, Lu, Verdict, max_norm, same_step};
-use super::{Integrator, Run, SegmentStepper};
+use super::run::{Integrator, Run, SegmentStepper};
 use crate::dynamics::Dynamics;
+use crate::dynamics::jacobian;
 use crate::eom::ForceParts;
 use crate::error::{Error, Result};
+use crate::nonlinear::{self, Convergence, Lu, Verdict, max_norm, same_step};
 use nalgebra::DMatrix;
 use num_dual::Dual64;
 

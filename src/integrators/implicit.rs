@@ -6,7 +6,8 @@
 //! Every buffer is allocated once per run, so the step loops do not touch the allocator.
 
 use super::dense::{Ends, Interpolant};
-use super::{Flow, Run, SegmentStepper, Statistics};
+use super::run::{Flow, Run, SegmentStepper};
+use super::solution::Statistics;
 use crate::dynamics::Dynamics;
 use crate::eom;
 use crate::error::Result;

@@ -2,7 +2,8 @@
 //! validation: every option is checked here (the Python binding only converts types), so each
 //! invalid value has one message wherever it comes from.
 
-use super::{Event, Method};
+use super::events::Event;
+use super::method::Method;
 use crate::error::{Error, Result};
 
 /// Which states the [`Solution`](super::Solution) keeps.

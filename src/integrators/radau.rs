@@ -23,11 +23,11 @@
 
 use super::dense::{Ends, Interpolant};
 use super::implicit::{FixedSteps, ImplicitStep};
-use crate::dynamics::acceleration_jacobian;
-use crate::nonlinear::{Convergence, Lu, same_step};
-use super::{Flow, Integrator, Run, SegmentStepper};
+use super::run::{Flow, Integrator, Run, SegmentStepper};
 use crate::dynamics::Dynamics;
+use crate::dynamics::acceleration_jacobian;
 use crate::error::{Error, Result};
+use crate::nonlinear::{Convergence, Lu, same_step};
 use nalgebra::{Complex, DMatrix};
 use num_dual::Dual64;
 

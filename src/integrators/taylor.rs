@@ -22,7 +22,7 @@
 //! `lg.Model`, `tape::EomProgram`), not Rust types implementing the energy traits.
 
 use super::dense::Interpolant;
-use super::{Flow, Integrator, Run, SegmentStepper};
+use super::run::{Flow, Integrator, Run, SegmentStepper};
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
 #[cfg(feature = "jit")]

@@ -170,7 +170,6 @@ pub(crate) fn update(
     conv.judge(max_norm(r) / scale)
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;

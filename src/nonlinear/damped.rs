@@ -38,7 +38,6 @@ pub(crate) struct Root {
     pub(crate) iterations: usize,
 }
 
-
 /// Armijo constant: accept a step that achieves this fraction of the predicted decrease.
 const ARMIJO: f64 = 1e-4;
 /// Smallest line-search step fraction before the step counts as failed.
