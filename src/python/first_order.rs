@@ -2,7 +2,7 @@
 //! `jac(t, y)` conventions, so that a model can be handed to `scipy.integrate.solve_ivp` as it is.
 //!
 //! The Jacobian is the one Radau IIA uses, by forward-mode AD
-//! ([`crate::integrators::acceleration_jacobian`]); no finite differences.
+//! ([`crate::dynamics::acceleration_jacobian`]); no finite differences.
 
 use crate::Dynamics;
 use crate::dynamics::acceleration_jacobian;
