@@ -8,7 +8,7 @@ use crate::error::{Error, Result};
 #[non_exhaustive]
 pub enum Method {
     /// Choose from the structure, the options and the initial state; the choice and its
-    /// reason are in [`Statistics::choice`]:
+    /// reason are in [`Statistics::choice`](super::Statistics::choice):
     ///
     /// 1. conservative (no Φ, no Q″, no explicit t) with a fixed `dt`: `blanes_moan4` when
     ///    separable (constant M, U(q)), otherwise `gauss4` (symplectic for any L);

@@ -6,7 +6,7 @@ use nalgebra::{DMatrix, DVector};
 /// The character of an equilibrium.
 ///
 /// Decided from the eigenvalues of the linearized equations of motion ([`crate::modes`]; the
-/// reason is stated in [`Equilibrium::reason`]): an eigenvalue with a positive real part makes
+/// reason is stated in [`Equilibrium::reason`](super::Equilibrium::reason)): an eigenvalue with a positive real part makes
 /// it unstable, a zero eigenvalue neutral, and it is stable when every eigenvalue has a
 /// negative real part, or when K is positive definite (a strict minimum of the effective
 /// potential U − T₀) with the rest on the imaginary axis, or when gyroscopic forces hold every
