@@ -30,7 +30,7 @@ use crate::dynamics::Dynamics;
 use crate::dynamics::jacobian;
 use crate::eom::ForceParts;
 use crate::error::{Error, Result};
-use crate::nonlinear::{self, Convergence, Lu, Verdict, max_norm, same_step};
+use crate::nonlinear::{Convergence, Lu, Verdict, max_norm, newton_update, same_step};
 use nalgebra::DMatrix;
 use num_dual::Dual64;
 
@@ -367,7 +367,7 @@ impl Stepper {
                 conv.not_finite(what, at);
                 return (false, conv);
             }
-            match nonlinear::update(&self.lu, &mut self.r, &mut self.vs, floor, &mut conv) {
+            match newton_update(&self.lu, &mut self.r, &mut self.vs, floor, &mut conv) {
                 Verdict::Continue => {}
                 Verdict::Converged => return (true, conv),
                 Verdict::Failed => return (false, conv),

@@ -155,7 +155,7 @@ pub(crate) fn max_norm(x: &[f64]) -> f64 {
 /// d), x −= d, and judge ‖d‖∞ scaled by max(‖x‖∞, `floor`) — the tail that the Gauss–Legendre
 /// and variational iterations share.
 #[inline]
-pub(crate) fn update(
+pub(crate) fn newton_update(
     lu: &Lu<f64>,
     r: &mut [f64],
     x: &mut [f64],

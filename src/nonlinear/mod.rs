@@ -9,6 +9,6 @@ mod convergence;
 mod damped;
 mod lu;
 
-pub(crate) use convergence::{Convergence, Verdict, max_norm, same_step, update};
+pub(crate) use convergence::{Convergence, Verdict, max_norm, newton_update, same_step};
 pub(crate) use damped::{Residual, Stopping, damped_newton};
 pub(crate) use lu::Lu;
