@@ -36,9 +36,9 @@ impl Legendre {
     /// convergence test measures increments against.
     ///
     /// # Errors
-    /// [`Error::SingularMassMatrix`] when M cannot be factored (the Legendre map is not
-    /// invertible there), [`Error::NonFinite`] when the momenta or the velocity are not
-    /// finite, [`Error::NewtonFailure`] when the iteration does not converge.
+    /// [`Error::SingularMassMatrix`](crate::Error::SingularMassMatrix) when M cannot be factored (the Legendre map is not
+    /// invertible there), [`Error::NonFinite`](crate::Error::NonFinite) when the momenta or the velocity are not
+    /// finite, [`Error::NewtonFailure`](crate::Error::NewtonFailure) when the iteration does not converge.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn velocity<S: Dynamics + ?Sized>(
         &mut self,
@@ -90,7 +90,7 @@ pub(crate) trait ImplicitStep<S: Dynamics + ?Sized> {
 }
 
 /// How often a fixed step may be halved after Newton failures before
-/// [`Error::NewtonFailure`]: down to dt / 2¹⁰.
+/// [`Error::NewtonFailure`](crate::Error::NewtonFailure): down to dt / 2¹⁰.
 pub(crate) const MAX_HALVINGS: usize = 10;
 
 /// The fixed steps of an implicit method: equal steps of about `dt`; a step whose Newton

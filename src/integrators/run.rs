@@ -43,7 +43,7 @@ pub(crate) trait Integrator {
     ) -> Result<Box<dyn SegmentStepper<S>>>;
 }
 
-/// One method integrating one segment, a step at a time: what [`Solver::step`] drives.
+/// One method integrating one segment, a step at a time: what [`Solver::step`](super::Solver::step) drives.
 pub(crate) trait SegmentStepper<S: Dynamics + ?Sized> {
     /// Take one accepted step (rejected attempts are retried inside) and hand it to
     /// [`Run::accept`]; before it, a stepper may take the [`Run::quiet_steps`] and only count
@@ -63,7 +63,7 @@ pub(crate) struct Run<'a, S: ?Sized> {
     pub(crate) options: &'a Options,
     pub(crate) out: Recorder,
     pub(crate) stats: Statistics,
-    /// The caller's interrupt check (see [`solve_with_interrupt`]), polled at every evaluation.
+    /// The caller's interrupt check (see [`solve_with_interrupt`](super::solve_with_interrupt)), polled at every evaluation.
     pub(crate) interrupt: Option<&'a dyn Fn(f64) -> bool>,
     /// The events' search state and occurrences.
     pub(crate) events: Tracker,
@@ -74,7 +74,7 @@ pub(crate) struct Run<'a, S: ?Sized> {
     /// A state buffer for the recorder's dense output.
     pub(crate) buf: Vec<f64>,
     /// Whether a stepper may take several steps per call ([`Run::quiet_steps`]): in a whole
-    /// run, not when [`Solver::step`] hands them out one at a time.
+    /// run, not when [`Solver::step`](super::Solver::step) hands them out one at a time.
     pub(crate) batched: bool,
 }
 

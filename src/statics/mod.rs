@@ -12,7 +12,7 @@
 //! vanish at q̇ = 0 (a bead on a spinning hoop, coordinates in a rotating frame), −∂T₀/∂q is the
 //! centrifugal force and the roots are the relative equilibria, the stationary points of the
 //! effective potential U − T₀. Neither needs M: a system built only for statics may have
-//! massless points (its accelerations then fail with [`Error::SingularMassMatrix`], as they
+//! massless points (its accelerations then fail with [`Error::SingularMassMatrix`](crate::Error::SingularMassMatrix), as they
 //! should).
 //!
 //! The solver is Newton's method with the exact stiffness K = ∂r/∂q from dual numbers (one
@@ -24,8 +24,8 @@
 //!
 //! A system whose equations depend on t explicitly has no static equilibrium in general: a
 //! configuration balanced at one instant is not at the next. Unless the caller asks for the
-//! balance at a frozen time ([`StaticsOptions::frozen_time`]), [`equilibrium`] checks that r does
-//! not change with t at the root it finds and fails with [`Error::NoStaticEquilibrium`] when it
+//! balance at a frozen time ([`StaticsOptions::frozen_time`](crate::StaticsOptions::frozen_time)), [`equilibrium()`](crate::equilibrium()) checks that r does
+//! not change with t at the root it finds and fails with [`Error::NoStaticEquilibrium`](crate::Error::NoStaticEquilibrium) when it
 //! does. A root that stays one (a driven pendulum hanging straight) is returned, but when its
 //! linearization changes with t (parametric excitation) it is classified neutral: the
 //! eigenvalues of one instant do not decide its stability. The structure
@@ -35,7 +35,7 @@
 //! particle positions r(t, q)) through.
 //!
 //! The files, one way: `residual` (r and K at rest) and `stability` (the verdict, and the
-//! energy criterion) sit below the modes ([`crate::linearize`]), which use both; the
+//! energy criterion) sit below the modes (`linearize.rs`), which use both; the
 //! `equilibrium` solver sits above them and solves with `crate::nonlinear`.
 
 mod equilibrium;
