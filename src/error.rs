@@ -209,7 +209,8 @@ fn too_many_steps(t: f64, steps: usize, needed: Option<usize>) -> String {
         ),
         Some(needed) => format!(
             "the fixed step needs {needed} steps to reach the end of the span, more than \
-             max_steps = {steps}: no step was taken from t = {t}; raise max_steps or use a larger dt"
+             max_steps = {steps}: no step was taken from t = {t}; raise max_steps or use a \
+             larger dt"
         ),
     }
 }

@@ -36,9 +36,13 @@ impl Legendre {
     /// convergence test measures increments against.
     ///
     /// # Errors
-    /// [`Error::SingularMassMatrix`](crate::Error::SingularMassMatrix) when M cannot be factored (the Legendre map is not
-    /// invertible there), [`Error::NonFinite`](crate::Error::NonFinite) when the momenta or the velocity are not
-    /// finite, [`Error::NewtonFailure`](crate::Error::NewtonFailure) when the iteration does not converge.
+    /// [`Error::SingularMassMatrix`] when M cannot be factored (the Legendre map is not
+    /// invertible there), [`Error::NonFinite`] when the momenta or the velocity are not
+    /// finite, [`Error::NewtonFailure`] when the iteration does not converge.
+    ///
+    /// [`Error::SingularMassMatrix`]: crate::Error::SingularMassMatrix
+    /// [`Error::NonFinite`]: crate::Error::NonFinite
+    /// [`Error::NewtonFailure`]: crate::Error::NewtonFailure
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn velocity<S: Dynamics + ?Sized>(
         &mut self,

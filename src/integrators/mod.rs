@@ -1,7 +1,7 @@
 //! Integrators of the equations of motion (seed eq. 55): one [`solve`] for every method.
 //!
 //! The state is y = (q, q̇) and the first-order system ẏ = (q̇, q̈) with q̈ from
-//! [`Dynamics::accelerations_into`](crate::Dynamics::accelerations_into). Families:
+//! [`Dynamics::accelerations_into`]. Families:
 //!
 //! | method | family | step | for |
 //! |---|---|---|---|
@@ -17,23 +17,23 @@
 //! Rayleigh dissipation, Q″ free of q̇ — and then step q̇ += h M⁻¹(Q″ − ∂U/∂q) (the kick, M
 //! factored once) and q += h q̇ (the drift). They are symplectic and symmetric: the energy
 //! error stays bounded over long times and a run backwards retraces the run forwards. Asked of
-//! another system they return [`Error::UnsupportedMethod`](crate::Error::UnsupportedMethod) naming the methods that fit.
+//! another system they return [`Error::UnsupportedMethod`] naming the methods that fit.
 //!
 //! The implicit symplectic methods work on (q, p), p = ∂L/∂q̇, and serve any Lagrangian with an
 //! invertible M; Q″ and −∂Φ/∂q̇ enter through the Lagrange–d'Alembert principle (eq. 35). Their
 //! equations are solved by Newton with AD Jacobians to round-off, so they stay symmetric; a step
 //! whose Newton iteration fails is retried as two half steps, at most ten times nested, then
-//! [`Error::NewtonFailure`](crate::Error::NewtonFailure). Their `rhs_evaluations` count evaluations of (p, ∂L/∂q + Q″ −
+//! [`Error::NewtonFailure`]. Their `rhs_evaluations` count evaluations of (p, ∂L/∂q + Q″ −
 //! ∂Φ/∂q̇) at one stage; Radau's count evaluations of q̈. `jacobian_evaluations` and
 //! `factorizations` count AD Jacobians and LU (or LDLᵀ) factorizations.
 //!
-//! Failure is typed and early: [`Error::StepSizeTooSmall`](crate::Error::StepSizeTooSmall), [`Error::TooManySteps`](crate::Error::TooManySteps),
-//! [`Error::NonFinite`](crate::Error::NonFinite) with the time it appeared, [`Error::Stiffness`](crate::Error::Stiffness) when Hairer's test
+//! Failure is typed and early: [`Error::StepSizeTooSmall`], [`Error::TooManySteps`],
+//! [`Error::NonFinite`] with the time it appeared, [`Error::Stiffness`] when Hairer's test
 //! finds that an explicit adaptive method is limited by stability rather than accuracy,
-//! [`Error::UnstableStep`](crate::Error::UnstableStep) before a fixed-step explicit run whose `dt` lies outside the method's
+//! [`Error::UnstableStep`] before a fixed-step explicit run whose `dt` lies outside the method's
 //! stability region for a mode of the system linearised at the start (a stiff spring under RK4
 //! or Störmer–Verlet: refused with the largest stable `dt`, never a silently exploding answer),
-//! and [`Error::NewtonFailure`](crate::Error::NewtonFailure) when an implicit step cannot be solved. [`solve_partial`] keeps
+//! and [`Error::NewtonFailure`] when an implicit step cannot be solved. [`solve_partial`] keeps
 //! what a failed run computed: [`Failed`] carries the trajectory up to the last accepted step.
 //! With the `parallel` feature, `solve_many` runs an ensemble of them on a rayon thread pool
 //! (`ensemble.rs`), bit for bit as a serial loop would.
@@ -61,6 +61,15 @@
 //! // Small swings: θ ≈ 0.1 cos(√(g/l) t), up to the O(θ³) anharmonic shift.
 //! assert_relative_eq!(q[0], 0.1 * (9.81_f64.sqrt() * 2.0).cos(), epsilon = 2e-3);
 //! ```
+//!
+//! [`Dynamics::accelerations_into`]: crate::Dynamics::accelerations_into
+//! [`Error::UnsupportedMethod`]: crate::Error::UnsupportedMethod
+//! [`Error::NewtonFailure`]: crate::Error::NewtonFailure
+//! [`Error::StepSizeTooSmall`]: crate::Error::StepSizeTooSmall
+//! [`Error::TooManySteps`]: crate::Error::TooManySteps
+//! [`Error::NonFinite`]: crate::Error::NonFinite
+//! [`Error::Stiffness`]: crate::Error::Stiffness
+//! [`Error::UnstableStep`]: crate::Error::UnstableStep
 
 // The files, one way (each uses only those listed before it): the pieces of a run (`method`,
 // `dense`, `events`, `options`, `solution`, `tableau`), the step interface (`run`), the methods

@@ -43,7 +43,8 @@ pub(crate) trait Integrator {
     ) -> Result<Box<dyn SegmentStepper<S>>>;
 }
 
-/// One method integrating one segment, a step at a time: what [`Solver::step`](super::Solver::step) drives.
+/// One method integrating one segment, a step at a time: what [`Solver::step`](super::Solver::step)
+/// drives.
 pub(crate) trait SegmentStepper<S: Dynamics + ?Sized> {
     /// Take one accepted step (rejected attempts are retried inside) and hand it to
     /// [`Run::accept`]; before it, a stepper may take the [`Run::quiet_steps`] and only count
@@ -63,7 +64,8 @@ pub(crate) struct Run<'a, S: ?Sized> {
     pub(crate) options: &'a Options,
     pub(crate) out: Recorder,
     pub(crate) stats: Statistics,
-    /// The caller's interrupt check (see [`solve_with_interrupt`](super::solve_with_interrupt)), polled at every evaluation.
+    /// The caller's interrupt check (see [`solve_with_interrupt`](super::solve_with_interrupt)),
+    /// polled at every evaluation.
     pub(crate) interrupt: Option<&'a dyn Fn(f64) -> bool>,
     /// The events' search state and occurrences.
     pub(crate) events: Tracker,

@@ -27,7 +27,8 @@ pub(crate) fn static_stiffness_of<S: Dynamics + ?Sized>(
     StaticProblem::new(system, t).jacobian(q)
 }
 
-/// r(q) at (t, q, q̇ = 0) and the load scale F it balances (see [`StaticsOptions`](crate::StaticsOptions)).
+/// r(q) at (t, q, q̇ = 0) and the load scale F it balances (see
+/// [`StaticsOptions`](crate::StaticsOptions)).
 pub(crate) fn static_residual<S: Dynamics + ?Sized>(
     system: &S,
     t: f64,

@@ -5,10 +5,10 @@ use nalgebra::{DMatrix, DVector};
 
 /// The character of an equilibrium.
 ///
-/// Decided from the eigenvalues of the linearized equations of motion ([`crate::modes`]; the
-/// reason is stated in [`Equilibrium::reason`](super::Equilibrium::reason)): an eigenvalue with a positive real part makes
-/// it unstable, a zero eigenvalue neutral, and it is stable when every eigenvalue has a
-/// negative real part, or when K is positive definite (a strict minimum of the effective
+/// Decided from the eigenvalues of the linearized equations of motion ([`crate::modes`]; the reason
+/// is stated in [`Equilibrium::reason`](super::Equilibrium::reason)): an eigenvalue with a positive
+/// real part makes it unstable, a zero eigenvalue neutral, and it is stable when every eigenvalue
+/// has a negative real part, or when K is positive definite (a strict minimum of the effective
 /// potential U − T₀) with the rest on the imaginary axis, or when gyroscopic forces hold every
 /// eigenvalue on the imaginary axis although K is not. Where M is singular (a model for statics
 /// only) the eigenvalues λ of the symmetric part of K decide, the energy criterion of seed §3.2
