@@ -37,6 +37,7 @@ mod error;
 pub mod integrators;
 mod linalg;
 mod linearize;
+mod nonlinear;
 mod particles;
 #[cfg(feature = "python")]
 mod python;

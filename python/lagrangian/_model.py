@@ -744,7 +744,8 @@ class Model:
             Output only at these times (ordered in the direction of integration, inside the
             span), from the method's dense output; by default every step is kept.
         max_steps : int, optional
-            Step budget (default one million).
+            Step budget: one million by default, none with ``dt`` (a fixed step takes the
+            steps the span needs).
         output_every : int, optional
             Keep the initial state, every k-th step and the final state (for long runs whose
             every step would not fit in memory); not together with ``t_eval``.

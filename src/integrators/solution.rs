@@ -2,9 +2,9 @@
 //! [`solve_partial`](super::solve_partial) returns when a run fails ([`Failed`]); and the
 //! recorder that fills the trajectory according to [`Output`].
 
-use super::Method;
 use super::dense::Dense;
 use super::events::{Occurrences, Status};
+use super::method::Method;
 use super::options::Output;
 use crate::error::Error;
 

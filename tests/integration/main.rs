@@ -22,7 +22,7 @@ mod linearize;
 mod partial;
 mod routes;
 mod scenes;
-mod stability;
 mod statics;
+mod step_limit;
 mod tape_speed;
 mod taylor;
