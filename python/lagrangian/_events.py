@@ -5,7 +5,7 @@ from __future__ import annotations
 import numbers
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
-from ._expr import Coordinate, Expr, ExprLike, serialize
+from ._expr import Coordinate, Expr, ExprLike, serialize, to_raw
 from ._validate import check_symbols
 
 __all__ = ["Event"]
@@ -148,8 +148,6 @@ def event_specs(
 ) -> Tuple[List[Tuple[Any, ...]], List[List[str]]]:
     """The events as the native ``simulate`` reads them, each checked against the model, and
     the names of the parameters each one reads, in the order of its spec's values."""
-    from ._model import _to_raw  # the one map of symbol names to indices (imports this module)
-
     if isinstance(events, Event):
         raise TypeError("events must be a sequence of lagrangian.Event: pass events=[event]")
     index = {c.name: i for i, c in enumerate(coordinates)}
@@ -168,7 +166,7 @@ def event_specs(
         targets = [(key.op == "qd", index[key.args[0]]) for key, _ in event.reset]
         specs.append(
             (
-                _to_raw(nodes, coordinates, order),
+                to_raw(nodes, coordinates, order),
                 ids[0],
                 targets,
                 ids[1:],

@@ -11,8 +11,18 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _lagrangian
+from ._drawing import Drawing
 from ._events import Event, event_specs
-from ._expr import Coordinate, Expr, ExprLike, Node, Parameter, deserialize, serialize
+from ._expr import (
+    Coordinate,
+    Expr,
+    ExprLike,
+    Node,
+    Parameter,
+    deserialize,
+    serialize,
+    to_raw,
+)
 from ._linear import Equilibrium, Linearization, Modes
 from ._lagrangian import Integrator
 from ._solution import Solution
@@ -20,9 +30,12 @@ from ._validate import (
     check_coordinates,
     check_parameters,
     check_symbols,
+    drawing_points,
+    flag,
     integer,
-    number,
+    parameter_columns,
     real,
+    run_options,
     states,
     vector,
 )
@@ -31,8 +44,6 @@ if TYPE_CHECKING:
     from pathlib import Path
 
     from ._ensemble import Ensemble
-
-    from ._plot import Drawing
 
 __all__ = ["Model", "methods"]
 
@@ -229,7 +240,7 @@ class Model:
         for j, r in enumerate(pos or ()):
             for x in r:
                 checks.append((f"position of particle {j}", x, False))
-        points = None if drawing is None else _drawing_points(drawing, "drawing")
+        points = None if drawing is None else drawing_points(drawing, "drawing")
         for j, r in enumerate(points or ()):
             for x in r:
                 checks.append((f"drawing point {j}", x, False))
@@ -283,7 +294,7 @@ class Model:
             slots["masses"] = list(range(len(roots), len(roots) + len(self._masses)))
             roots.extend(self._masses)
         nodes, ids = serialize(roots)
-        raw = _to_raw(nodes, self._coordinates, list(self._parameters))
+        raw = to_raw(nodes, self._coordinates, list(self._parameters))
 
         def at(x: Any) -> Any:
             return [ids[i] for i in x] if isinstance(x, list) else ids[x]
@@ -474,7 +485,7 @@ class Model:
         """
         from . import _plot
 
-        points = self.drawing if drawing is None else _drawing_points(drawing, "drawing")
+        points = self.drawing if drawing is None else drawing_points(drawing, "drawing")
         if drawing is not None and points is not None:
             names = {c.name for c in self._coordinates}
             for j, r in enumerate(points):
@@ -538,7 +549,7 @@ class Model:
             "by positions=… and masses=… (the particle route) to draw it"
         )
 
-    def _drawing(self) -> "Optional[Drawing]":
+    def _drawing(self) -> Optional[Drawing]:
         """How :meth:`animate` draws the model beyond points with trails (``None``: points)."""
         return None
 
@@ -553,6 +564,13 @@ class Model:
         other._parameters = new
         other._native = self._native.with_parameters([float(v) for v in new.values()])
         return other
+
+    def _sweep_arguments(self, sweep: Mapping[str, FloatArray], k: int) -> Dict[str, Any]:
+        """The native ``simulate_many``'s arguments that bind k runs to the values ``sweep``
+        (the other parameters fixed): a row of parameter values per run (a scene builds a model
+        per run instead)."""
+        values = self._parameters
+        return {"params": parameter_columns(list(values), sweep, values, k)}
 
     # -- evaluation --------------------------------------------------------------------
     def _evaluate(self, name: str, t: object, q: object, qd: object) -> Any:
@@ -781,36 +799,14 @@ class Model:
         KeyboardInterrupt
             On Ctrl-C; it carries nothing.
         """
-        # The options are validated in Rust (one message each); here only their types. The
-        # initial state goes to Rust as it is when it has the form Rust reads (float64 arrays,
-        # lists of numbers; `None` otherwise), else it is converted and checked here first.
-        # The native call takes its arguments by position (no keyword dictionary to build and
-        # parse: a short run's fixed cost is most of what it costs).
-        if type(method) is not str:
-            if not isinstance(method, str):
-                raise TypeError(f"method must be a string such as 'dop853', got {method!r}")
-        # Finite floats pass at the cost of a comparison (x − x is 0 unless x is not finite);
-        # anything else goes through the checks, which raise or convert.
-        if type(t0) is not float or t0 - t0 != 0.0:
-            t0 = real("t0", t0)
-        if type(t_end) is not float or t_end - t_end != 0.0:
-            t_end = real("t_end", t_end)
-        if type(rtol) is not float:
-            rtol = number("rtol", rtol)
-        if type(atol) is not float:
-            atol = number("atol", atol)
-        if dt is not None:
-            dt = number("dt", dt)
-        times = None
-        if t_eval is not None:
-            times = np.ascontiguousarray(np.asarray(t_eval, dtype=np.float64))
-            if times.ndim != 1:
-                raise ValueError(f"t_eval must be one-dimensional, got shape {times.shape}")
-        if max_steps is not None:
-            max_steps = integer("max_steps", max_steps)
-        every = output_every
-        if every is not None and type(every) is not int:
-            every = integer("output_every", every)
+        # The options' types are checked in `run_options`, their values in Rust (one message
+        # each). The initial state goes to Rust as it is when it has the form Rust reads (float64
+        # arrays, lists of numbers; `None` otherwise), else it is converted and checked here
+        # first. The native call takes its arguments by position (no keyword dictionary to build
+        # and parse: a short run's fixed cost is most of what it costs).
+        t0, end, method, dt, rtol, atol, times, max_steps, every = run_options(
+            t0, t_end, method, dt, rtol, atol, t_eval, max_steps, output_every
+        )
         event_names: Tuple[str, ...] = ()
         specs: List[Any] = []
         if events is not None and not isinstance(events, Event):
@@ -819,12 +815,12 @@ class Model:
             specs = event_specs(events, self._coordinates, self._parameters)[0]
             event_names = tuple(e.name for e in events)
         if dense is not False and dense is not True:
-            raise TypeError(f"dense must be True or False, got {dense!r}")
+            flag("dense", dense)
         native, backend = self._native, self._backend
         # The arguments spelled out (a vectorcall): unpacked from a tuple with *, the call went
         # through an argument tuple, 1 000 more instructions (callgrind). A failure during the
         # run raises with the partial solution as `err.solution` (see `Raises`).
-        out: Optional[Solution] = native.simulate(q0, qd0, t_end, t0, method, dt, rtol, atol,
+        out: Optional[Solution] = native.simulate(q0, qd0, end, t0, method, dt, rtol, atol,
                                                   times, max_steps, every, specs, dense, backend,
                                                   Solution, self._names, event_names)
         if out is not None:
@@ -832,7 +828,7 @@ class Model:
         # q0 or qd0 not in the form Rust reads: converted and checked here, then called again.
         n = self.dof
         q0, qd0 = vector("q0", q0, n), vector("qd0", qd0, n)
-        sol: Solution = native.simulate(q0, qd0, t_end, t0, method, dt, rtol, atol, times,
+        sol: Solution = native.simulate(q0, qd0, end, t0, method, dt, rtol, atol, times,
                                         max_steps, every, specs, dense, backend, Solution,
                                         self._names, event_names)
         return sol
@@ -906,16 +902,11 @@ class Model:
         ValueError
             For bad input, as :meth:`simulate`.
         """
-        if not isinstance(method, str):
-            raise TypeError(f"method must be a string such as 'taylor', got {method!r}")
+        t0, _, method, dt, rtol, atol, _, max_steps, _ = run_options(
+            t0, None, method, dt, rtol, atol, None, max_steps
+        )
         n = self.dof
         q0, qd0 = vector("q0", q0, n), vector("qd0", qd0, n)
-        t0 = real("t0", t0)
-        rtol, atol = number("rtol", rtol), number("atol", atol)
-        if dt is not None:
-            dt = number("dt", dt)
-        if max_steps is not None:
-            max_steps = integer("max_steps", max_steps)
         specs: List[Any] = []
         if events is not None:
             specs = event_specs(events, self._coordinates, self._parameters)[0]
@@ -1096,7 +1087,7 @@ class Model:
                 check_symbols(f"load on {self._coordinates[i].name}", e, names, numeric, True, used)
             nodes, roots = serialize(exprs)
             order = list(used)
-            load_spec = (_to_raw(nodes, self._coordinates, order), roots)
+            load_spec = (to_raw(nodes, self._coordinates, order), roots)
             params = [float(numeric[k]) for k in order]
         if isinstance(max_iterations, bool) or not isinstance(max_iterations, numbers.Integral):
             raise TypeError(f"max_iterations must be an integer, got {max_iterations!r}")
@@ -1381,53 +1372,3 @@ def _model_from_state(state: Dict[str, Any]) -> Model:
         backend=state.get("backend", "native"),
         drawing=drawing,
     )
-
-
-def _drawing_points(points: object, what: str) -> Tuple[Tuple[Expr, ...], ...]:
-    """Points to draw: a non-empty sequence of 2- or 3-tuples of expressions (all the same
-    length) without velocities."""
-    if isinstance(points, (Expr, str)) or not isinstance(points, Sequence):
-        raise TypeError(
-            f"{what} must be a sequence of points (x, y) or (x, y, z) of expressions, "
-            f"got {points!r}"
-        )
-    out = []
-    for j, p in enumerate(points):
-        if isinstance(p, (Expr, str)) or not isinstance(p, Sequence):
-            raise TypeError(f"{what} point {j} must be a tuple (x, y) or (x, y, z), got {p!r}")
-        out.append(tuple(Expr.lift(x) for x in p))
-    if not out:
-        raise ValueError(f"{what} is empty: give at least one point (x, y)")
-    dims = {len(r) for r in out}
-    if len(dims) != 1 or dims.pop() not in (2, 3):
-        raise ValueError(f"every {what} point must have 2 or 3 components, all the same")
-    for j, r in enumerate(out):
-        for x in r:
-            for sym in x.free_symbols():
-                if sym.op == "qd":
-                    raise ValueError(
-                        f"{what} point {j} depends on the velocity {sym!r}: a drawing is a "
-                        "function of t, the coordinates and parameters"
-                    )
-    return tuple(out)
-
-
-
-
-def _to_raw(
-    nodes: Sequence[Node], coordinates: Sequence[Coordinate], params: Sequence[str]
-) -> List[Tuple[str, float, int, int]]:
-    """Nodes with symbol names replaced by indices, as the Rust side reads them."""
-    qi = {c.name: i for i, c in enumerate(coordinates)}
-    pi = {name: i for i, name in enumerate(params)}
-    raw: List[Tuple[str, float, int, int]] = []
-    for op, payload, i, j in nodes:
-        if op == "const":
-            raw.append((op, float(payload), -1, -1))
-        elif op in ("q", "qd"):
-            raw.append((op, 0.0, qi[payload], -1))
-        elif op == "param":
-            raw.append((op, 0.0, pi[payload], -1))
-        else:
-            raw.append((op, 0.0, i, j))
-    return raw

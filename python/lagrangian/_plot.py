@@ -16,7 +16,6 @@ from __future__ import annotations
 import math
 import numbers
 import os
-from dataclasses import dataclass
 from pathlib import Path
 from typing import (
     TYPE_CHECKING,
@@ -34,7 +33,9 @@ from typing import (
 import numpy as np
 import numpy.typing as npt
 
+from ._drawing import Drawing
 from ._expr import Expr, serialize
+from ._validate import at_least_one
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure  # type: ignore[import-not-found, unused-ignore]
@@ -513,51 +514,6 @@ def expression_positions(
 # -- Model.animate -------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
-class Drawing:
-    """How :meth:`Model.animate` draws a model's particles, beyond points with trails.
-
-    Particles are referred to by their index in :meth:`Model.positions`; index −1 is the pivot.
-
-    Attributes
-    ----------
-    rods : tuple of (int, int)
-        Segments drawn between two particles (or a particle and the pivot): a pendulum chain is
-        ``((-1, 0), (0, 1), …)``.
-    pivot : callable, optional
-        Pivot positions at the given times, ``f(t) -> array of shape (len(t), 2)``; the origin
-        when ``None``.
-    bodies : tuple of (int, int, int)
-        Rolling bodies as (centre, rim point, opposite rim point): drawn as a circle through the
-        rim points with the diameter between them, which shows the rotation.
-    circles : tuple of (x, y, radius)
-        Fixed circles (a hollow sphere the ball rolls in).
-    lines : tuple of (x, y, dx, dy)
-        Fixed infinite lines through (x, y) along (dx, dy) (a slope).
-    marks : tuple of (x, y)
-        Fixed points (a centre of attraction, a pivot).
-    trail : tuple of int, optional
-        The particles that leave a trail; by default every particle that is not a body's rim
-        point.
-    """
-
-    rods: Tuple[Tuple[int, int], ...] = ()
-    pivot: Optional[Callable[[FloatArray], FloatArray]] = None
-    bodies: Tuple[Tuple[int, int, int], ...] = ()
-    circles: Tuple[Tuple[float, float, float], ...] = ()
-    lines: Tuple[Tuple[float, float, float, float], ...] = ()
-    marks: Tuple[Tuple[float, float], ...] = ()
-    trail: Optional[Tuple[int, ...]] = None
-
-    @staticmethod
-    def chain(links: int, pivot: Optional[Callable[[FloatArray], FloatArray]] = None) -> "Drawing":
-        """A pendulum chain of ``links`` bobs: rods from the pivot through the bobs in order, the
-        last bob trailed."""
-        rods = tuple((k - 1, k) for k in range(links))
-        return Drawing(rods=rods, pivot=pivot, marks=((0.0, 0.0),) if pivot is None else (),
-                       trail=(links - 1,))
-
-
 def _rigid(a: FloatArray, b: FloatArray) -> bool:
     """Whether the distance between the point paths ``a`` and ``b`` (rows) stays the same (to
     1e-9) and is not zero: a rod joins them."""
@@ -580,14 +536,6 @@ def auto_drawing(dense: FloatArray) -> Drawing:
     chain = rods == [(k - 1, k) for k in range(count)]
     marks = ((0.0, 0.0),) if rods[0] == (-1, 0) and dense.shape[2] == 2 else ()
     return Drawing(rods=tuple(rods), marks=marks, trail=(count - 1,) if chain else None)
-
-
-def _positive_int(what: str, value: object) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"{what} must be an integer, got {value!r}")
-    if int(value) < 1:
-        raise ValueError(f"{what} = {value} must be at least 1")
-    return int(value)
 
 
 def _limits(points: FloatArray) -> Tuple[FloatArray, FloatArray]:
@@ -632,7 +580,7 @@ def animate(
         raise TypeError(f"fps must be a number, got {fps!r}")
     if not (math.isfinite(float(fps)) and float(fps) > 0.0):
         raise ValueError(f"fps = {fps} must be finite and > 0")
-    frames = _positive_int("max_frames", max_frames)
+    frames = at_least_one("max_frames", max_frames)
     position: Positions
     if points is not None:
         position = expression_positions(points, [c.name for c in model.coordinates],

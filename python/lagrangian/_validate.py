@@ -1,12 +1,14 @@
 """Checking what the user gives: state vectors, numbers, coordinates, parameters and the symbols
-of expressions. Each check raises ``TypeError`` or ``ValueError`` with a message that says what
-to give instead; the integrator options are not checked here but in Rust (one message each)."""
+of expressions, the run options and a model's drawing. Each check raises ``TypeError`` or
+``ValueError`` with a message that says what to give instead. Of the run options only the types
+are checked here (:func:`run_options`, for ``simulate``, ``integrator`` and ``simulate_many``
+alike); their values are checked in Rust, one message each."""
 
 from __future__ import annotations
 
 import math
 import numbers
-from typing import Any, Dict, Mapping, Optional, Tuple
+from typing import Any, Dict, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 import numpy.typing as npt
@@ -15,17 +17,30 @@ from ._expr import Coordinate, Expr
 
 __all__ = [
     "FloatArray",
+    "at_least_one",
     "check_coordinates",
     "check_parameters",
     "check_symbols",
+    "drawing_points",
+    "flag",
     "integer",
     "number",
+    "parameter_columns",
     "real",
+    "run_options",
     "states",
+    "sweep_parameters",
     "vector",
 ]
 
 FloatArray = npt.NDArray[np.float64]
+
+#: What :func:`run_options` returns: ``(t0, t_end, method, dt, rtol, atol, t_eval, max_steps,
+#: output_every)``.
+RunOptions = Tuple[
+    float, Optional[float], str, Optional[float], float, float, Optional[FloatArray],
+    Optional[int], Optional[int],
+]
 
 
 def _not_a_number(what: str, value: object, n: int) -> None:
@@ -186,3 +201,132 @@ def integer(what: str, value: object) -> int:
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise TypeError(f"{what} must be an integer, got {value!r}")
     return int(value)
+
+
+def drawing_points(points: object, what: str) -> Tuple[Tuple[Expr, ...], ...]:
+    """Points to draw: a non-empty sequence of 2- or 3-tuples of expressions (all the same
+    length) without velocities."""
+    if isinstance(points, (Expr, str)) or not isinstance(points, Sequence):
+        raise TypeError(
+            f"{what} must be a sequence of points (x, y) or (x, y, z) of expressions, "
+            f"got {points!r}"
+        )
+    out = []
+    for j, p in enumerate(points):
+        if isinstance(p, (Expr, str)) or not isinstance(p, Sequence):
+            raise TypeError(f"{what} point {j} must be a tuple (x, y) or (x, y, z), got {p!r}")
+        out.append(tuple(Expr.lift(x) for x in p))
+    if not out:
+        raise ValueError(f"{what} is empty: give at least one point (x, y)")
+    dims = {len(r) for r in out}
+    if len(dims) != 1 or dims.pop() not in (2, 3):
+        raise ValueError(f"every {what} point must have 2 or 3 components, all the same")
+    for j, r in enumerate(out):
+        for x in r:
+            for sym in x.free_symbols():
+                if sym.op == "qd":
+                    raise ValueError(
+                        f"{what} point {j} depends on the velocity {sym!r}: a drawing is a "
+                        "function of t, the coordinates and parameters"
+                    )
+    return tuple(out)
+
+
+def flag(what: str, value: object) -> bool:
+    """``value`` if it is ``True`` or ``False``, else a ``TypeError``."""
+    if value is not True and value is not False:
+        raise TypeError(f"{what} must be True or False, got {value!r}")
+    return value
+
+
+def at_least_one(what: str, value: object, unit: str = "") -> int:
+    """``value`` as an int of at least 1 (``TypeError`` for a non-integer, ``ValueError`` below
+    1): a number of threads, chunks or frames."""
+    n = integer(what, value)
+    if n < 1:
+        raise ValueError(f"{what} = {n}: give at least one{' ' + unit if unit else ''}")
+    return n
+
+
+def run_options(
+    t0: Any,
+    t_end: Any,
+    method: Any,
+    dt: Any,
+    rtol: Any,
+    atol: Any,
+    t_eval: Any = None,
+    max_steps: Any = None,
+    output_every: Any = None,
+) -> RunOptions:
+    """The options of a run — of ``simulate``, ``integrator`` (no ``t_end``, no ``t_eval``) and
+    each of ``simulate_many``'s runs — with their types checked, in this one place: the times
+    finite floats, the tolerances and ``dt`` floats, ``t_eval`` a float vector, the counts
+    integers. Their values (a known method, tolerances > 0, a ``dt`` towards ``t_end``) are
+    checked in Rust, one message each. A finite float passes at the cost of a comparison
+    (x − x is 0 unless x is not finite): a short run's fixed cost is most of what it costs."""
+    if type(method) is not str and not isinstance(method, str):
+        raise TypeError(f"method must be a string such as 'dop853', got {method!r}")
+    if type(t0) is not float or t0 - t0 != 0.0:
+        t0 = real("t0", t0)
+    if t_end is not None and (type(t_end) is not float or t_end - t_end != 0.0):
+        t_end = real("t_end", t_end)
+    if type(rtol) is not float:
+        rtol = number("rtol", rtol)
+    if type(atol) is not float:
+        atol = number("atol", atol)
+    if dt is not None:
+        dt = number("dt", dt)
+    times = None
+    if t_eval is not None:
+        times = np.ascontiguousarray(np.asarray(t_eval, dtype=np.float64))
+        if times.ndim != 1:
+            raise ValueError(f"t_eval must be one-dimensional, got shape {times.shape}")
+    if max_steps is not None:
+        max_steps = integer("max_steps", max_steps)
+    if output_every is not None and type(output_every) is not int:
+        output_every = integer("output_every", output_every)
+    return t0, t_end, method, dt, rtol, atol, times, max_steps, output_every
+
+
+def sweep_parameters(
+    parameters: Optional[Mapping[str, Any]], known: Mapping[str, Any]
+) -> Tuple[Dict[str, float], Dict[str, FloatArray]]:
+    """An ensemble's ``parameters=``: the values fixed for every run and the swept ones (a finite
+    value per run), each a parameter of the model (``known``)."""
+    fixed: Dict[str, float] = {}
+    sweep: Dict[str, FloatArray] = {}
+    for name, value in (parameters or {}).items():
+        if name not in known:
+            raise ValueError(
+                f"unknown parameter {name!r}; the model's parameters are "
+                f"{', '.join(known) or 'none'}"
+            )
+        arr = np.asarray(value, dtype=np.float64)
+        if arr.ndim == 0:
+            fixed[name] = real(f"parameter {name!r}", value)
+            continue
+        if arr.ndim != 1:
+            raise ValueError(
+                f"parameter {name!r} must be a number or one value per run, got shape {arr.shape}"
+            )
+        bad = np.flatnonzero(~np.isfinite(arr))
+        if bad.size:
+            raise ValueError(f"parameter {name!r}[{bad[0]}] = {arr[bad[0]]} is not finite")
+        sweep[name] = np.ascontiguousarray(arr)
+    return fixed, sweep
+
+
+def parameter_columns(
+    names: Sequence[str], sweep: Mapping[str, FloatArray], values: Mapping[str, Any], k: int
+) -> FloatArray:
+    """The values of the parameters ``names`` in each of k runs, shape (k, len(names)): the
+    swept ones from ``sweep``, the others fixed at ``values``."""
+    if not names:
+        return np.zeros((k, 0), dtype=np.float64)
+    return np.ascontiguousarray(
+        np.column_stack(
+            [sweep[name] if name in sweep else np.full(k, values[name]) for name in names]
+        ),
+        dtype=np.float64,
+    )

@@ -12,7 +12,8 @@ use super::events::{CompiledEvent, EventSpec};
 use super::model::{AnyModel, Backend};
 use super::{PyModel, Step, check_finite, run_options, scenes};
 use crate::integrators::{
-    Failed, Method, Occurrences, Output, RunResult, Solution, Status, Systems, solve_many,
+    Failed, Method, Occurrences, Output, RunResult, Solution, Statistics, Status, Systems,
+    solve_many,
 };
 use crate::scenes::registry::Arguments;
 use crate::{Dynamics, Error, Result};
@@ -28,16 +29,6 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{RecvTimeoutError, channel};
 use std::time::Duration;
 
-/// The counters of [`crate::integrators::Statistics`], in this order, as columns.
-pub(super) const COUNTERS: [&str; 6] = [
-    "accepted_steps",
-    "rejected_steps",
-    "rhs_evaluations",
-    "jacobian_evaluations",
-    "factorizations",
-    "newton_failures",
-];
-
 /// Integrate the model from each row of `q0`, `qd0` (shape (k, n)) over (t0, t_end), on
 /// `workers` threads (0: one per core). `params` (shape (k, p)) binds a compiled model to each
 /// run's parameter values; `scenes` gives a scene's arguments for each run. `events` are
@@ -51,7 +42,7 @@ pub(super) const COUNTERS: [&str; 6] = [
 /// - otherwise: lists of k arrays, one per run;
 ///
 /// rows not reached by a failed run are zeros, and `reached` (k,) counts the rows each run
-/// filled. `counters` (k, 6) are the statistics in [`COUNTERS`]' order, `method` (k,) the index
+/// filled. `counters` (k, 6) are the statistics in [`Statistics::COUNTERS`]' order, `method` (k,) the index
 /// of the method that ran in `methods()` (−1: none ran), `choice` (k,) the index of Auto's reason
 /// in `choices` (−1: none), and `failures` a list of `(run, error class name, message, t)`
 /// with `t` the last accepted time (`None` when the run failed before its first step);
@@ -292,7 +283,7 @@ fn ensemble_tuple<'py>(
     let mut status = Array1::<i8>::from_elem(k, -1);
     let found = PyList::empty(py);
     let mut reached = Array1::<i64>::zeros(k);
-    let mut counters = Array2::<i64>::zeros((k, COUNTERS.len()));
+    let mut counters = Array2::<i64>::zeros((k, Statistics::COUNTERS.len()));
     let mut method = Array1::<i64>::from_elem(k, -1);
     let mut choice = Array1::<i64>::from_elem(k, -1);
     let mut choices: HashMap<String, usize> = HashMap::new();
@@ -331,16 +322,8 @@ fn ensemble_tuple<'py>(
         if let Some(sol) = &sol {
             let s = &sol.stats;
             reached[i] = sol.len() as i64;
-            let c = [
-                s.accepted_steps,
-                s.rejected_steps,
-                s.rhs_evaluations,
-                s.jacobian_evaluations,
-                s.factorizations,
-                s.newton_failures,
-            ];
-            for (j, v) in c.into_iter().enumerate() {
-                counters[(i, j)] = v as i64;
+            for (j, (_, count)) in Statistics::COUNTERS.iter().enumerate() {
+                counters[(i, j)] = count(s) as i64;
             }
             method[i] = 1 + Method::ALL.iter().position(|m| *m == s.method).unwrap_or(0) as i64;
             if let Some(why) = &s.choice {

@@ -859,6 +859,9 @@ pub mod lagrangian_module {
         for name in super::error::PARTIAL_ATTRIBUTES {
             base.setattr(name, m.py().None())?;
         }
+        // The statistics' counter names, in the order of an ensemble's counter columns.
+        let counters = crate::integrators::Statistics::COUNTERS.map(|(name, _)| name);
+        m.add("COUNTERS", pyo3::types::PyTuple::new(m.py(), counters)?)?;
         m.add("__version__", env!("CARGO_PKG_VERSION"))
     }
 }

@@ -9,7 +9,7 @@
 //! instructions of interpreter per field (the failed slot lookup raises an `AttributeError`
 //! first); a native getter costs a few hundred, and a field read again is the object kept.
 
-use super::{ensemble, events};
+use super::events;
 use crate::integrators::{Solution, Statistics, Status};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1};
@@ -17,7 +17,7 @@ use pyo3::exceptions::{PyAttributeError, PyRuntimeError, PyValueError};
 use pyo3::intern;
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
-use pyo3::types::{PyDict, PyList, PyTuple, PyType};
+use pyo3::types::{PyDict, PyList, PyString, PyTuple, PyType};
 use pyo3::{PyTraverseError, PyVisit};
 use std::sync::{Mutex, MutexGuard, TryLockError};
 
@@ -345,30 +345,35 @@ impl PySolution {
 }
 
 /// The statistics dict: a copy of a template that has every key (no key made, hashed or
-/// inserted on a call, no growing of the table).
+/// inserted on a call, no growing of the table); the counters' keys are interned once, from
+/// [`Statistics::COUNTERS`].
 pub(super) fn stats_dict<'py>(
     py: Python<'py>,
     s: &Statistics,
     conserved: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    static STATS: PyOnceLock<Py<PyDict>> = PyOnceLock::new();
-    let template = STATS.get_or_try_init(py, || -> PyResult<Py<PyDict>> {
+    type Template = (Py<PyDict>, Vec<Py<PyString>>);
+    static STATS: PyOnceLock<Template> = PyOnceLock::new();
+    let (template, counters) = STATS.get_or_try_init(py, || -> PyResult<Template> {
         let d = PyDict::new(py);
-        let keys = ["method", "choice"].into_iter().chain(ensemble::COUNTERS);
-        for key in keys.chain(["conserved"]) {
-            d.set_item(key, py.None())?;
+        let counters: Vec<Py<PyString>> = Statistics::COUNTERS
+            .iter()
+            .map(|(name, _)| PyString::intern(py, name).unbind())
+            .collect();
+        d.set_item(intern!(py, "method"), py.None())?;
+        d.set_item(intern!(py, "choice"), py.None())?;
+        for key in &counters {
+            d.set_item(key.bind(py), py.None())?;
         }
-        Ok(d.unbind())
+        d.set_item(intern!(py, "conserved"), py.None())?;
+        Ok((d.unbind(), counters))
     })?;
     let stats = template.bind(py).copy()?;
     stats.set_item(intern!(py, "method"), s.method.name())?;
     stats.set_item(intern!(py, "choice"), s.choice.clone())?;
-    stats.set_item(intern!(py, "accepted_steps"), s.accepted_steps)?;
-    stats.set_item(intern!(py, "rejected_steps"), s.rejected_steps)?;
-    stats.set_item(intern!(py, "rhs_evaluations"), s.rhs_evaluations)?;
-    stats.set_item(intern!(py, "jacobian_evaluations"), s.jacobian_evaluations)?;
-    stats.set_item(intern!(py, "factorizations"), s.factorizations)?;
-    stats.set_item(intern!(py, "newton_failures"), s.newton_failures)?;
+    for (key, (_, count)) in counters.iter().zip(Statistics::COUNTERS) {
+        stats.set_item(key.bind(py), count(s))?;
+    }
     stats.set_item(intern!(py, "conserved"), conserved)?;
     Ok(stats)
 }
