@@ -46,7 +46,9 @@ __all__ = ["Ensemble", "Failure", "simulate_many"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
-ArrayLike = Union[Sequence[float], Sequence[Sequence[float]], FloatArray]
+# One state for every run, or one per run (rows).
+StatesLike = Union[Sequence[float], Sequence[Sequence[float]], FloatArray]
+TimesLike = Union[Sequence[float], FloatArray]
 
 # What the native `simulate_many` returns: (t, q, qd, reached, counters, method, choice,
 # choices, failures, status, events); see src/python/ensemble.rs.
@@ -290,13 +292,13 @@ class Ensemble:
 
 def simulate_many(
     model: "Model",
-    q0: ArrayLike,
-    qd0: ArrayLike,
+    q0: StatesLike,
+    qd0: StatesLike,
     t_end: float,
     *,
     t0: float = 0.0,
     parameters: Optional[Mapping[str, Any]] = None,
-    t_eval: Optional[ArrayLike] = None,
+    t_eval: Optional[TimesLike] = None,
     method: str = "auto",
     dt: Optional[float] = None,
     rtol: float = 1e-6,
@@ -352,7 +354,7 @@ def _options(
     dt: Optional[float],
     rtol: float,
     atol: float,
-    t_eval: Optional[ArrayLike],
+    t_eval: Optional[TimesLike],
     max_steps: Optional[int],
     final_only: bool,
 ) -> Tuple[float, Dict[str, Any]]:

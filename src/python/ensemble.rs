@@ -10,7 +10,7 @@
 
 use super::events::{CompiledEvent, EventSpec};
 use super::model::{AnyModel, Backend};
-use super::{PyModel, Step, check_finite, run_options, scenes};
+use super::{PyModel, StepOptions, check_finite, run_options, scenes};
 use crate::integrators::{
     Failed, Method, Occurrences, Output, RunResult, Solution, Statistics, Status, Systems,
     solve_many,
@@ -93,7 +93,7 @@ pub(crate) fn simulate_many<'py>(
     let (method, mut options) = run_options(
         (t0, t_end),
         method,
-        Step { dt, rtol, atol },
+        StepOptions { dt, rtol, atol },
         max_steps,
         (times.clone(), None),
     )?;
@@ -212,9 +212,9 @@ pub(crate) fn simulate_many<'py>(
         return Err(e);
     }
     let mode = match (&options.output, times) {
-        (Output::Final, _) => Mode::Final,
-        (_, Some(times)) => Mode::Times(times),
-        _ => Mode::Steps,
+        (Output::Final, _) => OutputLayout::Final,
+        (_, Some(times)) => OutputLayout::Times(times),
+        _ => OutputLayout::Steps,
     };
     ensemble_tuple(py, runs, mode, n, events.len())
 }
@@ -265,7 +265,7 @@ fn rows(a: ArrayView2<'_, f64>) -> Vec<f64> {
 }
 
 /// How the runs' states are laid out for Python.
-enum Mode {
+enum OutputLayout {
     Times(Vec<f64>),
     Final,
     Steps,
@@ -275,7 +275,7 @@ enum Mode {
 fn ensemble_tuple<'py>(
     py: Python<'py>,
     runs: Vec<RunResult>,
-    mode: Mode,
+    mode: OutputLayout,
     n: usize,
     events: usize,
 ) -> PyResult<Bound<'py, PyTuple>> {
@@ -337,7 +337,7 @@ fn ensemble_tuple<'py>(
     choices.sort_by_key(|(_, j)| *j);
     let choices: Vec<String> = choices.into_iter().map(|(s, _)| s).collect();
     let (t, q, qd) = match mode {
-        Mode::Times(times) => {
+        OutputLayout::Times(times) => {
             let m = times.len();
             let mut q = Array3::<f64>::zeros((k, m, n));
             let mut qd = Array3::<f64>::zeros((k, m, n));
@@ -357,7 +357,7 @@ fn ensemble_tuple<'py>(
                 qd.into_pyarray(py).into_any(),
             )
         }
-        Mode::Final => {
+        OutputLayout::Final => {
             let mut t = Array1::<f64>::zeros(k);
             let mut q = Array2::<f64>::zeros((k, n));
             let mut qd = Array2::<f64>::zeros((k, n));
@@ -376,7 +376,7 @@ fn ensemble_tuple<'py>(
                 qd.into_pyarray(py).into_any(),
             )
         }
-        Mode::Steps => {
+        OutputLayout::Steps => {
             let (ts, qs, qds) = (PyList::empty(py), PyList::empty(py), PyList::empty(py));
             for sol in solutions {
                 let (t, q, qd) = sol.map_or_else(

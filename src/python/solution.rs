@@ -32,19 +32,19 @@ pub(crate) fn status_code(status: &Status) -> i8 {
 
 /// What a run computed: the solution, the energy function h at its points and whether h is a
 /// constant of the run (`stats["conserved"]`).
-pub(crate) struct Run {
+pub(crate) struct RunOutput {
     pub(crate) sol: Solution,
     pub(crate) energy: Vec<f64>,
     pub(crate) conserved: bool,
 }
 
-/// The fields, listed once below: the `Field` enum, their Python names, and the class's methods
+/// The fields, listed once below: the `SolutionField` enum, their Python names, and the class's methods
 /// with a getter and a setter per field (`del` is refused: a field keeps its value).
 macro_rules! fields {
     ($($py:ident: $get:ident, $set:ident => $field:ident),* $(,)?) => {
         /// The fields of a `Solution`, in the order of [`FIELDS`].
         #[derive(Clone, Copy, PartialEq, Eq)]
-        enum Field {
+        enum SolutionField {
             $($field,)*
         }
 
@@ -97,12 +97,12 @@ macro_rules! fields {
             $(
                 #[getter($py)]
                 fn $get(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
-                    self.get(py, Field::$field)
+                    self.get(py, SolutionField::$field)
                 }
 
                 #[setter($py)]
                 fn $set(&self, value: Py<PyAny>) {
-                    self.set(Field::$field, value)
+                    self.set(SolutionField::$field, value)
                 }
             )*
         }
@@ -138,9 +138,9 @@ enum Taken {
     Dense(Option<crate::integrators::Dense>),
 }
 
-/// What a run computed, and which fields have been taken from it (a bit per [`Field`]).
+/// What a run computed, and which fields have been taken from it (a bit per [`SolutionField`]).
 struct Source {
-    run: Option<Run>,
+    run: Option<RunOutput>,
     taken: u16,
 }
 
@@ -181,7 +181,7 @@ pub(crate) struct Wrap<'a, 'py> {
 impl<'py> Wrap<'_, 'py> {
     /// The run as an instance of `kind`; `failure` (the error's message) marks the partial
     /// solution of a failed run.
-    pub(crate) fn wrap(&self, run: Run, failure: Option<String>) -> PyResult<Bound<'py, PyAny>> {
+    pub(crate) fn wrap(&self, run: RunOutput, failure: Option<String>) -> PyResult<Bound<'py, PyAny>> {
         let py = self.kind.py();
         let message = match failure {
             Some(m) => Some(m.into_pyobject(py)?.into_any().unbind()),
@@ -192,10 +192,10 @@ impl<'py> Wrap<'_, 'py> {
             .call_method1(intern!(py, "__new__"), (self.kind,))?;
         let native = sol.cast::<PySolution>()?.get();
         native.source().run = Some(run);
-        native.set(Field::Names, self.names.clone().unbind());
-        native.set(Field::EventNames, self.event_names.clone().unbind());
+        native.set(SolutionField::Names, self.names.clone().unbind());
+        native.set(SolutionField::EventNames, self.event_names.clone().unbind());
         if let Some(message) = message {
-            native.set(Field::Message, message);
+            native.set(SolutionField::Message, message);
         }
         Ok(sol)
     }
@@ -215,7 +215,7 @@ impl PySolution {
         self.values.lock().unwrap_or_else(|p| p.into_inner())
     }
 
-    fn value(&self, py: Python<'_>, field: Field) -> Option<Py<PyAny>> {
+    fn value(&self, py: Python<'_>, field: SolutionField) -> Option<Py<PyAny>> {
         self.values()[field as usize]
             .as_ref()
             .map(|v| v.clone_ref(py))
@@ -223,16 +223,16 @@ impl PySolution {
 
     /// The field: its value, else made from the run (once), else `None` for the names and the
     /// `y` cache; `AttributeError` for a field neither assigned nor in a run.
-    fn get(&self, py: Python<'_>, field: Field) -> PyResult<Py<PyAny>> {
+    fn get(&self, py: Python<'_>, field: SolutionField) -> PyResult<Py<PyAny>> {
         if let Some(value) = self.value(py, field) {
             return Ok(value);
         }
         // The gate: the field's index, the event lists' shared one, two fewer after them.
         let k = field as usize;
         let gate = match field {
-            Field::Names | Field::EventNames | Field::Y => return Ok(py.None()),
-            Field::TEvents | Field::QEvents | Field::QdEvents => Field::TEvents as usize,
-            _ if k > Field::QdEvents as usize => k - 2,
+            SolutionField::Names | SolutionField::EventNames | SolutionField::Y => return Ok(py.None()),
+            SolutionField::TEvents | SolutionField::QEvents | SolutionField::QdEvents => SolutionField::TEvents as usize,
+            _ if k > SolutionField::QdEvents as usize => k - 2,
             _ => k,
         };
         self.making[gate].get_or_try_init(py, || self.make(py, field))?;
@@ -242,13 +242,13 @@ impl PySolution {
 
     /// Assign the field; the value it replaces is dropped after the lock is released (dropping
     /// it may run Python code).
-    fn set(&self, field: Field, value: Py<PyAny>) {
+    fn set(&self, field: SolutionField, value: Py<PyAny>) {
         let old = self.values()[field as usize].replace(value);
         drop(old);
     }
 
     /// Keep a made value, unless one was assigned meanwhile (then the made one is dropped).
-    fn keep(&self, field: Field, made: Py<PyAny>) {
+    fn keep(&self, field: SolutionField, made: Py<PyAny>) {
         let mut values = self.values();
         let slot = &mut values[field as usize];
         let unused = if slot.is_none() {
@@ -264,15 +264,15 @@ impl PySolution {
     /// The field's value taken out of the run (its vectors moved, not copied; the three event
     /// lists together). Taken once: a second take means the first make failed (a moved value
     /// is gone), which is an error rather than an empty value.
-    fn take(&self, field: Field) -> PyResult<Taken> {
+    fn take(&self, field: SolutionField) -> PyResult<Taken> {
         let mut source = self.source();
         let Source { run, taken } = &mut *source;
         let name = FIELDS[field as usize];
         let field = match field {
-            Field::QEvents | Field::QdEvents => Field::TEvents,
+            SolutionField::QEvents | SolutionField::QdEvents => SolutionField::TEvents,
             f => f,
         };
-        let Some(Run {
+        let Some(RunOutput {
             sol,
             energy,
             conserved,
@@ -288,24 +288,24 @@ impl PySolution {
         }
         *taken |= bit;
         Ok(match field {
-            Field::T => Taken::Floats(std::mem::take(&mut sol.t)),
-            Field::Q => Taken::Rows(std::mem::take(&mut sol.q), sol.dof),
-            Field::Qd => Taken::Rows(std::mem::take(&mut sol.qd), sol.dof),
-            Field::Energy => Taken::Floats(std::mem::take(energy)),
-            Field::Stats => Taken::Stats(Box::new(sol.stats.clone()), *conserved),
-            Field::TEvents | Field::QEvents | Field::QdEvents => {
+            SolutionField::T => Taken::Floats(std::mem::take(&mut sol.t)),
+            SolutionField::Q => Taken::Rows(std::mem::take(&mut sol.q), sol.dof),
+            SolutionField::Qd => Taken::Rows(std::mem::take(&mut sol.qd), sol.dof),
+            SolutionField::Energy => Taken::Floats(std::mem::take(energy)),
+            SolutionField::Stats => Taken::Stats(Box::new(sol.stats.clone()), *conserved),
+            SolutionField::TEvents | SolutionField::QEvents | SolutionField::QdEvents => {
                 Taken::Events(std::mem::take(&mut sol.events), sol.dof)
             }
-            Field::Status => Taken::Status(status_code(&sol.status)),
-            Field::Message => Taken::Message(sol.status.to_string()),
-            Field::Dense => Taken::Dense(sol.dense.take()),
-            Field::Names | Field::EventNames | Field::Y => unreachable!("not made from a run"),
+            SolutionField::Status => Taken::Status(status_code(&sol.status)),
+            SolutionField::Message => Taken::Message(sol.status.to_string()),
+            SolutionField::Dense => Taken::Dense(sol.dense.take()),
+            SolutionField::Names | SolutionField::EventNames | SolutionField::Y => unreachable!("not made from a run"),
         })
     }
 
     /// Make the field a Python object from what the run computed, and keep it (the three
     /// event lists together).
-    fn make(&self, py: Python<'_>, field: Field) -> PyResult<()> {
+    fn make(&self, py: Python<'_>, field: SolutionField) -> PyResult<()> {
         let taken = self.take(field)?;
         let made = match taken {
             Taken::Floats(values) => PyArray1::from_vec(py, values).into_any(),
@@ -326,8 +326,8 @@ impl PySolution {
                     qd.push(o.get_item(2)?);
                 }
                 let (t, q) = (PyList::new(py, t)?, PyList::new(py, q)?);
-                self.keep(Field::TEvents, t.into_any().unbind());
-                self.keep(Field::QEvents, q.into_any().unbind());
+                self.keep(SolutionField::TEvents, t.into_any().unbind());
+                self.keep(SolutionField::QEvents, q.into_any().unbind());
                 PyList::new(py, qd)?.into_any()
             }
             Taken::Status(code) => code.into_pyobject(py)?.into_any(),
@@ -336,7 +336,7 @@ impl PySolution {
             Taken::Dense(None) => py.None().into_bound(py),
         };
         let field = match field {
-            Field::TEvents | Field::QEvents => Field::QdEvents,
+            SolutionField::TEvents | SolutionField::QEvents => SolutionField::QdEvents,
             f => f,
         };
         self.keep(field, made.unbind());
