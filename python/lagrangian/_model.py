@@ -17,7 +17,6 @@ from ._expr import (
     Coordinate,
     Expr,
     ExprLike,
-    Node,
     Parameter,
     deserialize,
     serialize,
@@ -27,16 +26,21 @@ from ._linear import Equilibrium, Linearization, Modes
 from ._lagrangian import Integrator
 from ._solution import Solution
 from ._validate import (
-    check_coordinates,
-    check_parameters,
+    at_least_one,
     check_symbols,
     drawing_points,
+    expressions,
     flag,
-    integer,
+    input_names,
+    known_parameters,
+    model_parts,
     parameter_columns,
+    positive,
     real,
     run_options,
-    states,
+    state_pairs,
+    states_at_times,
+    taylor_order,
     vector,
 )
 
@@ -178,97 +182,18 @@ class Model:
         backend: str = "native",
         drawing: Optional[Sequence[Sequence[ExprLike]]] = None,
     ) -> None:
-        if not isinstance(backend, str):
-            raise TypeError(
-                f"backend must be a string, 'native' or 'interpreter', got {backend!r}"
-            )
-        coords = check_coordinates(coordinates)
-        dof = len(coords)
-        t_ = None if kinetic is None else Expr.lift(kinetic)
-        u_ = None if potential is None else Expr.lift(potential)
-        r_ = None if dissipation is None else Expr.lift(dissipation)
-        f_: Optional[Tuple[Expr, ...]] = None
-        if forces is not None:
-            if isinstance(forces, (Expr, numbers.Real)):
-                raise ValueError(
-                    f"forces must be a sequence of {dof} expressions, one per coordinate"
-                )
-            f_ = tuple(Expr.lift(f) for f in forces)
-            if len(f_) != dof:
-                raise ValueError(
-                    f"forces has {len(f_)} entries but the model has {dof} coordinates"
-                )
-        pos: Optional[Tuple[Tuple[Expr, ...], ...]] = None
-        mass: Optional[Tuple[Expr, ...]] = None
-        if (positions is None) != (masses is None):
-            raise ValueError("positions and masses go together (the particle route)")
-        if positions is not None and masses is not None:
-            if kinetic is not None:
-                raise ValueError(
-                    "give either kinetic= (the energy route) or positions= and masses= "
-                    "(the particle route), not both"
-                )
-            pos = tuple(tuple(Expr.lift(x) for x in r) for r in positions)
-            mass = tuple(Expr.lift(m) for m in masses)
-            if not pos:
-                raise ValueError("positions is empty")
-            dims = {len(r) for r in pos}
-            if len(dims) != 1 or dims.pop() not in (2, 3):
-                raise ValueError("every position must have 2 or 3 components, all the same")
-            if len(mass) != len(pos):
-                raise ValueError(
-                    f"{len(mass)} masses for {len(pos)} positions: give one mass per position"
-                )
-        elif kinetic is None:
-            raise ValueError(
-                "the model needs kinetic= (T) or positions= and masses= (the particle route)"
-            )
-
-        values = check_parameters(parameters)
-        names = {c.name for c in coords}
-        used: Dict[str, None] = {}
-        checks: List[Tuple[str, Expr, bool]] = []
-        for what, e, velocities in (
-            ("kinetic energy", t_, True),
-            ("potential", u_, False),
-            ("dissipation function", r_, True),
-        ):
-            if e is not None:
-                checks.append((what, e, velocities))
-        for i, f in enumerate(f_ or ()):
-            checks.append((f"force on {coords[i].name}", f, True))
-        for j, r in enumerate(pos or ()):
-            for x in r:
-                checks.append((f"position of particle {j}", x, False))
-        points = None if drawing is None else drawing_points(drawing, "drawing")
-        for j, r in enumerate(points or ()):
-            for x in r:
-                checks.append((f"drawing point {j}", x, False))
-        for what, e, velocities in checks:
-            check_symbols(what, e, names, values, velocities, used)
-        for j, m in enumerate(mass or ()):
-            for s in m.free_symbols():
-                if s.op != "param":
-                    raise ValueError(
-                        f"the mass of particle {j} depends on {s!r}: masses are numbers and "
-                        "parameters only"
-                    )
-            check_symbols(f"mass of particle {j}", m, names, values, False, used)
-        unknown = [k for k in values if k not in used]
-        if unknown:
-            raise ValueError(
-                f"unknown parameter {unknown[0]!r}: no expression of the model uses it "
-                f"(parameters used: {', '.join(used) or 'none'})"
-            )
-
-        self._coordinates = coords
+        parts = model_parts(
+            coordinates, kinetic, potential, dissipation, forces, parameters, positions, masses,
+            backend, drawing,
+        )
+        self._coordinates = coords = parts.coordinates
         # The coordinates' names, as every solution carries them.
         self._names = tuple(c.name for c in coords)
-        self._kinetic, self._potential, self._dissipation = t_, u_, r_
-        self._forces, self._positions, self._masses = f_, pos, mass
-        self._parameters = values
-        self._backend = backend
-        self._drawing_points = points
+        self._kinetic, self._potential, self._dissipation = parts.energies
+        self._forces, self._positions, self._masses = parts.forces, parts.positions, parts.masses
+        self._parameters = parts.parameters
+        self._backend = parts.backend
+        self._drawing_points = parts.drawing
         self._native = self._compile()
 
     def _compile(self) -> Any:
@@ -400,15 +325,8 @@ class Model:
             at = np.array([real("t", t)])
             one = self._native.positions(at, vector("q", q, n).reshape(1, n))
             return np.asarray(one[0], dtype=np.float64)
-        if times.ndim != 1:
-            raise ValueError(f"t must be a number or one-dimensional, got shape {times.shape}")
-        states = np.ascontiguousarray(np.asarray(q, dtype=np.float64))
-        if states.shape != (times.shape[0], n):
-            raise ValueError(
-                f"q has shape {states.shape} but {times.shape[0]} times need "
-                f"({times.shape[0]}, {n})"
-            )
-        return np.asarray(self._native.positions(np.ascontiguousarray(times), states))
+        times, rows = states_at_times(times, q, n)
+        return np.asarray(self._native.positions(times, rows))
 
     def animate(
         self,
@@ -534,12 +452,7 @@ class Model:
         >>> moon.parameters["g"]
         1.62
         """
-        unknown = [k for k in values if k not in self._parameters]
-        if unknown:
-            raise ValueError(
-                f"unknown parameter {unknown[0]!r}; the model's parameters are "
-                f"{', '.join(self._parameters) or 'none'}"
-            )
+        known_parameters(values, self._parameters)
         return self._rebound(values)
 
     def _no_positions(self) -> str:
@@ -583,12 +496,7 @@ class Model:
     def _checked(self, name: str, t: object, q: object, qd: object) -> Any:
         """The native ``name`` at (t, q, q̇) after converting and checking them here."""
         n = self.dof
-        q_arr, qd_arr = states("q", q, n), states("qd", qd, n)
-        if q_arr.shape != qd_arr.shape:
-            raise ValueError(
-                f"q has shape {q_arr.shape} but qd has shape {qd_arr.shape}: give one "
-                "state, or k states as the rows of both"
-            )
+        q_arr, qd_arr = state_pairs(q, qd, n)
         return getattr(self._native, name)(real("t", t), q_arr, qd_arr)
 
     def accelerations(self, t: float, q: ArrayLike, qd: ArrayLike) -> FloatArray:
@@ -630,9 +538,7 @@ class Model:
         """
         n = self.dof
         q_, qd_ = vector("q", q, n).tolist(), vector("qd", qd, n).tolist()
-        k = integer("order", order)
-        if k < 1:
-            raise ValueError(f"order = {k}: give an order from 1 to 100")
+        k = taylor_order(order)
         cq, cqd = self._native.taylor_series(real("t", t), q_, qd_, k)
         return cq, cqd
 
@@ -1075,11 +981,7 @@ class Model:
         load_spec = None
         params: List[float] = []
         if loads is not None:
-            if isinstance(loads, (Expr, numbers.Real)):
-                raise ValueError(f"loads must be a sequence of {n} entries, one per coordinate")
-            exprs = [Expr.lift(x) for x in loads]
-            if len(exprs) != n:
-                raise ValueError(f"loads has {len(exprs)} entries but the model has {n} coordinates")
+            exprs = list(expressions("loads", loads, n))
             numeric = {k: v for k, v in self._parameters.items() if isinstance(v, numbers.Real)}
             used: Dict[str, None] = {}
             names = {c.name for c in self._coordinates}
@@ -1089,13 +991,8 @@ class Model:
             order = list(used)
             load_spec = (to_raw(nodes, self._coordinates, order), roots)
             params = [float(numeric[k]) for k in order]
-        if isinstance(max_iterations, bool) or not isinstance(max_iterations, numbers.Integral):
-            raise TypeError(f"max_iterations must be an integer, got {max_iterations!r}")
-        if max_iterations < 1:
-            raise ValueError(f"max_iterations = {max_iterations}: at least one is needed")
-        step = float(max_step)
-        if not step > 0:
-            raise ValueError(f"max_step = {max_step} must be > 0")
+        iterations = at_least_one("max_iterations", max_iterations)
+        step = positive("max_step", max_step)
         at = 0.0 if t is None else real("t", t)
         try:
             found = self._native.equilibrium(
@@ -1103,7 +1000,7 @@ class Model:
                 t=at,
                 loads=load_spec,
                 params=params,
-                max_iterations=int(max_iterations),
+                max_iterations=iterations,
                 max_step=step,
                 frozen=t is not None,
             )
@@ -1192,7 +1089,8 @@ class Model:
         if inputs is None:
             raw, _ = self._native.linearize(at, qv, qdv)
             return Linearization._from_native(raw)
-        names = self._input_names(inputs)
+        stated = self._kinetic is not None or self._positions is not None
+        names = input_names(inputs, self._parameters, stated)
         order = list(self._parameters)
         raw, b = self._native.linearize(
             at,
@@ -1202,33 +1100,6 @@ class Model:
             params=[float(v) for v in self._parameters.values()],
         )
         return Linearization._from_native(raw, b, names)
-
-    def _input_names(self, inputs: object) -> Tuple[str, ...]:
-        """The parameter names ``inputs`` of :meth:`linearize`, checked."""
-        if isinstance(inputs, str) or not isinstance(inputs, (Sequence, np.ndarray)):
-            raise TypeError(
-                f"inputs must be a sequence of parameter names, such as inputs=['F'], "
-                f"got {inputs!r}"
-            )
-        names = tuple(k.name if isinstance(k, Parameter) else k for k in inputs)
-        if self._kinetic is None and self._positions is None:
-            raise ValueError(
-                "inputs= needs a model stated by its expressions: a ready-made scene is written "
-                "in Rust and has none to differentiate; state it as lg.Model(..., "
-                "parameters={...}) and name those parameters as inputs"
-            )
-        if not self._parameters:
-            raise ValueError(
-                "the model has no parameters to take as inputs: give it parameters={name: "
-                "value} (lg.parameters) where the inputs enter, and name them in inputs="
-            )
-        for k in names:
-            if not isinstance(k, str) or k not in self._parameters:
-                raise ValueError(
-                    f"unknown input {k!r}: inputs are parameter names; the model's parameters "
-                    f"are {', '.join(self._parameters)}"
-                )
-        return names
 
     def modes(self, q_eq: ArrayLike, t: float = 0.0) -> Modes:
         """The modes of small oscillation about the equilibrium ``q_eq`` (at rest, time ``t``):

@@ -8,28 +8,37 @@ from __future__ import annotations
 
 import math
 import numbers
-from typing import Any, Dict, Mapping, Optional, Sequence, Tuple
+from typing import Any, Dict, List, Mapping, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
 import numpy.typing as npt
 
-from ._expr import Coordinate, Expr
+from ._expr import Coordinate, Expr, Parameter
 
 __all__ = [
     "FloatArray",
+    "ModelParts",
     "at_least_one",
     "check_coordinates",
     "check_parameters",
     "check_symbols",
     "drawing_points",
+    "expressions",
     "flag",
+    "input_names",
     "integer",
+    "known_parameters",
+    "model_parts",
     "number",
     "parameter_columns",
+    "positive",
     "real",
     "run_options",
+    "state_pairs",
     "states",
+    "states_at_times",
     "sweep_parameters",
+    "taylor_order",
     "vector",
 ]
 
@@ -239,6 +248,14 @@ def flag(what: str, value: object) -> bool:
     return value
 
 
+def positive(what: str, value: object) -> float:
+    """``value`` as a float > 0 (``TypeError`` for a non-number, ``ValueError`` otherwise)."""
+    x = number(what, value)
+    if not x > 0:
+        raise ValueError(f"{what} = {value} must be > 0")
+    return x
+
+
 def at_least_one(what: str, value: object, unit: str = "") -> int:
     """``value`` as an int of at least 1 (``TypeError`` for a non-integer, ``ValueError`` below
     1): a number of threads, chunks or frames."""
@@ -296,12 +313,8 @@ def sweep_parameters(
     value per run), each a parameter of the model (``known``)."""
     fixed: Dict[str, float] = {}
     sweep: Dict[str, FloatArray] = {}
+    known_parameters(parameters or {}, known)
     for name, value in (parameters or {}).items():
-        if name not in known:
-            raise ValueError(
-                f"unknown parameter {name!r}; the model's parameters are "
-                f"{', '.join(known) or 'none'}"
-            )
         arr = np.asarray(value, dtype=np.float64)
         if arr.ndim == 0:
             fixed[name] = real(f"parameter {name!r}", value)
@@ -330,3 +343,190 @@ def parameter_columns(
         ),
         dtype=np.float64,
     )
+
+class ModelParts(NamedTuple):
+    """What :class:`Model` is made of, checked by :func:`model_parts`."""
+
+    coordinates: Tuple[Coordinate, ...]
+    energies: Tuple[Optional[Expr], Optional[Expr], Optional[Expr]]
+    forces: Optional[Tuple[Expr, ...]]
+    positions: Optional[Tuple[Tuple[Expr, ...], ...]]
+    masses: Optional[Tuple[Expr, ...]]
+    parameters: Dict[str, float]
+    backend: str
+    drawing: Optional[Tuple[Tuple[Expr, ...], ...]]
+
+
+def expressions(what: str, value: Any, n: int) -> Tuple[Expr, ...]:
+    """``value`` as n expressions, one per coordinate (generalized forces, loads)."""
+    if isinstance(value, (Expr, numbers.Real)):
+        raise ValueError(f"{what} must be a sequence of {n} expressions, one per coordinate")
+    out = tuple(Expr.lift(x) for x in value)
+    if len(out) != n:
+        raise ValueError(f"{what} has {len(out)} entries but the model has {n} coordinates")
+    return out
+
+
+def model_parts(
+    coordinates: object,
+    kinetic: Any,
+    potential: Any,
+    dissipation: Any,
+    forces: Any,
+    parameters: Any,
+    positions: Any,
+    masses: Any,
+    backend: object,
+    drawing: Any,
+) -> ModelParts:
+    """The arguments of :class:`Model` checked: the coordinates, the route (energies, or
+    particle positions and masses), the symbols of every expression (coordinates of the model,
+    velocities where they may appear, parameters with values, each value used) and the backend."""
+    if not isinstance(backend, str):
+        raise TypeError(
+            f"backend must be a string, 'native' or 'interpreter', got {backend!r}"
+        )
+    coords = check_coordinates(coordinates)
+    dof = len(coords)
+    t_ = None if kinetic is None else Expr.lift(kinetic)
+    u_ = None if potential is None else Expr.lift(potential)
+    r_ = None if dissipation is None else Expr.lift(dissipation)
+    f_ = None if forces is None else expressions("forces", forces, dof)
+    pos: Optional[Tuple[Tuple[Expr, ...], ...]] = None
+    mass: Optional[Tuple[Expr, ...]] = None
+    if (positions is None) != (masses is None):
+        raise ValueError("positions and masses go together (the particle route)")
+    if positions is not None and masses is not None:
+        if kinetic is not None:
+            raise ValueError(
+                "give either kinetic= (the energy route) or positions= and masses= "
+                "(the particle route), not both"
+            )
+        pos = tuple(tuple(Expr.lift(x) for x in r) for r in positions)
+        mass = tuple(Expr.lift(m) for m in masses)
+        if not pos:
+            raise ValueError("positions is empty")
+        dims = {len(r) for r in pos}
+        if len(dims) != 1 or dims.pop() not in (2, 3):
+            raise ValueError("every position must have 2 or 3 components, all the same")
+        if len(mass) != len(pos):
+            raise ValueError(
+                f"{len(mass)} masses for {len(pos)} positions: give one mass per position"
+            )
+    elif kinetic is None:
+        raise ValueError(
+            "the model needs kinetic= (T) or positions= and masses= (the particle route)"
+        )
+
+    values = check_parameters(parameters)
+    names = {c.name for c in coords}
+    used: Dict[str, None] = {}
+    checks: List[Tuple[str, Expr, bool]] = []
+    for what, e, velocities in (
+        ("kinetic energy", t_, True),
+        ("potential", u_, False),
+        ("dissipation function", r_, True),
+    ):
+        if e is not None:
+            checks.append((what, e, velocities))
+    for i, f in enumerate(f_ or ()):
+        checks.append((f"force on {coords[i].name}", f, True))
+    for j, r in enumerate(pos or ()):
+        for x in r:
+            checks.append((f"position of particle {j}", x, False))
+    points = None if drawing is None else drawing_points(drawing, "drawing")
+    for j, r in enumerate(points or ()):
+        for x in r:
+            checks.append((f"drawing point {j}", x, False))
+    for what, e, velocities in checks:
+        check_symbols(what, e, names, values, velocities, used)
+    for j, m in enumerate(mass or ()):
+        for s in m.free_symbols():
+            if s.op != "param":
+                raise ValueError(
+                    f"the mass of particle {j} depends on {s!r}: masses are numbers and "
+                    "parameters only"
+                )
+        check_symbols(f"mass of particle {j}", m, names, values, False, used)
+    unknown = [k for k in values if k not in used]
+    if unknown:
+        raise ValueError(
+            f"unknown parameter {unknown[0]!r}: no expression of the model uses it "
+            f"(parameters used: {', '.join(used) or 'none'})"
+        )
+
+    return ModelParts(coords, (t_, u_, r_), f_, pos, mass, values, backend, points)
+
+
+def input_names(
+    inputs: object, parameters: Mapping[str, Any], has_expressions: bool
+) -> Tuple[str, ...]:
+    """The parameter names ``inputs`` of ``Model.linearize`` (a ``Parameter`` stands for its
+    name), each a parameter of a model stated by its expressions."""
+    if isinstance(inputs, str) or not isinstance(inputs, (Sequence, np.ndarray)):
+        raise TypeError(
+            f"inputs must be a sequence of parameter names, such as inputs=['F'], "
+            f"got {inputs!r}"
+        )
+    names = tuple(k.name if isinstance(k, Parameter) else k for k in inputs)
+    if not has_expressions:
+        raise ValueError(
+            "inputs= needs a model stated by its expressions: a ready-made scene is written "
+            "in Rust and has none to differentiate; state it as lg.Model(..., "
+            "parameters={...}) and name those parameters as inputs"
+        )
+    if not parameters:
+        raise ValueError(
+            "the model has no parameters to take as inputs: give it parameters={name: "
+            "value} (lg.parameters) where the inputs enter, and name them in inputs="
+        )
+    for k in names:
+        if not isinstance(k, str) or k not in parameters:
+            raise ValueError(
+                f"unknown input {k!r}: inputs are parameter names; the model's parameters "
+                f"are {', '.join(parameters)}"
+            )
+    return names
+
+
+def known_parameters(values: Mapping[str, Any], parameters: Mapping[str, Any]) -> None:
+    """A ``ValueError`` naming the first of ``values`` that is not one of ``parameters``."""
+    unknown = [k for k in values if k not in parameters]
+    if unknown:
+        raise ValueError(
+            f"unknown parameter {unknown[0]!r}; the model's parameters are "
+            f"{', '.join(parameters) or 'none'}"
+        )
+
+
+def state_pairs(q: object, qd: object, n: int) -> Tuple[FloatArray, FloatArray]:
+    """One state (q, q̇), or k states as the rows of both, with the same shape."""
+    q_arr, qd_arr = states("q", q, n), states("qd", qd, n)
+    if q_arr.shape != qd_arr.shape:
+        raise ValueError(
+            f"q has shape {q_arr.shape} but qd has shape {qd_arr.shape}: give one "
+            "state, or k states as the rows of both"
+        )
+    return q_arr, qd_arr
+
+
+def states_at_times(times: FloatArray, q: object, n: int) -> Tuple[FloatArray, FloatArray]:
+    """The times (one-dimensional) and the coordinates at each of them (one row per time)."""
+    if times.ndim != 1:
+        raise ValueError(f"t must be a number or one-dimensional, got shape {times.shape}")
+    rows = np.ascontiguousarray(np.asarray(q, dtype=np.float64))
+    if rows.shape != (times.shape[0], n):
+        raise ValueError(
+            f"q has shape {rows.shape} but {times.shape[0]} times need "
+            f"({times.shape[0]}, {n})"
+        )
+    return np.ascontiguousarray(times), rows
+
+
+def taylor_order(order: object) -> int:
+    """The order of a Taylor expansion: an integer of at least 1 (at most 100, checked in
+    Rust)."""
+    k = integer("order", order)
+    if k < 1:
+        raise ValueError(f"order = {k}: give an order from 1 to 100")
+    return k
