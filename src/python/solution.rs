@@ -181,7 +181,11 @@ pub(crate) struct Wrap<'a, 'py> {
 impl<'py> Wrap<'_, 'py> {
     /// The run as an instance of `kind`; `failure` (the error's message) marks the partial
     /// solution of a failed run.
-    pub(crate) fn wrap(&self, run: RunOutput, failure: Option<String>) -> PyResult<Bound<'py, PyAny>> {
+    pub(crate) fn wrap(
+        &self,
+        run: RunOutput,
+        failure: Option<String>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let py = self.kind.py();
         let message = match failure {
             Some(m) => Some(m.into_pyobject(py)?.into_any().unbind()),
@@ -230,8 +234,12 @@ impl PySolution {
         // The gate: the field's index, the event lists' shared one, two fewer after them.
         let k = field as usize;
         let gate = match field {
-            SolutionField::Names | SolutionField::EventNames | SolutionField::Y => return Ok(py.None()),
-            SolutionField::TEvents | SolutionField::QEvents | SolutionField::QdEvents => SolutionField::TEvents as usize,
+            SolutionField::Names | SolutionField::EventNames | SolutionField::Y => {
+                return Ok(py.None());
+            }
+            SolutionField::TEvents | SolutionField::QEvents | SolutionField::QdEvents => {
+                SolutionField::TEvents as usize
+            }
             _ if k > SolutionField::QdEvents as usize => k - 2,
             _ => k,
         };
@@ -299,7 +307,9 @@ impl PySolution {
             SolutionField::Status => Taken::Status(status_code(&sol.status)),
             SolutionField::Message => Taken::Message(sol.status.to_string()),
             SolutionField::Dense => Taken::Dense(sol.dense.take()),
-            SolutionField::Names | SolutionField::EventNames | SolutionField::Y => unreachable!("not made from a run"),
+            SolutionField::Names | SolutionField::EventNames | SolutionField::Y => {
+                unreachable!("not made from a run")
+            }
         })
     }
 
