@@ -34,6 +34,7 @@ from ._validate import (
     at_least_one,
     flag,
     parameter_columns,
+    run_count,
     run_options,
     states,
     sweep_parameters,
@@ -315,18 +316,7 @@ def simulate_many(
     n = model.dof
     q, qd = states("q0", q0, n), states("qd0", qd0, n)
     fixed, sweep = sweep_parameters(parameters, model.parameters)
-    sizes: Dict[str, int] = {}
-    for what, a in (("q0", q), ("qd0", qd)):
-        if a.ndim == 2:
-            sizes[f"{what} has {len(a)} rows"] = len(a)
-    for name, v in sweep.items():
-        sizes[f"parameter {name!r} has {len(v)} values"] = len(v)
-    if len(set(sizes.values())) > 1:
-        raise ValueError(
-            "the runs do not agree in number: " + ", ".join(sizes)
-            + " (give one row or value per run, or one for all)"
-        )
-    k = next(iter(sizes.values()), 1)
+    k = run_count(q, qd, sweep)
     q = np.ascontiguousarray(np.broadcast_to(q, (k, n)))
     qd = np.ascontiguousarray(np.broadcast_to(qd, (k, n)))
     base = model.with_parameters(**fixed) if fixed else model

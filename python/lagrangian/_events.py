@@ -6,7 +6,14 @@ import numbers
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 from ._expr import Coordinate, Expr, ExprLike, serialize, to_raw
-from ._validate import check_symbols
+from ._validate import (
+    check_symbols,
+    event_direction,
+    event_expression,
+    event_reset,
+    event_samples,
+    event_terminal,
+)
 
 __all__ = ["Event"]
 
@@ -82,44 +89,12 @@ class Event:
         name: Optional[str] = None,
         samples: int = 4,
     ) -> None:
-        self.condition = _expression("condition", condition)
-        if isinstance(direction, bool) or not isinstance(direction, numbers.Integral):
-            raise TypeError(f"direction must be +1, -1 or 0, got {direction!r}")
-        if direction not in (-1, 0, 1):
-            raise ValueError(
-                f"direction = {direction}: use +1 (rising), -1 (falling) or 0 (either)"
-            )
-        self.direction = int(direction)
-        if isinstance(terminal, bool):
-            self.terminal = int(terminal)
-        elif isinstance(terminal, numbers.Integral):
-            if terminal < 1:
-                raise ValueError(
-                    f"terminal = {terminal}: give True, False or a count of occurrences ≥ 1"
-                )
-            self.terminal = int(terminal)
-        else:
-            raise TypeError(f"terminal must be a bool or an int, got {terminal!r}")
-        pairs: List[Tuple[Expr, Expr]] = []
-        if reset is not None:
-            if not isinstance(reset, Mapping):
-                raise TypeError(
-                    "reset must be a mapping from coordinates or velocities to expressions, "
-                    f"such as {{y.d: -e * y.d}}; got {reset!r}"
-                )
-            for key, value in reset.items():
-                if not (isinstance(key, Expr) and key.op in ("q", "qd")):
-                    raise ValueError(
-                        f"reset key {key!r} is neither a coordinate nor a velocity (x or x.d)"
-                    )
-                pairs.append((key, _expression(f"reset of {key!r}", value)))
-        self.reset = tuple(pairs)
+        self.condition = event_expression("condition", condition)
+        self.direction = event_direction(direction)
+        self.terminal = event_terminal(terminal)
+        self.reset = event_reset(reset)
         self.name = str(self.condition) if name is None else str(name)
-        if isinstance(samples, bool) or not isinstance(samples, numbers.Integral):
-            raise TypeError(f"samples must be an int, got {samples!r}")
-        if not 0 <= samples <= 1000:
-            raise ValueError(f"samples = {samples}: give 0 to 1000 interior points per step")
-        self.samples = int(samples)
+        self.samples = event_samples(samples)
 
     def __repr__(self) -> str:
         parts = [repr(self.condition)]
@@ -131,14 +106,6 @@ class Event:
             parts.append("reset={" + ", ".join(f"{k!r}: {v!r}" for k, v in self.reset) + "}")
         parts.append(f"name={self.name!r}")
         return f"Event({', '.join(parts)})"
-
-
-def _expression(what: str, value: object) -> Expr:
-    if isinstance(value, Expr):
-        return value
-    if isinstance(value, numbers.Real) and not isinstance(value, bool):
-        return Expr.lift(float(value))
-    raise TypeError(f"the event's {what} must be an expression or a number, got {value!r}")
 
 
 def event_specs(

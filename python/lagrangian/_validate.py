@@ -23,6 +23,11 @@ __all__ = [
     "check_parameters",
     "check_symbols",
     "drawing_points",
+    "event_direction",
+    "event_expression",
+    "event_reset",
+    "event_samples",
+    "event_terminal",
     "expressions",
     "flag",
     "input_names",
@@ -33,6 +38,7 @@ __all__ = [
     "parameter_columns",
     "positive",
     "real",
+    "run_count",
     "run_options",
     "state_pairs",
     "states",
@@ -330,6 +336,23 @@ def sweep_parameters(
     return fixed, sweep
 
 
+def run_count(q: FloatArray, qd: FloatArray, sweep: Mapping[str, FloatArray]) -> int:
+    """The number of runs of an ensemble: the rows of the initial states (k, n) and the values
+    of the swept parameters, which must agree (one row for all runs counts for any number)."""
+    sizes: Dict[str, int] = {}
+    for what, a in (("q0", q), ("qd0", qd)):
+        if a.ndim == 2:
+            sizes[f"{what} has {len(a)} rows"] = len(a)
+    for name, v in sweep.items():
+        sizes[f"parameter {name!r} has {len(v)} values"] = len(v)
+    if len(set(sizes.values())) > 1:
+        raise ValueError(
+            "the runs do not agree in number: " + ", ".join(sizes)
+            + " (give one row or value per run, or one for all)"
+        )
+    return next(iter(sizes.values()), 1)
+
+
 def parameter_columns(
     names: Sequence[str], sweep: Mapping[str, FloatArray], values: Mapping[str, Any], k: int
 ) -> FloatArray:
@@ -530,3 +553,67 @@ def taylor_order(order: object) -> int:
     if k < 1:
         raise ValueError(f"order = {k}: give an order from 1 to 100")
     return k
+
+
+# -- the arguments of an Event -------------------------------------------------------------
+
+
+def event_expression(what: str, value: object) -> Expr:
+    """An event's condition or reset value: an expression, or a number lifted to one."""
+    if isinstance(value, Expr):
+        return value
+    if isinstance(value, numbers.Real) and not isinstance(value, bool):
+        return Expr.lift(float(value))
+    raise TypeError(f"the event's {what} must be an expression or a number, got {value!r}")
+
+
+def event_direction(direction: object) -> int:
+    """The direction of the sign changes an event looks for: +1, −1 or 0."""
+    if isinstance(direction, bool) or not isinstance(direction, numbers.Integral):
+        raise TypeError(f"direction must be +1, -1 or 0, got {direction!r}")
+    if direction not in (-1, 0, 1):
+        raise ValueError(
+            f"direction = {direction}: use +1 (rising), -1 (falling) or 0 (either)"
+        )
+    return int(direction)
+
+
+def event_terminal(terminal: object) -> int:
+    """Whether an event ends the run (a bool) or after how many occurrences (an int ≥ 1)."""
+    if isinstance(terminal, bool):
+        return int(terminal)
+    if isinstance(terminal, numbers.Integral):
+        if terminal < 1:
+            raise ValueError(
+                f"terminal = {terminal}: give True, False or a count of occurrences ≥ 1"
+            )
+        return int(terminal)
+    raise TypeError(f"terminal must be a bool or an int, got {terminal!r}")
+
+
+def event_reset(reset: object) -> Tuple[Tuple[Expr, Expr], ...]:
+    """An event's reset: (coordinate or velocity, new value) pairs from a mapping."""
+    pairs: List[Tuple[Expr, Expr]] = []
+    if reset is not None:
+        if not isinstance(reset, Mapping):
+            raise TypeError(
+                "reset must be a mapping from coordinates or velocities to expressions, "
+                f"such as {{y.d: -e * y.d}}; got {reset!r}"
+            )
+        for key, value in reset.items():
+            if not (isinstance(key, Expr) and key.op in ("q", "qd")):
+                raise ValueError(
+                    f"reset key {key!r} is neither a coordinate nor a velocity (x or x.d)"
+                )
+            pairs.append((key, event_expression(f"reset of {key!r}", value)))
+    return tuple(pairs)
+
+
+def event_samples(samples: object) -> int:
+    """The interior points per step where an event's condition is sampled: 0 to 1000."""
+    if isinstance(samples, bool) or not isinstance(samples, numbers.Integral):
+        raise TypeError(f"samples must be an int, got {samples!r}")
+    n = int(samples)
+    if not 0 <= n <= 1000:
+        raise ValueError(f"samples = {samples}: give 0 to 1000 interior points per step")
+    return n
