@@ -14,7 +14,6 @@ that turns a solution into a smooth curve.
 from __future__ import annotations
 
 import math
-import numbers
 import os
 from pathlib import Path
 from typing import (
@@ -35,7 +34,7 @@ import numpy.typing as npt
 
 from ._drawing import Drawing
 from ._expr import Expr, serialize
-from ._validate import at_least_one
+from ._validate import at_least_one, file_suffix, finite_positive
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure  # type: ignore[import-not-found, unused-ignore]
@@ -71,16 +70,6 @@ def _require_matplotlib() -> None:
         import matplotlib  # noqa: F401
     except ImportError as e:
         raise ImportError(f"plotting needs matplotlib ({e}): {_INSTALL}") from None
-
-
-def _suffix(path: PathLike, allowed: Sequence[str], what: str) -> Path:
-    p = Path(os.fspath(path))
-    if p.suffix.lower() not in allowed:
-        raise ValueError(
-            f"cannot tell how to write {what} to {str(p)!r}: the file name must end in "
-            + ", ".join(allowed)
-        )
-    return p
 
 
 def _checked(sol: "Solution") -> Tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
@@ -264,7 +253,7 @@ def plot_solution(
 ) -> "Figure":
     """The figure of :meth:`Solution.plot`: q, q̇ and the energy against t in three panels."""
     if path is not None:
-        target: Optional[Path] = _suffix(path, _FIGURE_SUFFIXES, "a figure")
+        target: Optional[Path] = file_suffix(path, _FIGURE_SUFFIXES, "a figure")
     else:
         target = None
     t, q, qd, h = _checked(sol)
@@ -384,7 +373,7 @@ def plot_work_precision(
     peers: "Optional[WorkPrecision]" = None,
 ) -> "Figure":
     """The figure of :meth:`WorkPrecision.plot`."""
-    target = None if path is None else _suffix(path, _FIGURE_SUFFIXES, "a figure")
+    target = None if path is None else file_suffix(path, _FIGURE_SUFFIXES, "a figure")
     _require_matplotlib()
     from matplotlib.figure import Figure
 
@@ -575,11 +564,8 @@ def animate(
     from the origin, ``chain=False`` as points; by default (``drawing`` and ``chain`` both
     ``None``) rods join the particles whose distance the motion keeps.
     """
-    target = _suffix(path, _MOVIE_SUFFIXES, "a movie")
-    if isinstance(fps, bool) or not isinstance(fps, numbers.Real):
-        raise TypeError(f"fps must be a number, got {fps!r}")
-    if not (math.isfinite(float(fps)) and float(fps) > 0.0):
-        raise ValueError(f"fps = {fps} must be finite and > 0")
+    target = file_suffix(path, _MOVIE_SUFFIXES, "a movie")
+    fps = finite_positive("fps", fps)
     frames = at_least_one("max_frames", max_frames)
     position: Positions
     if points is not None:

@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import math
 import numbers
-from typing import Any, Dict, List, Mapping, NamedTuple, Optional, Sequence, Tuple
+import os
+from pathlib import Path
+from typing import Any, Dict, List, Mapping, NamedTuple, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -29,6 +31,8 @@ __all__ = [
     "event_samples",
     "event_terminal",
     "expressions",
+    "file_suffix",
+    "finite_positive",
     "flag",
     "input_names",
     "integer",
@@ -260,6 +264,29 @@ def positive(what: str, value: object) -> float:
     if not x > 0:
         raise ValueError(f"{what} = {value} must be > 0")
     return x
+
+
+def finite_positive(what: str, value: object) -> float:
+    """``value`` as a finite float > 0 (``TypeError`` for a non-number, ``ValueError``
+    otherwise): a frame rate."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{what} must be a number, got {value!r}")
+    x = float(value)
+    if not (math.isfinite(x) and x > 0.0):
+        raise ValueError(f"{what} = {value} must be finite and > 0")
+    return x
+
+
+def file_suffix(path: Union[str, "os.PathLike[str]"], allowed: Sequence[str], what: str) -> Path:
+    """``path`` as a ``Path`` whose suffix (any case) is one of ``allowed``: how to write
+    ``what`` is told by the file name."""
+    p = Path(os.fspath(path))
+    if p.suffix.lower() not in allowed:
+        raise ValueError(
+            f"cannot tell how to write {what} to {str(p)!r}: the file name must end in "
+            + ", ".join(allowed)
+        )
+    return p
 
 
 def at_least_one(what: str, value: object, unit: str = "") -> int:
