@@ -1,8 +1,11 @@
-"""Checking what the user gives: state vectors, numbers, coordinates, parameters and the symbols
-of expressions, the run options and a model's drawing. Each check raises ``TypeError`` or
-``ValueError`` with a message that says what to give instead. Of the run options only the types
-are checked here (:func:`run_options`, for ``simulate``, ``integrator`` and ``simulate_many``
-alike); their values are checked in Rust, one message each."""
+"""Checking what the user gives, in one place for models, events, runs, ensembles and pictures:
+state vectors, numbers and counts, coordinates, parameters and the symbols of expressions, a
+model's parts and drawing, an event's arguments, the run options, an ensemble's sweep, a
+linearization's inputs, a picture's file name. Each check raises ``TypeError`` or ``ValueError``
+with a message that says what to give instead. Of the run options only the types are checked
+here (:func:`run_options`, for ``simulate``, ``integrator`` and ``simulate_many`` alike); their
+values are checked in Rust, one message each. The expression language checks its own operands
+(``_expr``, below this module) and the report tooling its own plans (``_workprec``)."""
 
 from __future__ import annotations
 
