@@ -491,9 +491,9 @@ class Model:
         float64 arrays or lists (the fast form, checked there), otherwise converted and checked
         here first, each with a message that says what to give instead."""
         out = getattr(self._native, name)(t, q, qd)
-        return self._checked(name, t, q, qd) if out is None else out
+        return self._evaluate_checked(name, t, q, qd) if out is None else out
 
-    def _checked(self, name: str, t: object, q: object, qd: object) -> Any:
+    def _evaluate_checked(self, name: str, t: object, q: object, qd: object) -> Any:
         """The native ``name`` at (t, q, q̇) after converting and checking them here."""
         n = self.dof
         q_arr, qd_arr = state_pairs(q, qd, n)
@@ -514,7 +514,7 @@ class Model:
         [[-4.1], [-0.2]]
         """
         out: FloatArray = self._native.accelerations(t, q, qd)  # the fast path, inline
-        return self._checked("accelerations", t, q, qd) if out is None else out
+        return self._evaluate_checked("accelerations", t, q, qd) if out is None else out
 
     def taylor_series(
         self, q: ArrayLike, qd: ArrayLike, *, t: float = 0.0, order: int = 20

@@ -49,7 +49,7 @@ __all__ = [
     "plot_work_precision",
     "method_styles",
     "trajectory",
-    "evaluate",
+    "evaluate_drawing",
     "animate",
 ]
 
@@ -72,7 +72,7 @@ def _require_matplotlib() -> None:
         raise ImportError(f"plotting needs matplotlib ({e}): {_INSTALL}") from None
 
 
-def _checked(sol: "Solution") -> Tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+def _solution_arrays(sol: "Solution") -> Tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     t = np.asarray(sol.t, dtype=np.float64)
     q = np.asarray(sol.q, dtype=np.float64)
     qd = np.asarray(sol.qd, dtype=np.float64)
@@ -169,7 +169,7 @@ def trajectory(sol: "Solution", times: FloatArray) -> Tuple[FloatArray, FloatArr
     """
     if getattr(sol, "interpolant", None) is not None:
         return sol(times)
-    t, q, qd, _ = _checked(sol)
+    t, q, qd, _ = _solution_arrays(sol)
     t, (q, qd) = _monotone(t, q, qd)
     return _hermite(t, q, qd, times), _hermite(t, qd, _second_derivatives(t, q, qd), times)
 
@@ -256,7 +256,7 @@ def plot_solution(
         target: Optional[Path] = file_suffix(path, _FIGURE_SUFFIXES, "a figure")
     else:
         target = None
-    t, q, qd, h = _checked(sol)
+    t, q, qd, h = _solution_arrays(sol)
     _require_matplotlib()
     from matplotlib.figure import Figure
 
@@ -451,7 +451,7 @@ _NUMPY_BINARY: Dict[str, Callable[[Any, Any], Any]] = {
 }
 
 
-def evaluate(
+def evaluate_drawing(
     exprs: Sequence[Expr],
     coordinates: Sequence[str],
     parameters: Mapping[str, float],
@@ -494,7 +494,7 @@ def expression_positions(
     flat = [x for p in points for x in p]
 
     def f(t: FloatArray, q: FloatArray) -> FloatArray:
-        v = evaluate(flat, coordinates, parameters, t, q)
+        v = evaluate_drawing(flat, coordinates, parameters, t, q)
         return np.ascontiguousarray(v.T.reshape(t.shape[0], len(points), dim))
 
     return f
@@ -575,7 +575,7 @@ def animate(
         if not model.has_positions:
             model.positions(0.0, np.zeros(model.dof))  # raises the model's own ValueError
         position = model.positions
-    t, q, qd, _ = _checked(sol)
+    t, q, qd, _ = _solution_arrays(sol)
     if q.shape[1] != model.dof:
         raise ValueError(
             f"the solution has {q.shape[1]} coordinates but the model has {model.dof}: "
