@@ -554,7 +554,7 @@ mod tests {
     /// route and the tapes' derivative passes on the system with every term.
     #[test]
     fn acceleration_jacobian_derived_program_every_term() {
-        use crate::integrators::acceleration_jacobian;
+        use crate::dynamics::acceleration_jacobian;
         use nalgebra::DMatrix;
         use num_dual::Dual64;
         let (model, derived, particles) = every_term();
@@ -572,7 +572,7 @@ mod tests {
         let (t, y) = (1.3, [0.9, -0.4, 1.3, 0.7]);
         let mut dual = DMatrix::zeros(2, 4);
         let (mut xd, mut fd) = ([Dual64::from_re(0.0); 4], [Dual64::from_re(0.0); 2]);
-        crate::integrators::jacobian(&y, &mut xd, &mut fd, &mut dual, |x, out| {
+        crate::dynamics::jacobian(&y, &mut xd, &mut fd, &mut dual, |x, out| {
             program.accelerations_dual(Dual64::from_re(t), &x[..2], &x[2..], out)
         })
         .unwrap();
@@ -628,7 +628,7 @@ mod tests {
             let (mut xd, mut fd) = ([Dual64::from_re(0.0); 4], [Dual64::from_re(0.0); 4]);
             let mut tmp = [Dual64::from_re(0.0); 2];
             let td = Dual64::from_re(t);
-            crate::integrators::jacobian(&y, &mut xd, &mut fd, &mut want, |x, out| {
+            crate::dynamics::jacobian(&y, &mut xd, &mut fd, &mut want, |x, out| {
                 let (p, g) = out.split_at_mut(2);
                 energy.momenta_into(td, &x[..2], &x[2..], p);
                 parts.force_into(&energy, td, &x[..2], &x[2..], g, &mut tmp);

@@ -107,16 +107,17 @@ pub enum Error {
         h: f64,
     },
 
-    /// The step budget `Options::max_steps` ran out before the end of the span.
-    #[error(
-        "{steps} steps taken by t = {t} without reaching the end of the span: raise max_steps, \
-         loosen the tolerances or use a larger dt"
-    )]
+    /// The step budget `Options::max_steps` ran out before the end of the span, or a fixed-step
+    /// run needs more steps than a budget the caller set and is refused before taking them.
+    #[error("{}", too_many_steps(*t, *steps, *needed))]
     TooManySteps {
-        /// Time reached.
+        /// Time reached (for a refused fixed-step run, where it stands: nothing was taken from it).
         t: f64,
-        /// Steps taken (or, for a fixed-step run refused up front, the budget).
+        /// Steps taken; for a refused fixed-step run, the budget.
         steps: usize,
+        /// The steps a refused fixed-step run needs in all; `None` when the budget ran out
+        /// during the run.
+        needed: Option<usize>,
     },
 
     /// An explicit method's step size is limited by stability, not accuracy (Hairer's test).
@@ -198,3 +199,18 @@ pub enum Error {
 
 /// Shorthand for results of this crate.
 pub type Result<T> = std::result::Result<T, Error>;
+
+/// The message of [`Error::TooManySteps`]: a refused fixed-step run says that no step was taken.
+fn too_many_steps(t: f64, steps: usize, needed: Option<usize>) -> String {
+    match needed {
+        None => format!(
+            "{steps} steps taken by t = {t} without reaching the end of the span: raise max_steps, \
+             loosen the tolerances or use a larger dt"
+        ),
+        Some(needed) => format!(
+            "the fixed step needs {needed} steps to reach the end of the span, more than \
+             max_steps = {steps}: no step was taken from t = {t}; raise max_steps or use a \
+             larger dt"
+        ),
+    }
+}

@@ -43,6 +43,7 @@ mod linalg;
 mod linearize;
 #[cfg(feature = "jit")]
 mod native;
+mod nonlinear;
 mod particles;
 mod program;
 #[cfg(feature = "python")]

@@ -9,7 +9,7 @@
 //! or δẋ = A δx (plus the constant (q̇₀, a₀)) for x = (q, q̇), A = [[0, I], [∂a/∂q, ∂a/∂q̇]]. The
 //! Jacobian of a is
 //! exact — dual numbers through the system's own code
-//! ([`crate::integrators::acceleration_jacobian`]) — at rest or moving, so no q̇-terms are left
+//! ([`crate::dynamics`]' `acceleration_jacobian`) — at rest or moving, so no q̇-terms are left
 //! behind away from rest. At an equilibrium (a₀ = 0, q̇₀ = 0) M ∂a = ∂f for the force side f of
 //! eq. 55, so C = −∂f/∂q̇ is the Rayleigh damping ∂²Φ/∂q̇² plus the gyroscopic terms of the part
 //! of T linear in q̇ (and −∂Q″/∂q̇), and K = −∂f/∂q the stiffness, centrifugal part included:
@@ -22,9 +22,8 @@
 //! λ² + 2ζω λ + ω² = 0. Stability follows from the eigenvalues, with the reason stated.
 
 use crate::checks::{check_state, finite};
-use crate::dynamics::Dynamics;
+use crate::dynamics::{Dynamics, acceleration_jacobian};
 use crate::error::{Error, Result};
-use crate::integrators::acceleration_jacobian;
 use crate::statics::{Stability, classify, static_residual, static_stiffness_of};
 use nalgebra::{Cholesky, Complex, DMatrix, DVector, Schur, SymmetricEigen};
 use num_dual::Dual64;

@@ -30,7 +30,15 @@ import numpy.typing as npt
 from . import _lagrangian
 from ._events import Event, event_specs
 from ._solution import Solution
-from ._validate import integer, number, real, states
+from ._validate import (
+    at_least_one,
+    flag,
+    parameter_columns,
+    run_count,
+    run_options,
+    states,
+    sweep_parameters,
+)
 
 if TYPE_CHECKING:
     from ._model import Model
@@ -39,7 +47,9 @@ __all__ = ["Ensemble", "Failure", "simulate_many"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
-ArrayLike = Union[Sequence[float], Sequence[Sequence[float]], FloatArray]
+# One state for every run, or one per run (rows).
+StatesLike = Union[Sequence[float], Sequence[Sequence[float]], FloatArray]
+TimesLike = Union[Sequence[float], FloatArray]
 
 # What the native `simulate_many` returns: (t, q, qd, reached, counters, method, choice,
 # choices, failures, status, events); see src/python/ensemble.rs.
@@ -47,14 +57,9 @@ Raw = Tuple[
     Any, Any, Any, IntArray, IntArray, IntArray, IntArray, List[str], List[Any], Any, List[Any]
 ]
 
-COUNTERS = (
-    "accepted_steps",
-    "rejected_steps",
-    "rhs_evaluations",
-    "jacobian_evaluations",
-    "factorizations",
-    "newton_failures",
-)
+# The statistics' counters, as the columns of the native `simulate_many` (the one list is
+# `Statistics::COUNTERS` in Rust).
+COUNTERS: Tuple[str, ...] = tuple(_lagrangian.COUNTERS)
 
 
 class Failure(NamedTuple):
@@ -288,13 +293,13 @@ class Ensemble:
 
 def simulate_many(
     model: "Model",
-    q0: ArrayLike,
-    qd0: ArrayLike,
+    q0: StatesLike,
+    qd0: StatesLike,
     t_end: float,
     *,
     t0: float = 0.0,
     parameters: Optional[Mapping[str, Any]] = None,
-    t_eval: Optional[ArrayLike] = None,
+    t_eval: Optional[TimesLike] = None,
     method: str = "auto",
     dt: Optional[float] = None,
     rtol: float = 1e-6,
@@ -310,50 +315,18 @@ def simulate_many(
     """:meth:`Model.simulate_many` (documented there)."""
     n = model.dof
     q, qd = states("q0", q0, n), states("qd0", qd0, n)
-    fixed: Dict[str, float] = {}
-    sweep: Dict[str, FloatArray] = {}
-    known = model.parameters
-    for name, value in (parameters or {}).items():
-        if name not in known:
-            raise ValueError(
-                f"unknown parameter {name!r}; the model's parameters are "
-                f"{', '.join(known) or 'none'}"
-            )
-        arr = np.asarray(value, dtype=np.float64)
-        if arr.ndim == 0:
-            fixed[name] = real(f"parameter {name!r}", value)
-            continue
-        if arr.ndim != 1:
-            raise ValueError(
-                f"parameter {name!r} must be a number or one value per run, got shape {arr.shape}"
-            )
-        bad = np.flatnonzero(~np.isfinite(arr))
-        if bad.size:
-            raise ValueError(f"parameter {name!r}[{bad[0]}] = {arr[bad[0]]} is not finite")
-        sweep[name] = np.ascontiguousarray(arr)
-    sizes: Dict[str, int] = {}
-    for what, a in (("q0", q), ("qd0", qd)):
-        if a.ndim == 2:
-            sizes[f"{what} has {len(a)} rows"] = len(a)
-    for name, v in sweep.items():
-        sizes[f"parameter {name!r} has {len(v)} values"] = len(v)
-    if len(set(sizes.values())) > 1:
-        raise ValueError(
-            "the runs do not agree in number: " + ", ".join(sizes)
-            + " (give one row or value per run, or one for all)"
-        )
-    k = next(iter(sizes.values()), 1)
+    fixed, sweep = sweep_parameters(parameters, model.parameters)
+    k = run_count(q, qd, sweep)
     q = np.ascontiguousarray(np.broadcast_to(q, (k, n)))
     qd = np.ascontiguousarray(np.broadcast_to(qd, (k, n)))
     base = model.with_parameters(**fixed) if fixed else model
-    options = _options(t0, method, dt, rtol, atol, t_eval, max_steps, final_only)
+    t_end, options = _options(t0, t_end, method, dt, rtol, atol, t_eval, max_steps, final_only)
     if isinstance(events, Event):
         raise TypeError("events must be a sequence of lagrangian.Event: pass events=[event]")
     events = list(events or ())
     event_specs(events, base._coordinates, base._parameters)  # checked before any run
-    t_end = real("t_end", t_end)
-    if workers is not None and integer("workers", workers) < 1:
-        raise ValueError(f"workers = {workers}: give at least one thread")
+    if workers is not None:
+        workers = at_least_one("workers", workers, "thread")
     mode = "final" if final_only else "steps" if t_eval is None else "t_eval"
     if executor is None or k == 0:
         raw = _run(base, q, qd, t_end, sweep, options, events, workers or 0)
@@ -366,37 +339,29 @@ def simulate_many(
 
 def _options(
     t0: float,
+    t_end: float,
     method: str,
     dt: Optional[float],
     rtol: float,
     atol: float,
-    t_eval: Optional[ArrayLike],
+    t_eval: Optional[TimesLike],
     max_steps: Optional[int],
     final_only: bool,
-) -> Dict[str, Any]:
-    """The run options as the native ``simulate_many`` takes them, their types checked (their
-    values are validated in Rust, with ``simulate``'s messages)."""
-    if not isinstance(method, str):
-        raise TypeError(f"method must be a string such as 'dop853', got {method!r}")
-    if not isinstance(final_only, bool):
-        raise TypeError(f"final_only must be True or False, got {final_only!r}")
+) -> Tuple[float, Dict[str, Any]]:
+    """``t_end`` and the other run options as the native ``simulate_many`` takes them, checked
+    as ``simulate`` checks them (:func:`run_options`)."""
+    t0, t_end_, method, dt, rtol, atol, times, max_steps, _ = run_options(
+        t0, t_end, method, dt, rtol, atol, t_eval, max_steps
+    )
     options: Dict[str, Any] = {
-        "t0": real("t0", t0),
-        "method": method,
-        "rtol": number("rtol", rtol),
-        "atol": number("atol", atol),
-        "final_only": final_only,
+        "t0": t0, "method": method, "rtol": rtol, "atol": atol,
+        "final_only": flag("final_only", final_only),
     }
-    if dt is not None:
-        options["dt"] = number("dt", dt)
-    if t_eval is not None:
-        times = np.ascontiguousarray(np.asarray(t_eval, dtype=np.float64))
-        if times.ndim != 1:
-            raise ValueError(f"t_eval must be one-dimensional, got shape {times.shape}")
-        options["t_eval"] = times
-    if max_steps is not None:
-        options["max_steps"] = integer("max_steps", max_steps)
-    return options
+    for key, value in (("dt", dt), ("t_eval", times), ("max_steps", max_steps)):
+        if value is not None:
+            options[key] = value
+    assert t_end_ is not None
+    return t_end_, options
 
 
 def _run(
@@ -410,8 +375,6 @@ def _run(
     workers: int,
 ) -> Raw:
     """The runs on this machine, on ``workers`` threads (0: every core)."""
-    from ._scene_model import SceneModel
-
     k = len(q)
     per_run: Dict[str, Any] = {}
     if events:
@@ -421,36 +384,15 @@ def _run(
         per_run["backend"] = model._backend
         # An event that reads a swept parameter is bound to each run's value.
         per_run["event_params"] = [
-            _columns(names, sweep, values, k) if set(names) & set(sweep) else None
+            parameter_columns(names, sweep, values, k) if set(names) & set(sweep) else None
             for names in reads
         ]
     if sweep:
-        values = model.parameters
-        if isinstance(model, SceneModel):
-            columns = {name: v.tolist() for name, v in sweep.items()}
-            each = [{**values, **{c: v[i] for c, v in columns.items()}} for i in range(k)]
-            per_run["scenes"] = (model.scene, each)
-        else:
-            per_run["params"] = _columns(list(values), sweep, values, k)
+        per_run.update(model._sweep_arguments(sweep, k))
     raw: Raw = _lagrangian.simulate_many(
         model._native, q, qd, t_end, **per_run, **options, workers=workers
     )
     return raw
-
-
-def _columns(
-    names: Sequence[str], sweep: Mapping[str, FloatArray], values: Mapping[str, Any], k: int
-) -> FloatArray:
-    """The values of the parameters ``names`` in each of k runs, shape (k, len(names)): the
-    swept ones from ``sweep``, the others fixed at ``values``."""
-    if not names:
-        return np.zeros((k, 0), dtype=np.float64)
-    return np.ascontiguousarray(
-        np.column_stack(
-            [sweep[name] if name in sweep else np.full(k, values[name]) for name in names]
-        ),
-        dtype=np.float64,
-    )
 
 
 # Models unpickled by the chunks run in this process, by the hash of their pickle: a worker
@@ -513,8 +455,8 @@ def _run_on(
         else:
             threads = getattr(executor, "_max_workers", None) or os.cpu_count() or 1
         chunks = 4 * max(1, int(threads))
-    elif integer("chunks", chunks) < 1:
-        raise ValueError(f"chunks = {chunks}: give at least one")
+    else:
+        chunks = at_least_one("chunks", chunks)
     bounds = np.linspace(0, k, min(chunks, k) + 1).round().astype(int)
     blob = pickle.dumps(model)
     key = hashlib.sha256(blob).hexdigest()

@@ -5,8 +5,15 @@ from __future__ import annotations
 import numbers
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
-from ._expr import Coordinate, Expr, ExprLike, serialize
-from ._validate import check_symbols
+from ._expr import Coordinate, Expr, ExprLike, serialize, to_raw
+from ._validate import (
+    check_symbols,
+    event_direction,
+    event_expression,
+    event_reset,
+    event_samples,
+    event_terminal,
+)
 
 __all__ = ["Event"]
 
@@ -82,44 +89,12 @@ class Event:
         name: Optional[str] = None,
         samples: int = 4,
     ) -> None:
-        self.condition = _expression("condition", condition)
-        if isinstance(direction, bool) or not isinstance(direction, numbers.Integral):
-            raise TypeError(f"direction must be +1, -1 or 0, got {direction!r}")
-        if direction not in (-1, 0, 1):
-            raise ValueError(
-                f"direction = {direction}: use +1 (rising), -1 (falling) or 0 (either)"
-            )
-        self.direction = int(direction)
-        if isinstance(terminal, bool):
-            self.terminal = int(terminal)
-        elif isinstance(terminal, numbers.Integral):
-            if terminal < 1:
-                raise ValueError(
-                    f"terminal = {terminal}: give True, False or a count of occurrences ≥ 1"
-                )
-            self.terminal = int(terminal)
-        else:
-            raise TypeError(f"terminal must be a bool or an int, got {terminal!r}")
-        pairs: List[Tuple[Expr, Expr]] = []
-        if reset is not None:
-            if not isinstance(reset, Mapping):
-                raise TypeError(
-                    "reset must be a mapping from coordinates or velocities to expressions, "
-                    f"such as {{y.d: -e * y.d}}; got {reset!r}"
-                )
-            for key, value in reset.items():
-                if not (isinstance(key, Expr) and key.op in ("q", "qd")):
-                    raise ValueError(
-                        f"reset key {key!r} is neither a coordinate nor a velocity (x or x.d)"
-                    )
-                pairs.append((key, _expression(f"reset of {key!r}", value)))
-        self.reset = tuple(pairs)
+        self.condition = event_expression("condition", condition)
+        self.direction = event_direction(direction)
+        self.terminal = event_terminal(terminal)
+        self.reset = event_reset(reset)
         self.name = str(self.condition) if name is None else str(name)
-        if isinstance(samples, bool) or not isinstance(samples, numbers.Integral):
-            raise TypeError(f"samples must be an int, got {samples!r}")
-        if not 0 <= samples <= 1000:
-            raise ValueError(f"samples = {samples}: give 0 to 1000 interior points per step")
-        self.samples = int(samples)
+        self.samples = event_samples(samples)
 
     def __repr__(self) -> str:
         parts = [repr(self.condition)]
@@ -133,14 +108,6 @@ class Event:
         return f"Event({', '.join(parts)})"
 
 
-def _expression(what: str, value: object) -> Expr:
-    if isinstance(value, Expr):
-        return value
-    if isinstance(value, numbers.Real) and not isinstance(value, bool):
-        return Expr.lift(float(value))
-    raise TypeError(f"the event's {what} must be an expression or a number, got {value!r}")
-
-
 def event_specs(
     events: Sequence[Event],
     coordinates: Sequence[Coordinate],
@@ -148,8 +115,6 @@ def event_specs(
 ) -> Tuple[List[Tuple[Any, ...]], List[List[str]]]:
     """The events as the native ``simulate`` reads them, each checked against the model, and
     the names of the parameters each one reads, in the order of its spec's values."""
-    from ._model import _to_raw  # the one map of symbol names to indices (imports this module)
-
     if isinstance(events, Event):
         raise TypeError("events must be a sequence of lagrangian.Event: pass events=[event]")
     index = {c.name: i for i, c in enumerate(coordinates)}
@@ -168,7 +133,7 @@ def event_specs(
         targets = [(key.op == "qd", index[key.args[0]]) for key, _ in event.reset]
         specs.append(
             (
-                _to_raw(nodes, coordinates, order),
+                to_raw(nodes, coordinates, order),
                 ids[0],
                 targets,
                 ids[1:],

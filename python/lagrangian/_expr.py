@@ -485,6 +485,26 @@ def deserialize(nodes: Sequence[Node], roots: Sequence[int]) -> List[Expr]:
     return [built[r] for r in roots]
 
 
+def to_raw(
+    nodes: Sequence[Node], coordinates: Sequence[Coordinate], params: Sequence[str]
+) -> List[Tuple[str, float, int, int]]:
+    """Nodes with symbol names replaced by indices, as the Rust side reads them: the one map of
+    symbol names to indices, for a model's energies and an event's condition alike."""
+    qi = {c.name: i for i, c in enumerate(coordinates)}
+    pi = {name: i for i, name in enumerate(params)}
+    raw: List[Tuple[str, float, int, int]] = []
+    for op, payload, i, j in nodes:
+        if op == "const":
+            raw.append((op, float(payload), -1, -1))
+        elif op in ("q", "qd"):
+            raw.append((op, 0.0, qi[payload], -1))
+        elif op == "param":
+            raw.append((op, 0.0, pi[payload], -1))
+        else:
+            raw.append((op, 0.0, i, j))
+    return raw
+
+
 def _rebuild_one(nodes: Sequence[Node], root: int) -> Expr:
     return deserialize(nodes, [root])[0]
 

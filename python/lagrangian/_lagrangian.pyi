@@ -32,10 +32,14 @@ __all__ = [
     "scene_model",
     "scene_pivot",
     "simulate_many",
+    "COUNTERS",
     "__version__",
 ]
 
 __version__: str
+#: The statistics' counter names (``Statistics::COUNTERS`` in Rust), in the order of the
+#: counter columns of ``simulate_many``.
+COUNTERS: Tuple[str, ...]
 
 _FloatArray = npt.NDArray[np.float64]
 _RawNode = Tuple[str, float, int, int]

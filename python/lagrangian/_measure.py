@@ -24,6 +24,7 @@ __all__ = [
     "failure",
     "final_state",
     "state_error",
+    "unsupported_reason",
 ]
 
 # Output every this many steps: keeps only the initial and the final state of a timed run.
@@ -32,6 +33,18 @@ FINAL_ONLY = 1 << 62
 UNSUPPORTED = "cannot integrate this system"
 # The two computed references: different high-order methods at tight tolerances.
 _REFERENCE_RUNS = (("dop853", 1e-13), ("radau5", 1e-12))
+
+
+def unsupported_reason(message: str) -> Optional[str]:
+    """Why a method cannot integrate the system, as the Rust fit check of that method says it
+    (``"<method> cannot integrate this system: <why>; methods that fit: […]"``), or ``None`` for
+    another failure."""
+    start = message.find(UNSUPPORTED + ": ")
+    if start < 0:
+        return None
+    why = message[start + len(UNSUPPORTED) + 2:]
+    end = why.find("; methods that fit")
+    return why if end < 0 else why[:end]
 
 
 def state_error(q: FloatArray, qd: FloatArray, q_ref: FloatArray, qd_ref: FloatArray) -> float:

@@ -11,19 +11,36 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _lagrangian
+from ._drawing import Drawing
 from ._events import Event, event_specs
-from ._expr import Coordinate, Expr, ExprLike, Node, Parameter, deserialize, serialize
+from ._expr import (
+    Coordinate,
+    Expr,
+    ExprLike,
+    Parameter,
+    deserialize,
+    serialize,
+    to_raw,
+)
 from ._linear import Equilibrium, Linearization, Modes
 from ._lagrangian import Integrator
 from ._solution import Solution
 from ._validate import (
-    check_coordinates,
-    check_parameters,
+    at_least_one,
     check_symbols,
-    integer,
-    number,
+    drawing_points,
+    expressions,
+    flag,
+    input_names,
+    known_parameters,
+    model_parts,
+    parameter_columns,
+    positive,
     real,
-    states,
+    run_options,
+    state_pairs,
+    states_at_times,
+    taylor_order,
     vector,
 )
 
@@ -31,8 +48,6 @@ if TYPE_CHECKING:
     from pathlib import Path
 
     from ._ensemble import Ensemble
-
-    from ._plot import Drawing
 
 __all__ = ["Model", "methods"]
 
@@ -167,97 +182,18 @@ class Model:
         backend: str = "native",
         drawing: Optional[Sequence[Sequence[ExprLike]]] = None,
     ) -> None:
-        if not isinstance(backend, str):
-            raise TypeError(
-                f"backend must be a string, 'native' or 'interpreter', got {backend!r}"
-            )
-        coords = check_coordinates(coordinates)
-        dof = len(coords)
-        t_ = None if kinetic is None else Expr.lift(kinetic)
-        u_ = None if potential is None else Expr.lift(potential)
-        r_ = None if dissipation is None else Expr.lift(dissipation)
-        f_: Optional[Tuple[Expr, ...]] = None
-        if forces is not None:
-            if isinstance(forces, (Expr, numbers.Real)):
-                raise ValueError(
-                    f"forces must be a sequence of {dof} expressions, one per coordinate"
-                )
-            f_ = tuple(Expr.lift(f) for f in forces)
-            if len(f_) != dof:
-                raise ValueError(
-                    f"forces has {len(f_)} entries but the model has {dof} coordinates"
-                )
-        pos: Optional[Tuple[Tuple[Expr, ...], ...]] = None
-        mass: Optional[Tuple[Expr, ...]] = None
-        if (positions is None) != (masses is None):
-            raise ValueError("positions and masses go together (the particle route)")
-        if positions is not None and masses is not None:
-            if kinetic is not None:
-                raise ValueError(
-                    "give either kinetic= (the energy route) or positions= and masses= "
-                    "(the particle route), not both"
-                )
-            pos = tuple(tuple(Expr.lift(x) for x in r) for r in positions)
-            mass = tuple(Expr.lift(m) for m in masses)
-            if not pos:
-                raise ValueError("positions is empty")
-            dims = {len(r) for r in pos}
-            if len(dims) != 1 or dims.pop() not in (2, 3):
-                raise ValueError("every position must have 2 or 3 components, all the same")
-            if len(mass) != len(pos):
-                raise ValueError(
-                    f"{len(mass)} masses for {len(pos)} positions: give one mass per position"
-                )
-        elif kinetic is None:
-            raise ValueError(
-                "the model needs kinetic= (T) or positions= and masses= (the particle route)"
-            )
-
-        values = check_parameters(parameters)
-        names = {c.name for c in coords}
-        used: Dict[str, None] = {}
-        checks: List[Tuple[str, Expr, bool]] = []
-        for what, e, velocities in (
-            ("kinetic energy", t_, True),
-            ("potential", u_, False),
-            ("dissipation function", r_, True),
-        ):
-            if e is not None:
-                checks.append((what, e, velocities))
-        for i, f in enumerate(f_ or ()):
-            checks.append((f"force on {coords[i].name}", f, True))
-        for j, r in enumerate(pos or ()):
-            for x in r:
-                checks.append((f"position of particle {j}", x, False))
-        points = None if drawing is None else _drawing_points(drawing, "drawing")
-        for j, r in enumerate(points or ()):
-            for x in r:
-                checks.append((f"drawing point {j}", x, False))
-        for what, e, velocities in checks:
-            check_symbols(what, e, names, values, velocities, used)
-        for j, m in enumerate(mass or ()):
-            for s in m.free_symbols():
-                if s.op != "param":
-                    raise ValueError(
-                        f"the mass of particle {j} depends on {s!r}: masses are numbers and "
-                        "parameters only"
-                    )
-            check_symbols(f"mass of particle {j}", m, names, values, False, used)
-        unknown = [k for k in values if k not in used]
-        if unknown:
-            raise ValueError(
-                f"unknown parameter {unknown[0]!r}: no expression of the model uses it "
-                f"(parameters used: {', '.join(used) or 'none'})"
-            )
-
-        self._coordinates = coords
+        parts = model_parts(
+            coordinates, kinetic, potential, dissipation, forces, parameters, positions, masses,
+            backend, drawing,
+        )
+        self._coordinates = coords = parts.coordinates
         # The coordinates' names, as every solution carries them.
         self._names = tuple(c.name for c in coords)
-        self._kinetic, self._potential, self._dissipation = t_, u_, r_
-        self._forces, self._positions, self._masses = f_, pos, mass
-        self._parameters = values
-        self._backend = backend
-        self._drawing_points = points
+        self._kinetic, self._potential, self._dissipation = parts.energies
+        self._forces, self._positions, self._masses = parts.forces, parts.positions, parts.masses
+        self._parameters = parts.parameters
+        self._backend = parts.backend
+        self._drawing_points = parts.drawing
         self._native = self._compile()
 
     def _compile(self) -> Any:
@@ -283,7 +219,7 @@ class Model:
             slots["masses"] = list(range(len(roots), len(roots) + len(self._masses)))
             roots.extend(self._masses)
         nodes, ids = serialize(roots)
-        raw = _to_raw(nodes, self._coordinates, list(self._parameters))
+        raw = to_raw(nodes, self._coordinates, list(self._parameters))
 
         def at(x: Any) -> Any:
             return [ids[i] for i in x] if isinstance(x, list) else ids[x]
@@ -389,15 +325,8 @@ class Model:
             at = np.array([real("t", t)])
             one = self._native.positions(at, vector("q", q, n).reshape(1, n))
             return np.asarray(one[0], dtype=np.float64)
-        if times.ndim != 1:
-            raise ValueError(f"t must be a number or one-dimensional, got shape {times.shape}")
-        states = np.ascontiguousarray(np.asarray(q, dtype=np.float64))
-        if states.shape != (times.shape[0], n):
-            raise ValueError(
-                f"q has shape {states.shape} but {times.shape[0]} times need "
-                f"({times.shape[0]}, {n})"
-            )
-        return np.asarray(self._native.positions(np.ascontiguousarray(times), states))
+        times, rows = states_at_times(times, q, n)
+        return np.asarray(self._native.positions(times, rows))
 
     def animate(
         self,
@@ -474,7 +403,7 @@ class Model:
         """
         from . import _plot
 
-        points = self.drawing if drawing is None else _drawing_points(drawing, "drawing")
+        points = self.drawing if drawing is None else drawing_points(drawing, "drawing")
         if drawing is not None and points is not None:
             names = {c.name for c in self._coordinates}
             for j, r in enumerate(points):
@@ -523,12 +452,7 @@ class Model:
         >>> moon.parameters["g"]
         1.62
         """
-        unknown = [k for k in values if k not in self._parameters]
-        if unknown:
-            raise ValueError(
-                f"unknown parameter {unknown[0]!r}; the model's parameters are "
-                f"{', '.join(self._parameters) or 'none'}"
-            )
+        known_parameters(values, self._parameters)
         return self._rebound(values)
 
     def _no_positions(self) -> str:
@@ -538,7 +462,7 @@ class Model:
             "by positions=… and masses=… (the particle route) to draw it"
         )
 
-    def _drawing(self) -> "Optional[Drawing]":
+    def _drawing(self) -> Optional[Drawing]:
         """How :meth:`animate` draws the model beyond points with trails (``None``: points)."""
         return None
 
@@ -554,23 +478,25 @@ class Model:
         other._native = self._native.with_parameters([float(v) for v in new.values()])
         return other
 
+    def _sweep_arguments(self, sweep: Mapping[str, FloatArray], k: int) -> Dict[str, Any]:
+        """The native ``simulate_many``'s arguments that bind k runs to the values ``sweep``
+        (the other parameters fixed): a row of parameter values per run (a scene builds a model
+        per run instead)."""
+        values = self._parameters
+        return {"params": parameter_columns(list(values), sweep, values, k)}
+
     # -- evaluation --------------------------------------------------------------------
     def _evaluate(self, name: str, t: object, q: object, qd: object) -> Any:
         """The native ``name`` at (t, q, q̇): straight to Rust when the arguments are floats and
         float64 arrays or lists (the fast form, checked there), otherwise converted and checked
         here first, each with a message that says what to give instead."""
         out = getattr(self._native, name)(t, q, qd)
-        return self._checked(name, t, q, qd) if out is None else out
+        return self._evaluate_checked(name, t, q, qd) if out is None else out
 
-    def _checked(self, name: str, t: object, q: object, qd: object) -> Any:
+    def _evaluate_checked(self, name: str, t: object, q: object, qd: object) -> Any:
         """The native ``name`` at (t, q, q̇) after converting and checking them here."""
         n = self.dof
-        q_arr, qd_arr = states("q", q, n), states("qd", qd, n)
-        if q_arr.shape != qd_arr.shape:
-            raise ValueError(
-                f"q has shape {q_arr.shape} but qd has shape {qd_arr.shape}: give one "
-                "state, or k states as the rows of both"
-            )
+        q_arr, qd_arr = state_pairs(q, qd, n)
         return getattr(self._native, name)(real("t", t), q_arr, qd_arr)
 
     def accelerations(self, t: float, q: ArrayLike, qd: ArrayLike) -> FloatArray:
@@ -588,7 +514,7 @@ class Model:
         [[-4.1], [-0.2]]
         """
         out: FloatArray = self._native.accelerations(t, q, qd)  # the fast path, inline
-        return self._checked("accelerations", t, q, qd) if out is None else out
+        return self._evaluate_checked("accelerations", t, q, qd) if out is None else out
 
     def taylor_series(
         self, q: ArrayLike, qd: ArrayLike, *, t: float = 0.0, order: int = 20
@@ -612,9 +538,7 @@ class Model:
         """
         n = self.dof
         q_, qd_ = vector("q", q, n).tolist(), vector("qd", qd, n).tolist()
-        k = integer("order", order)
-        if k < 1:
-            raise ValueError(f"order = {k}: give an order from 1 to 100")
+        k = taylor_order(order)
         cq, cqd = self._native.taylor_series(real("t", t), q_, qd_, k)
         return cq, cqd
 
@@ -744,7 +668,8 @@ class Model:
             Output only at these times (ordered in the direction of integration, inside the
             span), from the method's dense output; by default every step is kept.
         max_steps : int, optional
-            Step budget (default one million).
+            Step budget: one million by default, none with ``dt`` (a fixed step takes the
+            steps the span needs).
         output_every : int, optional
             Keep the initial state, every k-th step and the final state (for long runs whose
             every step would not fit in memory); not together with ``t_eval``.
@@ -781,36 +706,14 @@ class Model:
         KeyboardInterrupt
             On Ctrl-C; it carries nothing.
         """
-        # The options are validated in Rust (one message each); here only their types. The
-        # initial state goes to Rust as it is when it has the form Rust reads (float64 arrays,
-        # lists of numbers; `None` otherwise), else it is converted and checked here first.
-        # The native call takes its arguments by position (no keyword dictionary to build and
-        # parse: a short run's fixed cost is most of what it costs).
-        if type(method) is not str:
-            if not isinstance(method, str):
-                raise TypeError(f"method must be a string such as 'dop853', got {method!r}")
-        # Finite floats pass at the cost of a comparison (x − x is 0 unless x is not finite);
-        # anything else goes through the checks, which raise or convert.
-        if type(t0) is not float or t0 - t0 != 0.0:
-            t0 = real("t0", t0)
-        if type(t_end) is not float or t_end - t_end != 0.0:
-            t_end = real("t_end", t_end)
-        if type(rtol) is not float:
-            rtol = number("rtol", rtol)
-        if type(atol) is not float:
-            atol = number("atol", atol)
-        if dt is not None:
-            dt = number("dt", dt)
-        times = None
-        if t_eval is not None:
-            times = np.ascontiguousarray(np.asarray(t_eval, dtype=np.float64))
-            if times.ndim != 1:
-                raise ValueError(f"t_eval must be one-dimensional, got shape {times.shape}")
-        if max_steps is not None:
-            max_steps = integer("max_steps", max_steps)
-        every = output_every
-        if every is not None and type(every) is not int:
-            every = integer("output_every", every)
+        # The options' types are checked in `run_options`, their values in Rust (one message
+        # each). The initial state goes to Rust as it is when it has the form Rust reads (float64
+        # arrays, lists of numbers; `None` otherwise), else it is converted and checked here
+        # first. The native call takes its arguments by position (no keyword dictionary to build
+        # and parse: a short run's fixed cost is most of what it costs).
+        t0, end, method, dt, rtol, atol, times, max_steps, every = run_options(
+            t0, t_end, method, dt, rtol, atol, t_eval, max_steps, output_every
+        )
         event_names: Tuple[str, ...] = ()
         specs: List[Any] = []
         if events is not None and not isinstance(events, Event):
@@ -819,12 +722,12 @@ class Model:
             specs = event_specs(events, self._coordinates, self._parameters)[0]
             event_names = tuple(e.name for e in events)
         if dense is not False and dense is not True:
-            raise TypeError(f"dense must be True or False, got {dense!r}")
+            flag("dense", dense)
         native, backend = self._native, self._backend
         # The arguments spelled out (a vectorcall): unpacked from a tuple with *, the call went
         # through an argument tuple, 1 000 more instructions (callgrind). A failure during the
         # run raises with the partial solution as `err.solution` (see `Raises`).
-        out: Optional[Solution] = native.simulate(q0, qd0, t_end, t0, method, dt, rtol, atol,
+        out: Optional[Solution] = native.simulate(q0, qd0, end, t0, method, dt, rtol, atol,
                                                   times, max_steps, every, specs, dense, backend,
                                                   Solution, self._names, event_names)
         if out is not None:
@@ -832,7 +735,7 @@ class Model:
         # q0 or qd0 not in the form Rust reads: converted and checked here, then called again.
         n = self.dof
         q0, qd0 = vector("q0", q0, n), vector("qd0", qd0, n)
-        sol: Solution = native.simulate(q0, qd0, t_end, t0, method, dt, rtol, atol, times,
+        sol: Solution = native.simulate(q0, qd0, end, t0, method, dt, rtol, atol, times,
                                         max_steps, every, specs, dense, backend, Solution,
                                         self._names, event_names)
         return sol
@@ -906,16 +809,11 @@ class Model:
         ValueError
             For bad input, as :meth:`simulate`.
         """
-        if not isinstance(method, str):
-            raise TypeError(f"method must be a string such as 'taylor', got {method!r}")
+        t0, _, method, dt, rtol, atol, _, max_steps, _ = run_options(
+            t0, None, method, dt, rtol, atol, None, max_steps
+        )
         n = self.dof
         q0, qd0 = vector("q0", q0, n), vector("qd0", qd0, n)
-        t0 = real("t0", t0)
-        rtol, atol = number("rtol", rtol), number("atol", atol)
-        if dt is not None:
-            dt = number("dt", dt)
-        if max_steps is not None:
-            max_steps = integer("max_steps", max_steps)
         specs: List[Any] = []
         if events is not None:
             specs = event_specs(events, self._coordinates, self._parameters)[0]
@@ -1084,11 +982,7 @@ class Model:
         load_spec = None
         params: List[float] = []
         if loads is not None:
-            if isinstance(loads, (Expr, numbers.Real)):
-                raise ValueError(f"loads must be a sequence of {n} entries, one per coordinate")
-            exprs = [Expr.lift(x) for x in loads]
-            if len(exprs) != n:
-                raise ValueError(f"loads has {len(exprs)} entries but the model has {n} coordinates")
+            exprs = list(expressions("loads", loads, n))
             numeric = {k: v for k, v in self._parameters.items() if isinstance(v, numbers.Real)}
             used: Dict[str, None] = {}
             names = {c.name for c in self._coordinates}
@@ -1096,15 +990,10 @@ class Model:
                 check_symbols(f"load on {self._coordinates[i].name}", e, names, numeric, True, used)
             nodes, roots = serialize(exprs)
             order = list(used)
-            load_spec = (_to_raw(nodes, self._coordinates, order), roots)
+            load_spec = (to_raw(nodes, self._coordinates, order), roots)
             params = [float(numeric[k]) for k in order]
-        if isinstance(max_iterations, bool) or not isinstance(max_iterations, numbers.Integral):
-            raise TypeError(f"max_iterations must be an integer, got {max_iterations!r}")
-        if max_iterations < 1:
-            raise ValueError(f"max_iterations = {max_iterations}: at least one is needed")
-        step = float(max_step)
-        if not step > 0:
-            raise ValueError(f"max_step = {max_step} must be > 0")
+        iterations = at_least_one("max_iterations", max_iterations)
+        step = positive("max_step", max_step)
         at = 0.0 if t is None else real("t", t)
         try:
             found = self._native.equilibrium(
@@ -1112,7 +1001,7 @@ class Model:
                 t=at,
                 loads=load_spec,
                 params=params,
-                max_iterations=int(max_iterations),
+                max_iterations=iterations,
                 max_step=step,
                 frozen=t is not None,
             )
@@ -1201,7 +1090,8 @@ class Model:
         if inputs is None:
             raw, _ = self._native.linearize(at, qv, qdv)
             return Linearization._from_native(raw)
-        names = self._input_names(inputs)
+        stated = self._kinetic is not None or self._positions is not None
+        names = input_names(inputs, self._parameters, stated)
         order = list(self._parameters)
         raw, b = self._native.linearize(
             at,
@@ -1211,33 +1101,6 @@ class Model:
             params=[float(v) for v in self._parameters.values()],
         )
         return Linearization._from_native(raw, b, names)
-
-    def _input_names(self, inputs: object) -> Tuple[str, ...]:
-        """The parameter names ``inputs`` of :meth:`linearize`, checked."""
-        if isinstance(inputs, str) or not isinstance(inputs, (Sequence, np.ndarray)):
-            raise TypeError(
-                f"inputs must be a sequence of parameter names, such as inputs=['F'], "
-                f"got {inputs!r}"
-            )
-        names = tuple(k.name if isinstance(k, Parameter) else k for k in inputs)
-        if self._kinetic is None and self._positions is None:
-            raise ValueError(
-                "inputs= needs a model stated by its expressions: a ready-made scene is written "
-                "in Rust and has none to differentiate; state it as lg.Model(..., "
-                "parameters={...}) and name those parameters as inputs"
-            )
-        if not self._parameters:
-            raise ValueError(
-                "the model has no parameters to take as inputs: give it parameters={name: "
-                "value} (lg.parameters) where the inputs enter, and name them in inputs="
-            )
-        for k in names:
-            if not isinstance(k, str) or k not in self._parameters:
-                raise ValueError(
-                    f"unknown input {k!r}: inputs are parameter names; the model's parameters "
-                    f"are {', '.join(self._parameters)}"
-                )
-        return names
 
     def modes(self, q_eq: ArrayLike, t: float = 0.0) -> Modes:
         """The modes of small oscillation about the equilibrium ``q_eq`` (at rest, time ``t``):
@@ -1381,53 +1244,3 @@ def _model_from_state(state: Dict[str, Any]) -> Model:
         backend=state.get("backend", "native"),
         drawing=drawing,
     )
-
-
-def _drawing_points(points: object, what: str) -> Tuple[Tuple[Expr, ...], ...]:
-    """Points to draw: a non-empty sequence of 2- or 3-tuples of expressions (all the same
-    length) without velocities."""
-    if isinstance(points, (Expr, str)) or not isinstance(points, Sequence):
-        raise TypeError(
-            f"{what} must be a sequence of points (x, y) or (x, y, z) of expressions, "
-            f"got {points!r}"
-        )
-    out = []
-    for j, p in enumerate(points):
-        if isinstance(p, (Expr, str)) or not isinstance(p, Sequence):
-            raise TypeError(f"{what} point {j} must be a tuple (x, y) or (x, y, z), got {p!r}")
-        out.append(tuple(Expr.lift(x) for x in p))
-    if not out:
-        raise ValueError(f"{what} is empty: give at least one point (x, y)")
-    dims = {len(r) for r in out}
-    if len(dims) != 1 or dims.pop() not in (2, 3):
-        raise ValueError(f"every {what} point must have 2 or 3 components, all the same")
-    for j, r in enumerate(out):
-        for x in r:
-            for sym in x.free_symbols():
-                if sym.op == "qd":
-                    raise ValueError(
-                        f"{what} point {j} depends on the velocity {sym!r}: a drawing is a "
-                        "function of t, the coordinates and parameters"
-                    )
-    return tuple(out)
-
-
-
-
-def _to_raw(
-    nodes: Sequence[Node], coordinates: Sequence[Coordinate], params: Sequence[str]
-) -> List[Tuple[str, float, int, int]]:
-    """Nodes with symbol names replaced by indices, as the Rust side reads them."""
-    qi = {c.name: i for i, c in enumerate(coordinates)}
-    pi = {name: i for i, name in enumerate(params)}
-    raw: List[Tuple[str, float, int, int]] = []
-    for op, payload, i, j in nodes:
-        if op == "const":
-            raw.append((op, float(payload), -1, -1))
-        elif op in ("q", "qd"):
-            raw.append((op, 0.0, qi[payload], -1))
-        elif op == "param":
-            raw.append((op, 0.0, pi[payload], -1))
-        else:
-            raw.append((op, 0.0, i, j))
-    return raw

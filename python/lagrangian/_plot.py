@@ -14,9 +14,7 @@ that turns a solution into a smooth curve.
 from __future__ import annotations
 
 import math
-import numbers
 import os
-from dataclasses import dataclass
 from pathlib import Path
 from typing import (
     TYPE_CHECKING,
@@ -34,7 +32,9 @@ from typing import (
 import numpy as np
 import numpy.typing as npt
 
+from ._drawing import Drawing
 from ._expr import Expr, serialize
+from ._validate import at_least_one, file_suffix, finite_positive
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure  # type: ignore[import-not-found, unused-ignore]
@@ -49,7 +49,7 @@ __all__ = [
     "plot_work_precision",
     "method_styles",
     "trajectory",
-    "evaluate",
+    "evaluate_drawing",
     "animate",
 ]
 
@@ -72,17 +72,7 @@ def _require_matplotlib() -> None:
         raise ImportError(f"plotting needs matplotlib ({e}): {_INSTALL}") from None
 
 
-def _suffix(path: PathLike, allowed: Sequence[str], what: str) -> Path:
-    p = Path(os.fspath(path))
-    if p.suffix.lower() not in allowed:
-        raise ValueError(
-            f"cannot tell how to write {what} to {str(p)!r}: the file name must end in "
-            + ", ".join(allowed)
-        )
-    return p
-
-
-def _checked(sol: "Solution") -> Tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+def _solution_arrays(sol: "Solution") -> Tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     t = np.asarray(sol.t, dtype=np.float64)
     q = np.asarray(sol.q, dtype=np.float64)
     qd = np.asarray(sol.qd, dtype=np.float64)
@@ -179,7 +169,7 @@ def trajectory(sol: "Solution", times: FloatArray) -> Tuple[FloatArray, FloatArr
     """
     if getattr(sol, "interpolant", None) is not None:
         return sol(times)
-    t, q, qd, _ = _checked(sol)
+    t, q, qd, _ = _solution_arrays(sol)
     t, (q, qd) = _monotone(t, q, qd)
     return _hermite(t, q, qd, times), _hermite(t, qd, _second_derivatives(t, q, qd), times)
 
@@ -263,10 +253,10 @@ def plot_solution(
 ) -> "Figure":
     """The figure of :meth:`Solution.plot`: q, q̇ and the energy against t in three panels."""
     if path is not None:
-        target: Optional[Path] = _suffix(path, _FIGURE_SUFFIXES, "a figure")
+        target: Optional[Path] = file_suffix(path, _FIGURE_SUFFIXES, "a figure")
     else:
         target = None
-    t, q, qd, h = _checked(sol)
+    t, q, qd, h = _solution_arrays(sol)
     _require_matplotlib()
     from matplotlib.figure import Figure
 
@@ -383,7 +373,7 @@ def plot_work_precision(
     peers: "Optional[WorkPrecision]" = None,
 ) -> "Figure":
     """The figure of :meth:`WorkPrecision.plot`."""
-    target = None if path is None else _suffix(path, _FIGURE_SUFFIXES, "a figure")
+    target = None if path is None else file_suffix(path, _FIGURE_SUFFIXES, "a figure")
     _require_matplotlib()
     from matplotlib.figure import Figure
 
@@ -461,7 +451,7 @@ _NUMPY_BINARY: Dict[str, Callable[[Any, Any], Any]] = {
 }
 
 
-def evaluate(
+def evaluate_drawing(
     exprs: Sequence[Expr],
     coordinates: Sequence[str],
     parameters: Mapping[str, float],
@@ -504,58 +494,13 @@ def expression_positions(
     flat = [x for p in points for x in p]
 
     def f(t: FloatArray, q: FloatArray) -> FloatArray:
-        v = evaluate(flat, coordinates, parameters, t, q)
+        v = evaluate_drawing(flat, coordinates, parameters, t, q)
         return np.ascontiguousarray(v.T.reshape(t.shape[0], len(points), dim))
 
     return f
 
 
 # -- Model.animate -------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Drawing:
-    """How :meth:`Model.animate` draws a model's particles, beyond points with trails.
-
-    Particles are referred to by their index in :meth:`Model.positions`; index −1 is the pivot.
-
-    Attributes
-    ----------
-    rods : tuple of (int, int)
-        Segments drawn between two particles (or a particle and the pivot): a pendulum chain is
-        ``((-1, 0), (0, 1), …)``.
-    pivot : callable, optional
-        Pivot positions at the given times, ``f(t) -> array of shape (len(t), 2)``; the origin
-        when ``None``.
-    bodies : tuple of (int, int, int)
-        Rolling bodies as (centre, rim point, opposite rim point): drawn as a circle through the
-        rim points with the diameter between them, which shows the rotation.
-    circles : tuple of (x, y, radius)
-        Fixed circles (a hollow sphere the ball rolls in).
-    lines : tuple of (x, y, dx, dy)
-        Fixed infinite lines through (x, y) along (dx, dy) (a slope).
-    marks : tuple of (x, y)
-        Fixed points (a centre of attraction, a pivot).
-    trail : tuple of int, optional
-        The particles that leave a trail; by default every particle that is not a body's rim
-        point.
-    """
-
-    rods: Tuple[Tuple[int, int], ...] = ()
-    pivot: Optional[Callable[[FloatArray], FloatArray]] = None
-    bodies: Tuple[Tuple[int, int, int], ...] = ()
-    circles: Tuple[Tuple[float, float, float], ...] = ()
-    lines: Tuple[Tuple[float, float, float, float], ...] = ()
-    marks: Tuple[Tuple[float, float], ...] = ()
-    trail: Optional[Tuple[int, ...]] = None
-
-    @staticmethod
-    def chain(links: int, pivot: Optional[Callable[[FloatArray], FloatArray]] = None) -> "Drawing":
-        """A pendulum chain of ``links`` bobs: rods from the pivot through the bobs in order, the
-        last bob trailed."""
-        rods = tuple((k - 1, k) for k in range(links))
-        return Drawing(rods=rods, pivot=pivot, marks=((0.0, 0.0),) if pivot is None else (),
-                       trail=(links - 1,))
 
 
 def _rigid(a: FloatArray, b: FloatArray) -> bool:
@@ -580,14 +525,6 @@ def auto_drawing(dense: FloatArray) -> Drawing:
     chain = rods == [(k - 1, k) for k in range(count)]
     marks = ((0.0, 0.0),) if rods[0] == (-1, 0) and dense.shape[2] == 2 else ()
     return Drawing(rods=tuple(rods), marks=marks, trail=(count - 1,) if chain else None)
-
-
-def _positive_int(what: str, value: object) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"{what} must be an integer, got {value!r}")
-    if int(value) < 1:
-        raise ValueError(f"{what} = {value} must be at least 1")
-    return int(value)
 
 
 def _limits(points: FloatArray) -> Tuple[FloatArray, FloatArray]:
@@ -627,12 +564,9 @@ def animate(
     from the origin, ``chain=False`` as points; by default (``drawing`` and ``chain`` both
     ``None``) rods join the particles whose distance the motion keeps.
     """
-    target = _suffix(path, _MOVIE_SUFFIXES, "a movie")
-    if isinstance(fps, bool) or not isinstance(fps, numbers.Real):
-        raise TypeError(f"fps must be a number, got {fps!r}")
-    if not (math.isfinite(float(fps)) and float(fps) > 0.0):
-        raise ValueError(f"fps = {fps} must be finite and > 0")
-    frames = _positive_int("max_frames", max_frames)
+    target = file_suffix(path, _MOVIE_SUFFIXES, "a movie")
+    fps = finite_positive("fps", fps)
+    frames = at_least_one("max_frames", max_frames)
     position: Positions
     if points is not None:
         position = expression_positions(points, [c.name for c in model.coordinates],
@@ -641,7 +575,7 @@ def animate(
         if not model.has_positions:
             model.positions(0.0, np.zeros(model.dof))  # raises the model's own ValueError
         position = model.positions
-    t, q, qd, _ = _checked(sol)
+    t, q, qd, _ = _solution_arrays(sol)
     if q.shape[1] != model.dof:
         raise ValueError(
             f"the solution has {q.shape[1]} coordinates but the model has {model.dof}: "

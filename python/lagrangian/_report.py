@@ -19,7 +19,7 @@ import numpy as np
 
 from . import _lagrangian
 from ._cases import Scene, report_scenes
-from ._measure import UNSUPPORTED, Reference, state_error
+from ._measure import UNSUPPORTED, Reference, state_error, unsupported_reason
 from ._model import Model
 from ._scipy import IMPLICIT_METHODS, SCIPY_METHODS, run_scipy, scipy_available
 from ._solution import Solution
@@ -280,18 +280,20 @@ def run_report(out: Path, *, quick: bool = False, scenes: Optional[Sequence[str]
 
 
 def _table_without_unsupported(wp: WorkPrecision) -> str:
-    """The table with one line per method that cannot integrate the scene (not one per row)."""
+    """The table without the rows of methods that cannot integrate the scene: after it, one line
+    per reason (the method's own, from its fit check in Rust) naming those methods."""
     rows: List[Row] = []
-    seen = set()
+    why: Dict[str, List[str]] = {}
     for r in wp.rows:
-        if r.failure and UNSUPPORTED in r.failure:
-            if r.method not in seen:
-                seen.add(r.method)
+        reason = unsupported_reason(r.failure) if r.failure else None
+        if reason is not None:
+            if r.method not in why.setdefault(reason, []):
+                why[reason].append(r.method)
             continue
         rows.append(r)
     table = WorkPrecision(rows, wp.reference, wp.title).table()
-    if seen:
-        table += f"\n\nNot applicable (not separable): {', '.join(sorted(seen))}."
+    for reason, methods in why.items():
+        table += f"\n\nNot applicable ({reason}): {', '.join(sorted(methods))}."
     return table
 
 

@@ -4,18 +4,16 @@ its name and parameter values rather than from expressions."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Dict, Mapping, Optional, Sequence, Tuple
+from typing import Any, Dict, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
 from . import _lagrangian
+from ._drawing import Drawing
 from ._expr import Coordinate
 from ._model import FloatArray, Model
 from ._validate import real as _real
 from ._validate import vector as _vector
-
-if TYPE_CHECKING:
-    from ._plot import Drawing
 
 __all__ = ["SceneModel"]
 
@@ -84,9 +82,7 @@ class SceneModel(Model):
     def _no_positions(self) -> str:
         return f"the scene {self._scene} has no particle positions: it cannot be drawn"
 
-    def _drawing(self) -> Optional["Drawing"]:
-        from ._plot import Drawing
-
+    def _drawing(self) -> Optional[Drawing]:
         d = _lagrangian.scene_drawing(self._scene, self._parameters)
         if d is None:
             return None
@@ -106,6 +102,11 @@ class SceneModel(Model):
             marks=tuple((float(x), float(y)) for x, y in d["marks"]),
             trail=None if trail is None else tuple(int(i) for i in trail),
         )
+
+    def _sweep_arguments(self, sweep: Mapping[str, FloatArray], k: int) -> Dict[str, Any]:
+        columns = {name: v.tolist() for name, v in sweep.items()}
+        each = [{**self._parameters, **{c: v[i] for c, v in columns.items()}} for i in range(k)]
+        return {"scenes": (self._scene, each)}
 
     def _rebound(self, values: Mapping[str, float]) -> "SceneModel":
         return SceneModel._make(self._scene, {**self._parameters, **values})

@@ -1,7 +1,9 @@
 //! [`Method::Auto`]: the choice of a method from the system's structure, the options and the
 //! initial state, with the reason recorded in the statistics.
 
-use super::{Method, Options, stiffness, taylor};
+use super::method::Method;
+use super::options::Options;
+use super::{stiffness, taylor};
 use crate::dynamics::Dynamics;
 
 /// Choose a method from the system's structure, the options and the initial state (the rule

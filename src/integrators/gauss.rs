@@ -24,11 +24,13 @@
 //! iteration runs to round-off, so the reuse changes the work, not the result. Starting values
 //! come from the previous step's collocation polynomial.
 
-use super::newton::{self, Convergence, ImplicitStep, Legendre, Lu, Verdict};
-use super::{Integrator, Run, SegmentStepper};
+use super::implicit::{FixedSteps, ImplicitStep, Legendre};
+use super::run::{Integrator, Run, SegmentStepper};
 use crate::dynamics::Dynamics;
+use crate::dynamics::jacobian;
 use crate::eom::ForceParts;
 use crate::error::{Error, Result};
+use crate::nonlinear::{Convergence, Lu, Verdict, max_norm, newton_update, same_step};
 use nalgebra::DMatrix;
 use num_dual::Dual64;
 
@@ -156,7 +158,7 @@ impl Stepper {
                     .collect()
             })
             .collect();
-        let v_scale = newton::max_norm(&y[n..]);
+        let v_scale = max_norm(&y[n..]);
         Ok(Self {
             tab,
             parts: ForceParts::of(run.system),
@@ -241,7 +243,7 @@ impl Stepper {
             .derived_program()
             .is_some_and(|program| program.qp_jacobian(t, q, v, self.jac.as_mut_slice()));
         if !compiled {
-            newton::jacobian(
+            jacobian(
                 &self.y,
                 &mut self.xd,
                 &mut self.fd,
@@ -355,7 +357,7 @@ impl Stepper {
         h: f64,
     ) -> (bool, Convergence) {
         let mut conv = Convergence::new(MAX_ITERATIONS);
-        if !newton::same_step(self.lu_h, h) {
+        if !same_step(self.lu_h, h) {
             // The factorization failed: nothing to iterate with.
             return (false, Convergence::unfactored(self.jac.as_slice(), t));
         }
@@ -365,12 +367,7 @@ impl Stepper {
                 conv.not_finite(what, at);
                 return (false, conv);
             }
-            self.lu.solve(&mut self.r);
-            for (v, d) in self.vs.iter_mut().zip(&self.r) {
-                *v -= d;
-            }
-            let scale = newton::max_norm(&self.vs).max(floor).max(f64::MIN_POSITIVE);
-            match conv.judge(newton::max_norm(&self.r) / scale) {
+            match newton_update(&self.lu, &mut self.r, &mut self.vs, floor, &mut conv) {
                 Verdict::Continue => {}
                 Verdict::Converged => return (true, conv),
                 Verdict::Failed => return (false, conv),
@@ -383,7 +380,7 @@ impl<S: Dynamics + ?Sized> ImplicitStep<S> for Stepper {
     fn attempt(&mut self, run: &mut Run<'_, S>, t: f64, h: f64) -> Result<Option<Convergence>> {
         run.poll(t)?;
         let (n, s) = (self.n, self.tab.stages());
-        if !newton::same_step(self.lu_h, h) || self.refresh {
+        if !same_step(self.lu_h, h) || self.refresh {
             self.build(run, t, h)?;
         }
         self.guess(h);
@@ -457,7 +454,7 @@ impl<S: Dynamics + ?Sized> ImplicitStep<S> for Stepper {
         self.prev_vs.copy_from_slice(&self.vs);
         std::mem::swap(&mut self.y, &mut self.y_new);
         std::mem::swap(&mut self.p, &mut self.p_new);
-        self.v_scale = self.v_scale.max(newton::max_norm(&self.y[n..]));
+        self.v_scale = self.v_scale.max(max_norm(&self.y[n..]));
         self.fresh = false;
         Ok(None)
     }
@@ -489,7 +486,7 @@ impl Integrator for Gauss {
             why: format!("{} is a fixed-step method", self.tableau.name),
         })?;
         let stepper = Stepper::new(self.tableau, run)?;
-        Ok(Box::new(newton::FixedSteps::new(run, stepper, dt)?))
+        Ok(Box::new(FixedSteps::new(run, stepper, dt)?))
     }
 }
 

@@ -2,7 +2,8 @@
 //! validation: every option is checked here (the Python binding only converts types), so each
 //! invalid value has one message wherever it comes from.
 
-use super::{Event, Method};
+use super::events::Event;
+use super::method::Method;
 use crate::error::{Error, Result};
 
 /// Which states the [`Solution`](super::Solution) keeps.
@@ -49,8 +50,10 @@ pub struct Options {
     /// Smallest step size before [`Error::StepSizeTooSmall`]; the floor is never below
     /// 10 ε |t| (below it t + h = t).
     pub min_step: f64,
-    /// Most steps (accepted plus rejected) before [`Error::TooManySteps`]. Fixed-step runs that
-    /// would need more fail before the first step.
+    /// Most steps (accepted plus rejected) before [`Error::TooManySteps`]: one million by
+    /// default, none ([`usize::MAX`]) from [`Options::fixed`], whose run takes the steps its
+    /// `dt` asks for. Fixed-step runs that would need more than a budget set with
+    /// [`Options::with_max_steps`] fail before the first step.
     pub max_steps: usize,
     /// Which states to keep.
     pub output: Output,
@@ -86,10 +89,12 @@ impl Default for Options {
 }
 
 impl Options {
-    /// Fixed steps of (at most) `dt`.
+    /// Fixed steps of (at most) `dt`, as many as the span needs: no step budget unless one is
+    /// set with [`Options::with_max_steps`] (as SciPy's and heyoka's fixed steps have none).
     pub fn fixed(dt: f64) -> Self {
         Self {
             dt: Some(dt),
+            max_steps: usize::MAX,
             ..Self::default()
         }
     }

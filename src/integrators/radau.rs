@@ -22,10 +22,12 @@
 //! methods) and `rtol`/`atol` still set the Newton tolerance.
 
 use super::dense::{Ends, Interpolant};
-use super::newton::{self, Convergence, ImplicitStep, Lu};
-use super::{Flow, Integrator, Run, SegmentStepper};
+use super::implicit::{FixedSteps, ImplicitStep};
+use super::run::{Flow, Integrator, Run, SegmentStepper};
 use crate::dynamics::Dynamics;
+use crate::dynamics::acceleration_jacobian;
 use crate::error::{Error, Result};
+use crate::nonlinear::{Convergence, Lu, same_step};
 use nalgebra::{Complex, DMatrix};
 use num_dual::Dual64;
 
@@ -206,7 +208,7 @@ impl Stepper {
 
     /// J at (t, y) by AD; the factorizations are then stale.
     fn jacobian<S: Dynamics + ?Sized>(&mut self, run: &mut Run<'_, S>, t: f64) -> Result<()> {
-        newton::acceleration_jacobian(
+        acceleration_jacobian(
             run.system,
             t,
             &self.y,
@@ -430,7 +432,7 @@ impl Stepper {
         h: f64,
     ) -> Result<std::result::Result<Newton, Newton>> {
         loop {
-            let result = if !newton::same_step(self.lu_h, h) && !self.factor(run, h) {
+            let result = if !same_step(self.lu_h, h) && !self.factor(run, h) {
                 let jacobian_finite = self.jac.iter().all(|x| x.is_finite());
                 Newton {
                     converged: false,
@@ -612,7 +614,11 @@ impl Stepper {
             let (t_new, h, result, err) = loop {
                 let attempts = run.stats.accepted_steps + run.stats.rejected_steps;
                 if attempts >= opts.max_steps {
-                    return Err(Error::TooManySteps { t, steps: attempts });
+                    return Err(Error::TooManySteps {
+                        t,
+                        steps: attempts,
+                        needed: None,
+                    });
                 }
                 if h_abs < floor {
                     return Err(match (newton_failure, non_finite) {
@@ -796,7 +802,7 @@ impl Integrator for Radau {
         match run.options.dt {
             Some(dt) => {
                 stepper.jacobian(run, run.t0)?;
-                Ok(Box::new(newton::FixedSteps::new(run, stepper, dt)?))
+                Ok(Box::new(FixedSteps::new(run, stepper, dt)?))
             }
             None => {
                 let (t0, y0) = (run.t0, run.y0.clone());

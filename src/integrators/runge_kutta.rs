@@ -4,8 +4,8 @@
 //! `dop853.f`).
 
 use super::dense::{Ends, Interpolant};
+use super::run::{Flow, Integrator, Run, SegmentStepper};
 use super::tableau::{ErrorEstimate, Tableau};
-use super::{Flow, Integrator, Run, SegmentStepper};
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
 use std::sync::LazyLock;
@@ -358,7 +358,11 @@ impl ExplicitRk {
         loop {
             let attempts = run.stats.accepted_steps + run.stats.rejected_steps;
             if attempts >= opts.max_steps {
-                return Err(Error::TooManySteps { t, steps: attempts });
+                return Err(Error::TooManySteps {
+                    t,
+                    steps: attempts,
+                    needed: None,
+                });
             }
             let floor = opts.min_step.max(10.0 * f64::EPSILON * t.abs());
             if h.abs() <= floor || h == 0.0 {

@@ -2,9 +2,9 @@
 //! [`solve_partial`](super::solve_partial) returns when a run fails ([`Failed`]); and the
 //! recorder that fills the trajectory according to [`Output`].
 
-use super::Method;
 use super::dense::Dense;
 use super::events::{Occurrences, Status};
+use super::method::Method;
 use super::options::Output;
 use crate::error::Error;
 
@@ -32,7 +32,21 @@ pub struct Statistics {
     pub newton_failures: usize,
 }
 
+/// A counter of [`Statistics`]: its name and how to read it.
+type Counter = (&'static str, fn(&Statistics) -> usize);
+
 impl Statistics {
+    /// The counters by name, in one order: the Python statistics dict and an ensemble's
+    /// counter columns are both made from this table.
+    pub const COUNTERS: [Counter; 6] = [
+        ("accepted_steps", |s| s.accepted_steps),
+        ("rejected_steps", |s| s.rejected_steps),
+        ("rhs_evaluations", |s| s.rhs_evaluations),
+        ("jacobian_evaluations", |s| s.jacobian_evaluations),
+        ("factorizations", |s| s.factorizations),
+        ("newton_failures", |s| s.newton_failures),
+    ];
+
     pub(crate) fn new(method: Method, choice: Option<String>) -> Self {
         Self {
             method,

@@ -2,7 +2,6 @@
 //! first-order system ẏ = (q̇, q̈): the time scales [`Method::Auto`](super::Method::Auto) chooses
 //! by and the modes the stability check of fixed-step explicit methods tests.
 
-use super::newton;
 use crate::dynamics::Dynamics;
 use nalgebra::{Complex, DMatrix};
 use num_dual::Dual64;
@@ -75,7 +74,7 @@ pub(crate) fn jacobian_spectrum<S: Dynamics + ?Sized>(
     let zero = Dual64::from_re(0.0);
     let (mut xd, mut fd) = (vec![zero; 2 * n], vec![zero; n]);
     let mut lower = DMatrix::zeros(n, 2 * n);
-    newton::acceleration_jacobian(system, t0, &y, &mut xd, &mut fd, &mut lower).ok()?;
+    crate::dynamics::acceleration_jacobian(system, t0, &y, &mut xd, &mut fd, &mut lower).ok()?;
     let mut j = DMatrix::zeros(2 * n, 2 * n);
     for i in 0..n {
         j[(i, n + i)] = 1.0;

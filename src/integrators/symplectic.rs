@@ -8,7 +8,7 @@
 //! step. M is factored once (LDLᵀ).
 
 use super::dense::{Ends, Interpolant};
-use super::{Flow, Integrator, Run, SegmentStepper};
+use super::run::{Flow, Integrator, Run, SegmentStepper};
 use crate::dynamics::Dynamics;
 use crate::eom;
 use crate::error::{Error, Result};

@@ -22,7 +22,7 @@
 //! `lg.Model`, `tape::EomProgram`), not Rust types implementing the energy traits.
 
 use super::dense::Interpolant;
-use super::{Flow, Integrator, Run, SegmentStepper};
+use super::run::{Flow, Integrator, Run, SegmentStepper};
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
 use crate::tape::{Expansion, StepRule};
@@ -141,6 +141,7 @@ impl TaylorStepper {
             return Err(Error::TooManySteps {
                 t: self.t,
                 steps: attempts,
+                needed: None,
             });
         }
         run.poll(self.t)?;
@@ -227,76 +228,6 @@ impl<S: Dynamics + ?Sized> SegmentStepper<S> for TaylorStepper {
             std::mem::swap(&mut self.y, &mut self.y_new);
             self.t = t_new;
             return Ok(flow);
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use crate::integrators::{Method, Options, solve};
-    use crate::tape::{EnergyModel, EomProgram, Function, Graph, Inputs, Tape, models};
-    use std::sync::Arc;
-
-    /// The double pendulum as expressions, with its derived program.
-    fn double_pendulum(params: &[f64]) -> EnergyModel {
-        let mut g = Graph::new();
-        let parts = models::double_pendulum(&mut g).unwrap();
-        let f = |g: &Graph, nodes: &[usize], inputs: Inputs| {
-            Function::new(
-                Arc::new(Tape::new(g, nodes, inputs, "part").unwrap()),
-                params,
-            )
-            .unwrap()
-        };
-        let kinetic = f(&g, &[parts.kinetic], Inputs::kinetic(2, 5));
-        let potential = f(&g, &[parts.potential.unwrap()], Inputs::potential(2, 5));
-        let program = EomProgram::new(&mut g, 2, 5, &parts).unwrap();
-        EnergyModel::new(2, kinetic, Some(potential), None, None)
-            .unwrap()
-            .with_program(program.bind(params).unwrap())
-            .unwrap()
-    }
-
-    /// The end state within 100 × the tolerance of a tight DOP853 reference.
-    #[test]
-    fn double_pendulum_to_the_tolerance() {
-        let params = [1.0, 2.0, 1.5, 0.7, 9.81];
-        let model = double_pendulum(&params);
-        let (q0, v0) = ([1.0, -0.5], [0.3, 2.0]);
-        let span = (0.0, 5.0);
-        let reference = solve(
-            &model,
-            &q0,
-            &v0,
-            span,
-            Method::Dop853,
-            &Options::adaptive(1e-14, 1e-14),
-        )
-        .unwrap();
-        let (_, qr, vr) = reference.last().unwrap();
-        for tol in [1e-6, 1e-9, 1e-12] {
-            let sol = solve(
-                &model,
-                &q0,
-                &v0,
-                span,
-                Method::Taylor,
-                &Options::adaptive(tol, tol),
-            )
-            .unwrap();
-            let (t, q, v) = sol.last().unwrap();
-            assert_eq!(t, 5.0);
-            let err = q
-                .iter()
-                .zip(qr)
-                .chain(v.iter().zip(vr))
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
-            assert!(err < 100.0 * tol.max(1e-13), "tol {tol}: error {err:e}");
-            eprintln!(
-                "tol {tol:e}: error {err:e}, steps {}",
-                sol.stats.accepted_steps
-            );
         }
     }
 }

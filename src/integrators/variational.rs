@@ -19,12 +19,14 @@
 //! for any regular Lagrangian; with dissipation it reproduces the energy decay with no spurious
 //! drift. (It coincides with the one-stage Gauss method on (q, p).)
 
-use super::newton::{self, Convergence, ImplicitStep, Legendre, Lu, Verdict};
-use super::{Integrator, Run, SegmentStepper};
+use super::implicit::{FixedSteps, ImplicitStep, Legendre};
+use super::run::{Integrator, Run, SegmentStepper};
 use crate::Scalar;
 use crate::dynamics::Dynamics;
+use crate::dynamics::jacobian;
 use crate::eom::ForceParts;
 use crate::error::{Error, Result};
+use crate::nonlinear::{Convergence, Lu, Verdict, max_norm, newton_update, same_step};
 use nalgebra::DMatrix;
 use num_dual::Dual64;
 
@@ -102,7 +104,7 @@ impl Stepper {
         let mut p = vec![0.0; n];
         run.system.momenta_into(run.t0, &y[..n], &y[n..], &mut p);
         crate::checks::finite(&p, "momenta", run.t0)?;
-        let v_scale = newton::max_norm(&y[n..]);
+        let v_scale = max_norm(&y[n..]);
         let zero = Dual64::from_re(0.0);
         Ok(Self {
             parts: ForceParts::of(run.system),
@@ -154,7 +156,7 @@ impl Stepper {
         let (q0, p0) = (&self.y[..self.n], &self.p[..]);
         let (qm, g, tmp) = (&mut self.qm_d, &mut self.g_d, &mut self.tmp_d);
         let t_mid = t + 0.5 * h;
-        newton::jacobian(
+        jacobian(
             &self.v,
             &mut self.xd,
             &mut self.fd,
@@ -181,7 +183,7 @@ impl Stepper {
     ) -> (bool, Convergence) {
         let mut conv = Convergence::new(MAX_ITERATIONS);
         let t_mid = t + 0.5 * h;
-        if !newton::same_step(self.lu_h, h) {
+        if !same_step(self.lu_h, h) {
             return (false, Convergence::unfactored(self.jac.as_slice(), t_mid));
         }
         let n = self.n;
@@ -213,12 +215,7 @@ impl Stepper {
                 conv.not_finite(what, t_mid);
                 return (false, conv);
             }
-            self.lu.solve(&mut self.r);
-            for (v, d) in self.v.iter_mut().zip(&self.r) {
-                *v -= d;
-            }
-            let scale = newton::max_norm(&self.v).max(floor).max(f64::MIN_POSITIVE);
-            match conv.judge(newton::max_norm(&self.r) / scale) {
+            match newton_update(&self.lu, &mut self.r, &mut self.v, floor, &mut conv) {
                 Verdict::Continue => {}
                 Verdict::Converged => return (true, conv),
                 Verdict::Failed => return (false, conv),
@@ -232,7 +229,7 @@ impl<S: Dynamics + ?Sized> ImplicitStep<S> for Stepper {
         run.poll(t)?;
         let n = self.n;
         self.guess(h);
-        if !newton::same_step(self.lu_h, h) || self.refresh {
+        if !same_step(self.lu_h, h) || self.refresh {
             self.build(run, t, h)?;
         }
         let (mut converged, mut conv) = self.iterate(run, t, h);
@@ -281,7 +278,7 @@ impl<S: Dynamics + ?Sized> ImplicitStep<S> for Stepper {
         self.v_prev.copy_from_slice(&self.v);
         std::mem::swap(&mut self.y, &mut self.y_new);
         std::mem::swap(&mut self.p, &mut self.p_new);
-        self.v_scale = self.v_scale.max(newton::max_norm(&self.y[n..]));
+        self.v_scale = self.v_scale.max(max_norm(&self.y[n..]));
         self.fresh = false;
         Ok(None)
     }
@@ -313,6 +310,6 @@ impl Integrator for Variational {
             why: "midpoint is a fixed-step method".into(),
         })?;
         let stepper = Stepper::new(run)?;
-        Ok(Box::new(newton::FixedSteps::new(run, stepper, dt)?))
+        Ok(Box::new(FixedSteps::new(run, stepper, dt)?))
     }
 }

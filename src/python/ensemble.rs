@@ -10,9 +10,10 @@
 
 use super::events::{CompiledEvent, EventSpec};
 use super::model::{AnyModel, Backend};
-use super::{PyModel, Step, check_finite, run_options, scenes};
+use super::{PyModel, StepOptions, check_finite, run_options, scenes};
 use crate::integrators::{
-    Failed, Method, Occurrences, Output, RunResult, Solution, Status, Systems, solve_many,
+    Failed, Method, Occurrences, Output, RunResult, Solution, Statistics, Status, Systems,
+    solve_many,
 };
 use crate::scenes::registry::Arguments;
 use crate::{Dynamics, Error, Result};
@@ -28,16 +29,6 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{RecvTimeoutError, channel};
 use std::time::Duration;
 
-/// The counters of [`crate::integrators::Statistics`], in this order, as columns.
-pub(super) const COUNTERS: [&str; 6] = [
-    "accepted_steps",
-    "rejected_steps",
-    "rhs_evaluations",
-    "jacobian_evaluations",
-    "factorizations",
-    "newton_failures",
-];
-
 /// Integrate the model from each row of `q0`, `qd0` (shape (k, n)) over (t0, t_end), on
 /// `workers` threads (0: one per core). `params` (shape (k, p)) binds a compiled model to each
 /// run's parameter values; `scenes` gives a scene's arguments for each run. `events` are
@@ -51,7 +42,7 @@ pub(super) const COUNTERS: [&str; 6] = [
 /// - otherwise: lists of k arrays, one per run;
 ///
 /// rows not reached by a failed run are zeros, and `reached` (k,) counts the rows each run
-/// filled. `counters` (k, 6) are the statistics in [`COUNTERS`]' order, `method` (k,) the index
+/// filled. `counters` (k, 6) are the statistics in [`Statistics::COUNTERS`]' order, `method` (k,) the index
 /// of the method that ran in `methods()` (−1: none ran), `choice` (k,) the index of Auto's reason
 /// in `choices` (−1: none), and `failures` a list of `(run, error class name, message, t)`
 /// with `t` the last accepted time (`None` when the run failed before its first step);
@@ -102,7 +93,7 @@ pub(crate) fn simulate_many<'py>(
     let (method, mut options) = run_options(
         (t0, t_end),
         method,
-        Step { dt, rtol, atol },
+        StepOptions { dt, rtol, atol },
         max_steps,
         (times.clone(), None),
     )?;
@@ -221,9 +212,9 @@ pub(crate) fn simulate_many<'py>(
         return Err(e);
     }
     let mode = match (&options.output, times) {
-        (Output::Final, _) => Mode::Final,
-        (_, Some(times)) => Mode::Times(times),
-        _ => Mode::Steps,
+        (Output::Final, _) => OutputLayout::Final,
+        (_, Some(times)) => OutputLayout::Times(times),
+        _ => OutputLayout::Steps,
     };
     ensemble_tuple(py, runs, mode, n, events.len())
 }
@@ -274,7 +265,7 @@ fn rows(a: ArrayView2<'_, f64>) -> Vec<f64> {
 }
 
 /// How the runs' states are laid out for Python.
-enum Mode {
+enum OutputLayout {
     Times(Vec<f64>),
     Final,
     Steps,
@@ -284,7 +275,7 @@ enum Mode {
 fn ensemble_tuple<'py>(
     py: Python<'py>,
     runs: Vec<RunResult>,
-    mode: Mode,
+    mode: OutputLayout,
     n: usize,
     events: usize,
 ) -> PyResult<Bound<'py, PyTuple>> {
@@ -292,7 +283,7 @@ fn ensemble_tuple<'py>(
     let mut status = Array1::<i8>::from_elem(k, -1);
     let found = PyList::empty(py);
     let mut reached = Array1::<i64>::zeros(k);
-    let mut counters = Array2::<i64>::zeros((k, COUNTERS.len()));
+    let mut counters = Array2::<i64>::zeros((k, Statistics::COUNTERS.len()));
     let mut method = Array1::<i64>::from_elem(k, -1);
     let mut choice = Array1::<i64>::from_elem(k, -1);
     let mut choices: HashMap<String, usize> = HashMap::new();
@@ -331,16 +322,8 @@ fn ensemble_tuple<'py>(
         if let Some(sol) = &sol {
             let s = &sol.stats;
             reached[i] = sol.len() as i64;
-            let c = [
-                s.accepted_steps,
-                s.rejected_steps,
-                s.rhs_evaluations,
-                s.jacobian_evaluations,
-                s.factorizations,
-                s.newton_failures,
-            ];
-            for (j, v) in c.into_iter().enumerate() {
-                counters[(i, j)] = v as i64;
+            for (j, (_, count)) in Statistics::COUNTERS.iter().enumerate() {
+                counters[(i, j)] = count(s) as i64;
             }
             method[i] = 1 + Method::ALL.iter().position(|m| *m == s.method).unwrap_or(0) as i64;
             if let Some(why) = &s.choice {
@@ -354,7 +337,7 @@ fn ensemble_tuple<'py>(
     choices.sort_by_key(|(_, j)| *j);
     let choices: Vec<String> = choices.into_iter().map(|(s, _)| s).collect();
     let (t, q, qd) = match mode {
-        Mode::Times(times) => {
+        OutputLayout::Times(times) => {
             let m = times.len();
             let mut q = Array3::<f64>::zeros((k, m, n));
             let mut qd = Array3::<f64>::zeros((k, m, n));
@@ -374,7 +357,7 @@ fn ensemble_tuple<'py>(
                 qd.into_pyarray(py).into_any(),
             )
         }
-        Mode::Final => {
+        OutputLayout::Final => {
             let mut t = Array1::<f64>::zeros(k);
             let mut q = Array2::<f64>::zeros((k, n));
             let mut qd = Array2::<f64>::zeros((k, n));
@@ -393,7 +376,7 @@ fn ensemble_tuple<'py>(
                 qd.into_pyarray(py).into_any(),
             )
         }
-        Mode::Steps => {
+        OutputLayout::Steps => {
             let (ts, qs, qds) = (PyList::empty(py), PyList::empty(py), PyList::empty(py));
             for sol in solutions {
                 let (t, q, qd) = sol.map_or_else(

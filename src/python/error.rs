@@ -110,7 +110,7 @@ pub(crate) fn with_partial(
     if let (Some(sol), Some(last)) = (partial, last) {
         let value = err.value(py);
         let attach = || -> PyResult<()> {
-            let run = super::solution::Run {
+            let run = super::solution::RunOutput {
                 sol,
                 energy,
                 conserved,

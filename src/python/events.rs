@@ -33,9 +33,10 @@ pub(crate) type EventSpec = (
     i64,
 );
 
-/// Compiled expressions bound to parameter values: machine code, or the tape interpreted.
+/// An event's expressions, compiled and bound to parameter values: machine code, or the tape
+/// interpreted.
 #[derive(Clone)]
-enum Compiled {
+enum EventFunction {
     Native(NativeFunction),
     Interpreted(Function),
 }
@@ -48,10 +49,10 @@ type CacheKey = (Vec<(String, u64, i64, i64)>, Vec<usize>, usize, usize, bool);
 /// would otherwise compile the same expressions on every call: measured 0.15 ms a call for one
 /// condition with the native backend, half the double pendulum's whole run. Bounded: emptied
 /// when it holds [`CACHE_SIZE`] entries.
-static CACHE: Mutex<Option<HashMap<CacheKey, Compiled>>> = Mutex::new(None);
+static CACHE: Mutex<Option<HashMap<CacheKey, EventFunction>>> = Mutex::new(None);
 const CACHE_SIZE: usize = 64;
 
-impl Compiled {
+impl EventFunction {
     /// The outputs `roots` of the serialized graph as one function of (t, q, q̇) at `f64`,
     /// from [`CACHE`] when these expressions were compiled before.
     fn new(
@@ -86,7 +87,7 @@ impl Compiled {
         Ok(compiled)
     }
 
-    /// [`Compiled::new`] without the cache.
+    /// [`EventFunction::new`] without the cache.
     fn compile(
         nodes: &[RawNode],
         roots: &[usize],
@@ -139,11 +140,11 @@ type Targets = Arc<[(bool, usize)]>;
 /// (once for `simulate`, once per run for an ensemble that sweeps its parameters).
 pub(crate) struct CompiledEvent {
     name: String,
-    condition: Compiled,
+    condition: EventFunction,
     direction: Direction,
     terminal: Option<usize>,
     samples: usize,
-    reset: Option<(Targets, Compiled)>,
+    reset: Option<(Targets, EventFunction)>,
     /// How many parameter values the expressions read.
     params: usize,
 }
@@ -153,7 +154,7 @@ impl CompiledEvent {
     pub(crate) fn new(spec: EventSpec, dof: usize, backend: Backend) -> Result<Self> {
         let (nodes, condition, targets, resets, params, direction, terminal, name, samples) = spec;
         let bad = |why: String| Error::InvalidInput { what: "event", why };
-        let condition = Compiled::new(
+        let condition = EventFunction::new(
             &nodes,
             &[condition],
             dof,
@@ -188,7 +189,7 @@ impl CompiledEvent {
                     "event {name:?}: reset of coordinate {i} in a model of {dof}"
                 )));
             }
-            let values = Compiled::new(&nodes, &resets, dof, &params, backend, "event reset")?;
+            let values = EventFunction::new(&nodes, &resets, dof, &params, backend, "event reset")?;
             Some((targets.into(), values))
         };
         Ok(Self {
@@ -209,7 +210,7 @@ impl CompiledEvent {
 
     /// The [`Event`], with other parameter values than the spec's when `params` is given.
     pub(crate) fn bind(&self, params: Option<&[f64]>) -> Result<Event> {
-        let rebind = |c: &Compiled| match params {
+        let rebind = |c: &EventFunction| match params {
             Some(p) => c.with_parameters(p),
             None => Ok(c.clone()),
         };

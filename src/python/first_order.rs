@@ -2,10 +2,10 @@
 //! `jac(t, y)` conventions, so that a model can be handed to `scipy.integrate.solve_ivp` as it is.
 //!
 //! The Jacobian is the one Radau IIA uses, by forward-mode AD
-//! ([`crate::integrators::acceleration_jacobian`]); no finite differences.
+//! ([`crate::dynamics::acceleration_jacobian`]); no finite differences.
 
 use crate::Dynamics;
-use crate::integrators::acceleration_jacobian;
+use crate::dynamics::acceleration_jacobian;
 use nalgebra::DMatrix;
 use num_dual::Dual64;
 use numpy::ndarray::{Array2, ArrayViewD, Axis, Dimension, Ix1, Ix2, IxDyn};

@@ -2,7 +2,7 @@
 //! NumPy arrays, complex values as separate real and imaginary arrays (assembled in
 //! `python/lagrangian/_linear.py`).
 
-use super::model::Compiled;
+use super::model::CompiledModel;
 use crate::{Dynamics, Linearization, ModeProblem, Modes, Stability, linearize, modes};
 use nalgebra::{Complex, DMatrix, DVector};
 use numpy::ndarray::Array2;
@@ -62,7 +62,7 @@ fn linearization_tuple<'py>(py: Python<'py>, lin: &Linearization) -> PyResult<Bo
 pub(super) fn linearize_py<'py, S: Dynamics + ?Sized>(
     py: Python<'py>,
     system: &S,
-    compiled: Option<&Compiled>,
+    compiled: Option<&CompiledModel>,
     (t, q, qd): (f64, &[f64], &[f64]),
     inputs: Option<(&[usize], &[f64])>,
 ) -> PyResult<Bound<'py, PyTuple>> {

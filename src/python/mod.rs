@@ -27,7 +27,7 @@ mod states;
 use crate::integrators::{Failed, Method, Options, Output, Solution, Status, solve_partial};
 use crate::{Dynamics, Error, StaticsOptions, equilibrium};
 use error::panic_error;
-use model::{AnyModel, Backend, Compiled, RawNode, Spec, WithLoads};
+use model::{AnyModel, Backend, CompiledModel, RawNode, Spec, WithLoads};
 use numpy::ndarray::{Array2, Array3};
 use numpy::{
     IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayDyn, PyArrayMethods, PyReadonlyArray1,
@@ -72,7 +72,7 @@ fn count(what: &str, v: i64) -> PyResult<usize> {
 }
 
 /// How a run steps, as Python states it: a signed fixed `dt`, or tolerances.
-struct Step {
+struct StepOptions {
     dt: Option<f64>,
     rtol: f64,
     atol: f64,
@@ -83,7 +83,7 @@ struct Step {
 fn run_options(
     span: (f64, f64),
     method: &str,
-    step: Step,
+    step: StepOptions,
     max_steps: Option<i64>,
     output: (Option<Vec<f64>>, Option<i64>),
 ) -> PyResult<(Method, Options)> {
@@ -157,7 +157,7 @@ fn interrupted(pending: &Mutex<Option<PyErr>>, t: f64) -> PyErr {
 #[pyclass(name = "NativeModel", module = "lagrangian._lagrangian", frozen)]
 pub struct PyModel {
     model: Arc<AnyModel>,
-    compiled: Option<Arc<Compiled>>,
+    compiled: Option<Arc<CompiledModel>>,
 }
 
 impl PyModel {
@@ -238,7 +238,7 @@ impl PyModel {
                 dim,
                 masses,
             };
-            let compiled = Compiled::new(&spec)?;
+            let compiled = CompiledModel::new(&spec)?;
             let model = compiled.bind(&params)?;
             Ok(Self {
                 model: Arc::new(model),
@@ -542,7 +542,7 @@ impl PyModel {
         let (method, mut options) = run_options(
             (t0, t_end),
             method,
-            Step { dt, rtol, atol },
+            StepOptions { dt, rtol, atol },
             max_steps,
             (times, every),
         )?;
@@ -619,7 +619,7 @@ impl PyModel {
             Ok(Ok(done)) => done,
         };
         wrap.wrap(
-            solution::Run {
+            solution::RunOutput {
                 sol,
                 energy,
                 conserved,
@@ -801,7 +801,7 @@ fn check_options(
     run_options(
         (t0, t_end),
         method,
-        Step { dt, rtol, atol },
+        StepOptions { dt, rtol, atol },
         None,
         (None, None),
     )
@@ -859,6 +859,9 @@ pub mod lagrangian_module {
         for name in super::error::PARTIAL_ATTRIBUTES {
             base.setattr(name, m.py().None())?;
         }
+        // The statistics' counter names, in the order of an ensemble's counter columns.
+        let counters = crate::integrators::Statistics::COUNTERS.map(|(name, _)| name);
+        m.add("COUNTERS", pyo3::types::PyTuple::new(m.py(), counters)?)?;
         m.add("__version__", env!("CARGO_PKG_VERSION"))
     }
 }

@@ -53,7 +53,7 @@ macro_rules! any_model {
             }
 
             /// Whether the equations of motion of a scene read t explicitly (see [`Driven`]);
-            /// `None` for a model stated in Python, whose tapes say it ([`Compiled::driven`]).
+            /// `None` for a model stated in Python, whose tapes say it ([`CompiledModel::driven`]).
             pub(crate) fn scene_driven(&self) -> Option<bool> {
                 match self {
                     AnyModel::Energy(_) | AnyModel::Particles(..) => None,
@@ -244,7 +244,7 @@ fn bad(why: String) -> Error {
 
 /// The parts of a model stated in Python, compiled once; binding to parameter values is cheap.
 #[derive(Debug, Clone)]
-pub(crate) struct Compiled {
+pub(crate) struct CompiledModel {
     pub(crate) dof: usize,
     pub(crate) params: usize,
     pub(crate) kinetic: Option<Arc<Tape>>,
@@ -362,7 +362,7 @@ fn graph_node(raw: &RawNode, k: usize, ids: &[usize]) -> Result<Node> {
     })
 }
 
-impl Compiled {
+impl CompiledModel {
     /// Compile the parts of a model.
     pub(crate) fn new(spec: &Spec<'_>) -> Result<Self> {
         let Spec { dof, params, .. } = *spec;

@@ -9,7 +9,7 @@
 //! instructions of interpreter per field (the failed slot lookup raises an `AttributeError`
 //! first); a native getter costs a few hundred, and a field read again is the object kept.
 
-use super::{ensemble, events};
+use super::events;
 use crate::integrators::{Solution, Statistics, Status};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1};
@@ -17,7 +17,7 @@ use pyo3::exceptions::{PyAttributeError, PyRuntimeError, PyValueError};
 use pyo3::intern;
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
-use pyo3::types::{PyDict, PyList, PyTuple, PyType};
+use pyo3::types::{PyDict, PyList, PyString, PyTuple, PyType};
 use pyo3::{PyTraverseError, PyVisit};
 use std::sync::{Mutex, MutexGuard, TryLockError};
 
@@ -32,19 +32,19 @@ pub(crate) fn status_code(status: &Status) -> i8 {
 
 /// What a run computed: the solution, the energy function h at its points and whether h is a
 /// constant of the run (`stats["conserved"]`).
-pub(crate) struct Run {
+pub(crate) struct RunOutput {
     pub(crate) sol: Solution,
     pub(crate) energy: Vec<f64>,
     pub(crate) conserved: bool,
 }
 
-/// The fields, listed once below: the `Field` enum, their Python names, and the class's methods
+/// The fields, listed once below: the `SolutionField` enum, their Python names, and the class's methods
 /// with a getter and a setter per field (`del` is refused: a field keeps its value).
 macro_rules! fields {
     ($($py:ident: $get:ident, $set:ident => $field:ident),* $(,)?) => {
         /// The fields of a `Solution`, in the order of [`FIELDS`].
         #[derive(Clone, Copy, PartialEq, Eq)]
-        enum Field {
+        enum SolutionField {
             $($field,)*
         }
 
@@ -97,12 +97,12 @@ macro_rules! fields {
             $(
                 #[getter($py)]
                 fn $get(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
-                    self.get(py, Field::$field)
+                    self.get(py, SolutionField::$field)
                 }
 
                 #[setter($py)]
                 fn $set(&self, value: Py<PyAny>) {
-                    self.set(Field::$field, value)
+                    self.set(SolutionField::$field, value)
                 }
             )*
         }
@@ -138,9 +138,9 @@ enum Taken {
     Dense(Option<crate::integrators::Dense>),
 }
 
-/// What a run computed, and which fields have been taken from it (a bit per [`Field`]).
+/// What a run computed, and which fields have been taken from it (a bit per [`SolutionField`]).
 struct Source {
-    run: Option<Run>,
+    run: Option<RunOutput>,
     taken: u16,
 }
 
@@ -181,7 +181,11 @@ pub(crate) struct Wrap<'a, 'py> {
 impl<'py> Wrap<'_, 'py> {
     /// The run as an instance of `kind`; `failure` (the error's message) marks the partial
     /// solution of a failed run.
-    pub(crate) fn wrap(&self, run: Run, failure: Option<String>) -> PyResult<Bound<'py, PyAny>> {
+    pub(crate) fn wrap(
+        &self,
+        run: RunOutput,
+        failure: Option<String>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let py = self.kind.py();
         let message = match failure {
             Some(m) => Some(m.into_pyobject(py)?.into_any().unbind()),
@@ -192,10 +196,10 @@ impl<'py> Wrap<'_, 'py> {
             .call_method1(intern!(py, "__new__"), (self.kind,))?;
         let native = sol.cast::<PySolution>()?.get();
         native.source().run = Some(run);
-        native.set(Field::Names, self.names.clone().unbind());
-        native.set(Field::EventNames, self.event_names.clone().unbind());
+        native.set(SolutionField::Names, self.names.clone().unbind());
+        native.set(SolutionField::EventNames, self.event_names.clone().unbind());
         if let Some(message) = message {
-            native.set(Field::Message, message);
+            native.set(SolutionField::Message, message);
         }
         Ok(sol)
     }
@@ -215,7 +219,7 @@ impl PySolution {
         self.values.lock().unwrap_or_else(|p| p.into_inner())
     }
 
-    fn value(&self, py: Python<'_>, field: Field) -> Option<Py<PyAny>> {
+    fn value(&self, py: Python<'_>, field: SolutionField) -> Option<Py<PyAny>> {
         self.values()[field as usize]
             .as_ref()
             .map(|v| v.clone_ref(py))
@@ -223,16 +227,20 @@ impl PySolution {
 
     /// The field: its value, else made from the run (once), else `None` for the names and the
     /// `y` cache; `AttributeError` for a field neither assigned nor in a run.
-    fn get(&self, py: Python<'_>, field: Field) -> PyResult<Py<PyAny>> {
+    fn get(&self, py: Python<'_>, field: SolutionField) -> PyResult<Py<PyAny>> {
         if let Some(value) = self.value(py, field) {
             return Ok(value);
         }
         // The gate: the field's index, the event lists' shared one, two fewer after them.
         let k = field as usize;
         let gate = match field {
-            Field::Names | Field::EventNames | Field::Y => return Ok(py.None()),
-            Field::TEvents | Field::QEvents | Field::QdEvents => Field::TEvents as usize,
-            _ if k > Field::QdEvents as usize => k - 2,
+            SolutionField::Names | SolutionField::EventNames | SolutionField::Y => {
+                return Ok(py.None());
+            }
+            SolutionField::TEvents | SolutionField::QEvents | SolutionField::QdEvents => {
+                SolutionField::TEvents as usize
+            }
+            _ if k > SolutionField::QdEvents as usize => k - 2,
             _ => k,
         };
         self.making[gate].get_or_try_init(py, || self.make(py, field))?;
@@ -242,13 +250,13 @@ impl PySolution {
 
     /// Assign the field; the value it replaces is dropped after the lock is released (dropping
     /// it may run Python code).
-    fn set(&self, field: Field, value: Py<PyAny>) {
+    fn set(&self, field: SolutionField, value: Py<PyAny>) {
         let old = self.values()[field as usize].replace(value);
         drop(old);
     }
 
     /// Keep a made value, unless one was assigned meanwhile (then the made one is dropped).
-    fn keep(&self, field: Field, made: Py<PyAny>) {
+    fn keep(&self, field: SolutionField, made: Py<PyAny>) {
         let mut values = self.values();
         let slot = &mut values[field as usize];
         let unused = if slot.is_none() {
@@ -264,15 +272,15 @@ impl PySolution {
     /// The field's value taken out of the run (its vectors moved, not copied; the three event
     /// lists together). Taken once: a second take means the first make failed (a moved value
     /// is gone), which is an error rather than an empty value.
-    fn take(&self, field: Field) -> PyResult<Taken> {
+    fn take(&self, field: SolutionField) -> PyResult<Taken> {
         let mut source = self.source();
         let Source { run, taken } = &mut *source;
         let name = FIELDS[field as usize];
         let field = match field {
-            Field::QEvents | Field::QdEvents => Field::TEvents,
+            SolutionField::QEvents | SolutionField::QdEvents => SolutionField::TEvents,
             f => f,
         };
-        let Some(Run {
+        let Some(RunOutput {
             sol,
             energy,
             conserved,
@@ -288,24 +296,26 @@ impl PySolution {
         }
         *taken |= bit;
         Ok(match field {
-            Field::T => Taken::Floats(std::mem::take(&mut sol.t)),
-            Field::Q => Taken::Rows(std::mem::take(&mut sol.q), sol.dof),
-            Field::Qd => Taken::Rows(std::mem::take(&mut sol.qd), sol.dof),
-            Field::Energy => Taken::Floats(std::mem::take(energy)),
-            Field::Stats => Taken::Stats(Box::new(sol.stats.clone()), *conserved),
-            Field::TEvents | Field::QEvents | Field::QdEvents => {
+            SolutionField::T => Taken::Floats(std::mem::take(&mut sol.t)),
+            SolutionField::Q => Taken::Rows(std::mem::take(&mut sol.q), sol.dof),
+            SolutionField::Qd => Taken::Rows(std::mem::take(&mut sol.qd), sol.dof),
+            SolutionField::Energy => Taken::Floats(std::mem::take(energy)),
+            SolutionField::Stats => Taken::Stats(Box::new(sol.stats.clone()), *conserved),
+            SolutionField::TEvents | SolutionField::QEvents | SolutionField::QdEvents => {
                 Taken::Events(std::mem::take(&mut sol.events), sol.dof)
             }
-            Field::Status => Taken::Status(status_code(&sol.status)),
-            Field::Message => Taken::Message(sol.status.to_string()),
-            Field::Dense => Taken::Dense(sol.dense.take()),
-            Field::Names | Field::EventNames | Field::Y => unreachable!("not made from a run"),
+            SolutionField::Status => Taken::Status(status_code(&sol.status)),
+            SolutionField::Message => Taken::Message(sol.status.to_string()),
+            SolutionField::Dense => Taken::Dense(sol.dense.take()),
+            SolutionField::Names | SolutionField::EventNames | SolutionField::Y => {
+                unreachable!("not made from a run")
+            }
         })
     }
 
     /// Make the field a Python object from what the run computed, and keep it (the three
     /// event lists together).
-    fn make(&self, py: Python<'_>, field: Field) -> PyResult<()> {
+    fn make(&self, py: Python<'_>, field: SolutionField) -> PyResult<()> {
         let taken = self.take(field)?;
         let made = match taken {
             Taken::Floats(values) => PyArray1::from_vec(py, values).into_any(),
@@ -326,8 +336,8 @@ impl PySolution {
                     qd.push(o.get_item(2)?);
                 }
                 let (t, q) = (PyList::new(py, t)?, PyList::new(py, q)?);
-                self.keep(Field::TEvents, t.into_any().unbind());
-                self.keep(Field::QEvents, q.into_any().unbind());
+                self.keep(SolutionField::TEvents, t.into_any().unbind());
+                self.keep(SolutionField::QEvents, q.into_any().unbind());
                 PyList::new(py, qd)?.into_any()
             }
             Taken::Status(code) => code.into_pyobject(py)?.into_any(),
@@ -336,7 +346,7 @@ impl PySolution {
             Taken::Dense(None) => py.None().into_bound(py),
         };
         let field = match field {
-            Field::TEvents | Field::QEvents => Field::QdEvents,
+            SolutionField::TEvents | SolutionField::QEvents => SolutionField::QdEvents,
             f => f,
         };
         self.keep(field, made.unbind());
@@ -345,30 +355,35 @@ impl PySolution {
 }
 
 /// The statistics dict: a copy of a template that has every key (no key made, hashed or
-/// inserted on a call, no growing of the table).
+/// inserted on a call, no growing of the table); the counters' keys are interned once, from
+/// [`Statistics::COUNTERS`].
 pub(super) fn stats_dict<'py>(
     py: Python<'py>,
     s: &Statistics,
     conserved: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    static STATS: PyOnceLock<Py<PyDict>> = PyOnceLock::new();
-    let template = STATS.get_or_try_init(py, || -> PyResult<Py<PyDict>> {
+    type Template = (Py<PyDict>, Vec<Py<PyString>>);
+    static STATS: PyOnceLock<Template> = PyOnceLock::new();
+    let (template, counters) = STATS.get_or_try_init(py, || -> PyResult<Template> {
         let d = PyDict::new(py);
-        let keys = ["method", "choice"].into_iter().chain(ensemble::COUNTERS);
-        for key in keys.chain(["conserved"]) {
-            d.set_item(key, py.None())?;
+        let counters: Vec<Py<PyString>> = Statistics::COUNTERS
+            .iter()
+            .map(|(name, _)| PyString::intern(py, name).unbind())
+            .collect();
+        d.set_item(intern!(py, "method"), py.None())?;
+        d.set_item(intern!(py, "choice"), py.None())?;
+        for key in &counters {
+            d.set_item(key.bind(py), py.None())?;
         }
-        Ok(d.unbind())
+        d.set_item(intern!(py, "conserved"), py.None())?;
+        Ok((d.unbind(), counters))
     })?;
     let stats = template.bind(py).copy()?;
     stats.set_item(intern!(py, "method"), s.method.name())?;
     stats.set_item(intern!(py, "choice"), s.choice.clone())?;
-    stats.set_item(intern!(py, "accepted_steps"), s.accepted_steps)?;
-    stats.set_item(intern!(py, "rejected_steps"), s.rejected_steps)?;
-    stats.set_item(intern!(py, "rhs_evaluations"), s.rhs_evaluations)?;
-    stats.set_item(intern!(py, "jacobian_evaluations"), s.jacobian_evaluations)?;
-    stats.set_item(intern!(py, "factorizations"), s.factorizations)?;
-    stats.set_item(intern!(py, "newton_failures"), s.newton_failures)?;
+    for (key, (_, count)) in counters.iter().zip(Statistics::COUNTERS) {
+        stats.set_item(key.bind(py), count(s))?;
+    }
     stats.set_item(intern!(py, "conserved"), conserved)?;
     Ok(stats)
 }

@@ -970,7 +970,12 @@ fn too_many_steps_kepler() {
     let (sys, q0, qd0) = kepler(0.6);
     let opts = Options::adaptive(1e-10, 1e-10).with_max_steps(10);
     let err = solve(&sys, &q0, &qd0, (0.0, 2.0 * PI), Method::Dop853, &opts).unwrap_err();
-    let Error::TooManySteps { t, steps } = err else {
+    let Error::TooManySteps {
+        t,
+        steps,
+        needed: None,
+    } = err
+    else {
         panic!("{err:?}")
     };
     assert_eq!(steps, 10);
@@ -990,9 +995,44 @@ fn too_many_steps_kepler() {
         err,
         Error::TooManySteps {
             t: 0.0,
-            steps: 1000
+            steps: 1000,
+            needed: Some(6284),
         }
     );
+}
+
+#[test]
+fn fixed_dt_takes_the_steps_asked_for() {
+    // Issue 40: rk4 with dt = 1e-4 to t = 300 (3·10⁶ steps) was refused up front with
+    // "1000000 steps taken by t = 0", though no step was taken. A fixed dt sets no budget; here
+    // 10⁶ + 10 steps, just past the old default, in debug-build time.
+    assert_eq!(Options::fixed(1e-4).max_steps, usize::MAX);
+    assert_eq!(Options::default().max_steps, 1_000_000);
+    let osc = oscillator().system();
+    let t_end = 100.001;
+    let opts = Options::fixed(1e-4).with_output(Output::Final);
+    let sol = solve(&osc, &[1.0], &[0.0], (0.0, t_end), Method::Rk4, &opts).unwrap();
+    assert_eq!(sol.stats.accepted_steps, 1_000_010);
+    let (t, q, _) = sol.last().unwrap();
+    assert_eq!(t, t_end);
+    assert_relative_eq!(q[0], (2.0 * t_end).cos(), epsilon = 1e-9);
+    // A budget the caller sets is kept, and the refusal says that no step was taken.
+    let opts = Options::fixed(1e-4).with_max_steps(1_000_000);
+    let err = solve(&osc, &[1.0], &[0.0], (0.0, 300.0), Method::Rk4, &opts).unwrap_err();
+    assert_eq!(
+        err,
+        Error::TooManySteps {
+            t: 0.0,
+            steps: 1_000_000,
+            needed: Some(3_000_000),
+        }
+    );
+    let message = err.to_string();
+    assert!(
+        message.contains("needs 3000000 steps") && message.contains("no step was taken"),
+        "{message}"
+    );
+    assert!(!message.contains("steps taken"), "{message}");
 }
 
 #[test]

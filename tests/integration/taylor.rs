@@ -6,7 +6,9 @@
 
 use lagrangian::integrators::{Event, Method, Options, Output, solve, solve_partial};
 use lagrangian::scenes::ForcedTwoMass;
-use lagrangian::tape::{Binary, Energies, EnergyModel, EomProgram, Function, Graph, Inputs, Tape};
+use lagrangian::tape::{
+    Binary, Energies, EnergyModel, EomProgram, Function, Graph, Inputs, Tape, models,
+};
 use lagrangian::{Dynamics, Error};
 use std::sync::Arc;
 
@@ -663,4 +665,68 @@ fn auto_runs_taylor_where_it_is_estimated_cheaper() {
     let choice = sol.stats.choice.unwrap();
     assert_eq!(sol.stats.method, Method::Dop853, "{choice}");
     assert!(estimate(&choice) > 1.5, "{choice}");
+}
+
+/// The double pendulum as expressions, with its derived program.
+fn double_pendulum_model(params: &[f64]) -> EnergyModel {
+    let mut g = Graph::new();
+    let parts = models::double_pendulum(&mut g).unwrap();
+    let f = |g: &Graph, nodes: &[usize], inputs: Inputs| {
+        Function::new(
+            Arc::new(Tape::new(g, nodes, inputs, "part").unwrap()),
+            params,
+        )
+        .unwrap()
+    };
+    let kinetic = f(&g, &[parts.kinetic], Inputs::kinetic(2, 5));
+    let potential = f(&g, &[parts.potential.unwrap()], Inputs::potential(2, 5));
+    let program = EomProgram::new(&mut g, 2, 5, &parts).unwrap();
+    EnergyModel::new(2, kinetic, Some(potential), None, None)
+        .unwrap()
+        .with_program(program.bind(params).unwrap())
+        .unwrap()
+}
+
+/// The end state within 100 × the tolerance of a tight DOP853 reference (moved from
+/// `src/integrators/taylor.rs`).
+#[test]
+fn double_pendulum_to_the_tolerance() {
+    let params = [1.0, 2.0, 1.5, 0.7, 9.81];
+    let model = double_pendulum_model(&params);
+    let (q0, v0) = ([1.0, -0.5], [0.3, 2.0]);
+    let span = (0.0, 5.0);
+    let reference = solve(
+        &model,
+        &q0,
+        &v0,
+        span,
+        Method::Dop853,
+        &Options::adaptive(1e-14, 1e-14),
+    )
+    .unwrap();
+    let (_, qr, vr) = reference.last().unwrap();
+    for tol in [1e-6, 1e-9, 1e-12] {
+        let sol = solve(
+            &model,
+            &q0,
+            &v0,
+            span,
+            Method::Taylor,
+            &Options::adaptive(tol, tol),
+        )
+        .unwrap();
+        let (t, q, v) = sol.last().unwrap();
+        assert_eq!(t, 5.0);
+        let err = q
+            .iter()
+            .zip(qr)
+            .chain(v.iter().zip(vr))
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(err < 100.0 * tol.max(1e-13), "tol {tol}: error {err:e}");
+        eprintln!(
+            "tol {tol:e}: error {err:e}, steps {}",
+            sol.stats.accepted_steps
+        );
+    }
 }

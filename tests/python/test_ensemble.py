@@ -466,3 +466,20 @@ def test_keyboard_interrupt_stops_the_ensemble():
         assert sent.is_set()
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+def test_counters_come_from_one_list_in_rust():
+    # `Statistics::COUNTERS` names the counters once: a run's stats, an ensemble's columns and
+    # its per-run stats all follow it, in its order.
+    from lagrangian import _lagrangian
+    from lagrangian._ensemble import COUNTERS
+
+    assert COUNTERS == tuple(_lagrangian.COUNTERS) and len(set(COUNTERS)) == len(COUNTERS)
+    model = lg.scenes.double_pendulum()
+    sol = model.simulate([1.0, 0.5], [0.0, 0.0], 0.5, method="radau5")
+    assert list(sol.stats) == ["method", "choice", *COUNTERS, "conserved"]
+    ens = model.simulate_many([[1.0, 0.5], [0.5, 0.2]], [0.0, 0.0], 0.5, method="radau5")
+    assert [k for k in ens.stats if k in COUNTERS] == list(COUNTERS)
+    for i, q0 in enumerate(([1.0, 0.5], [0.5, 0.2])):
+        one = model.simulate(q0, [0.0, 0.0], 0.5, method="radau5")
+        assert ens.run_stats(i) == one.stats

@@ -176,6 +176,17 @@ def test_too_many_steps_error(osc):
     assert isinstance(e.value, lg.StepSizeError)
 
 
+def test_fixed_dt_takes_the_steps_asked_for(osc):
+    # Issue 40: 3·10⁶ rk4 steps were refused with "1000000 steps taken by t = 0"; a fixed dt
+    # has no step budget unless max_steps is given, and the refusal says no step was taken.
+    sol = osc.simulate(q0=[1.0], qd0=[0.0], t_end=300.0, method="rk4", dt=1e-4)
+    assert sol.t[-1] == 300.0
+    assert sol.stats["accepted_steps"] == 3_000_000
+    with pytest.raises(lg.TooManyStepsError, match="no step was taken") as e:
+        osc.simulate([1.0], [0.0], 300.0, method="rk4", dt=1e-4, max_steps=10**6)
+    assert "steps taken" not in str(e.value)
+
+
 def test_stiffness_error():
     stiff = lg.scenes.damped_oscillator(1.0, 1e6, 1e6)
     with pytest.raises(lg.StiffnessError, match="at t = .*radau5"):

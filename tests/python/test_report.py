@@ -205,3 +205,37 @@ def test_report_scipy_rows_run_on_the_model_rhs(report: Dict[str, Any]) -> None:
         scene = next(s for s in report["scenes"] if s["key"] == key)
         radau = [r for r in scene["peers"]["rows"] if r["method"] == "scipy Radau"]
         assert radau and all(r["error"] is not None and r["error"] < 1e-2 for r in radau)
+
+
+def test_not_applicable_methods_are_listed_under_their_own_reason() -> None:
+    # Each method the report leaves out is named under the reason its own fit check in Rust gives
+    # (the double pendulum once listed every left-out method as "not separable").
+    import lagrangian as lg
+    from lagrangian._measure import UNSUPPORTED, unsupported_reason
+    from lagrangian._report import _table_without_unsupported
+
+    model = lg.scenes.double_pendulum()
+    q0, qd0 = [1.0, 0.5], [0.0, 0.0]
+    own: Dict[str, str] = {}
+    for method in lg.methods()[1:]:
+        adaptive = bool(lg._lagrangian.method_info(method)[1])
+        options: Dict[str, Any] = {} if adaptive else {"dt": 0.01}
+        try:
+            model.simulate(q0, qd0, 0.01, method=method, **options)
+        except ValueError as e:
+            assert UNSUPPORTED in str(e), (method, str(e))
+            reason = unsupported_reason(str(e))
+            assert reason and reason in str(e) and "methods that fit" not in reason
+            own[method] = reason
+    assert own, "some method cannot integrate the double pendulum (the explicit splittings)"
+    wp = lg.work_precision(model, q0, qd0, 0.01, tolerances=[1e-6], dts=[0.01], repeats=1,
+                           reference=([0.0, 0.0], [0.0, 0.0]))
+    table = _table_without_unsupported(wp)
+    listed: Dict[str, str] = {}
+    for line in table.splitlines():
+        if line.startswith("Not applicable ("):
+            reason, methods = line[len("Not applicable ("):].rsplit("): ", 1)
+            for m in methods.rstrip(".").split(", "):
+                listed[m] = reason
+    assert listed == own
+    assert all(f"| {m} " not in table for m in own)

@@ -1,4 +1,5 @@
-"""The tutorial of the documentation site (docs/site/tutorial.rst) runs as written."""
+"""The documentation site's examples run as written: the tutorial (docs/site/tutorial.rst), every
+reference page with examples, the front page, and the README's Python quick start."""
 
 import doctest
 from pathlib import Path
@@ -10,6 +11,10 @@ pytest.importorskip("PIL")
 
 SITE = Path(__file__).resolve().parents[2] / "docs" / "site"
 TUTORIAL = SITE / "tutorial.rst"
+FLAGS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
+# The reference pages with examples, and how many examples each runs at least.
+PAGES = {"python.rst": 19, "events.rst": 20, "ensembles.rst": 24, "modes.rst": 13,
+         "report.rst": 8}
 
 
 def test_tutorial_examples_run(tmp_path, monkeypatch):
@@ -18,7 +23,7 @@ def test_tutorial_examples_run(tmp_path, monkeypatch):
     matplotlib.use("Agg")
     monkeypatch.chdir(tmp_path)
     result = doctest.testfile(str(TUTORIAL), module_relative=False, report=True,
-                              optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+                              optionflags=FLAGS)
     assert result.attempted > 50
     assert result.failed == 0
     # The pictures the tutorial shows are the ones it writes.
@@ -26,6 +31,23 @@ def test_tutorial_examples_run(tmp_path, monkeypatch):
         assert (tmp_path / name).read_bytes().startswith(b"\x89PNG")
         assert f"_static/{name}" in TUTORIAL.read_text()
     assert (tmp_path / "double_pendulum.gif").read_bytes().startswith(b"GIF89a")
+
+
+def test_every_page_with_examples_is_run():
+    with_examples = {page.name for page in SITE.glob("*.rst") if ">>>" in page.read_text()}
+    assert with_examples - {"tutorial.rst", "index.rst"} == set(PAGES)
+
+
+@pytest.mark.parametrize("page", sorted(PAGES))
+def test_reference_page_examples_run(page, tmp_path, monkeypatch):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    monkeypatch.chdir(tmp_path)
+    result = doctest.testfile(str(SITE / page), module_relative=False, report=True,
+                              optionflags=FLAGS)
+    assert result.attempted >= PAGES[page]
+    assert result.failed == 0
 
 
 def test_front_page_example_runs():

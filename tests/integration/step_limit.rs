@@ -1,6 +1,7 @@
-//! The linear stability check of fixed-step explicit methods: steps beyond a method's stability
-//! limit for a mode of the linearised system are refused with a typed error whose limit matches
-//! the method's known stability interval; implicit methods and growing (physical) modes pass.
+//! The stability limit of a fixed step (`src/integrators/step_limit.rs`), the linear stability
+//! check of fixed-step explicit methods: steps beyond a method's stability limit for a mode of
+//! the linearised system are refused with a typed error whose limit matches the method's known
+//! stability interval; implicit methods and growing (physical) modes pass.
 
 use approx::assert_relative_eq;
 use lagrangian::integrators::{Method, Options, solve};

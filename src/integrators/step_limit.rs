@@ -1,4 +1,5 @@
-//! The linear stability check of fixed-step explicit methods.
+//! The stability limit of a fixed step: the linear stability check of fixed-step explicit
+//! methods.
 //!
 //! An explicit method at a fixed `dt` is stable only while every mode λ of the linearised
 //! equations has dt·λ inside its stability region; beyond that the numbers grow geometrically and
@@ -9,7 +10,10 @@
 //! one-step propagator, whose spectral radius must not exceed 1. Testing the method rather than a
 //! table of stability intervals keeps the check true for every method of the registry.
 
-use super::{Method, Options, Output, solve_inner, stiffness};
+use super::method::Method;
+use super::options::{Options, Output};
+use super::run::{Flow, Run};
+use super::stiffness;
 use crate::Scalar;
 use crate::dynamics::{Dynamics, Structure};
 use crate::error::{Error, Result};
@@ -78,22 +82,34 @@ fn amplification(method: Method, dt: f64, lambda: Complex<f64>) -> Option<f64> {
     };
     let test = TestMode { k, c };
     let options = Options::fixed(dt).with_output(Output::Every(usize::MAX));
+    method.check_fits(&test, 0.0, &[1.0], &[0.0]).ok()?;
+    options.check_method(method).ok()?;
     let mut columns = [[0.0; 2]; 2];
     for (column, (x0, v0)) in columns.iter_mut().zip([(1.0, 0.0), (0.0, 1.0)]) {
-        let sol = solve_inner(
+        // One step of the method, as the solver takes it (without this check).
+        let mut run = Run::new(
             &test,
             &[x0],
             &[v0],
             (0.0, dt),
             method,
+            None,
             &options,
             None,
-            false,
             &[],
         )
         .ok()?;
-        let last = sol.len() - 1;
-        *column = [sol.q_at(last)[0], sol.qd_at(last)[0]];
+        run.batched = true;
+        let mut stepper = method.start(&mut run)?.ok()?;
+        loop {
+            match stepper.step(&mut run).ok()? {
+                Flow::Continue => {}
+                Flow::End => break,
+                Flow::Stop => return None,
+            }
+        }
+        let (_, y) = run.out.last();
+        *column = [y[0], y[1]];
     }
     // Eigenvalues of the 2×2 propagator [[a, b], [c, d]] (columns = images of the unit states).
     let (a, b, c, d) = (columns[0][0], columns[1][0], columns[0][1], columns[1][1]);

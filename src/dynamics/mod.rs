@@ -9,6 +9,10 @@
 //! accelerations by calling them with dual numbers. The `f64` methods check their inputs and
 //! return owned vectors.
 
+mod jacobian;
+
+pub(crate) use jacobian::{acceleration_jacobian, jacobian};
+
 use crate::Scalar;
 use crate::checks::{check_state, finite};
 use crate::error::Result;
