@@ -45,6 +45,7 @@ pub mod scenes;
 mod statics;
 mod system;
 pub mod tape;
+pub mod trace;
 
 pub use dynamics::{Dynamics, Structure};
 pub use error::{Error, Result};

@@ -8,6 +8,7 @@ use crate::tape::{
     Binary, Energies, EnergyModel, EomProgram, Function, Graph, Inputs, Node, Tape, TapeParticles,
     Unary, particle_kinetic,
 };
+use crate::trace::WithProgram;
 use crate::{
     CartesianForces, Dissipation, Dynamics, Error, GeneralizedForces, KineticEnergy,
     ParticleSystem, Particles, Potential, Result, Scalar, Structure, System,
@@ -26,7 +27,7 @@ macro_rules! any_model {
             /// Stated by particles: the energy model of T = ½ Σ m |ṙ|² derived from the
             /// positions, and the particles for drawing.
             Particles(EnergyModel, TapeParticles),
-            $($scene(<$scene as Scene>::System),)*
+            $($scene(WithProgram<<$scene as Scene>::System>),)*
         }
 
         /// `$body` with `$s` bound to the system inside whichever variant `$model` is.
@@ -46,7 +47,8 @@ macro_rules! any_model {
                 let name = args.info().name;
                 $(
                     if name == <$scene as Scene>::INFO.name {
-                        return Ok(AnyModel::$scene(<$scene as Scene>::build(args)?));
+                        let system = <$scene as Scene>::build(args)?;
+                        return Ok(AnyModel::$scene(WithProgram::new(system, name)));
                     }
                 )*
                 Err(bad(format!("the scene {name} has no variant")))
@@ -57,7 +59,7 @@ macro_rules! any_model {
             pub(crate) fn scene_driven(&self) -> Option<bool> {
                 match self {
                     AnyModel::Energy(_) | AnyModel::Particles(..) => None,
-                    $(AnyModel::$scene(s) => Some(s.driven()),)*
+                    $(AnyModel::$scene(s) => Some(s.system().driven()),)*
                 }
             }
 
@@ -67,7 +69,7 @@ macro_rules! any_model {
                 match self {
                     AnyModel::Energy(_) => None,
                     AnyModel::Particles(_, p) => Some(positions_of(p, t, q)),
-                    $(AnyModel::$scene(s) => s.positions(t, q),)*
+                    $(AnyModel::$scene(s) => s.system().positions(t, q),)*
                 }
             }
         }

@@ -26,3 +26,4 @@ mod stability;
 mod statics;
 mod tape_speed;
 mod taylor;
+mod trace;
