@@ -63,7 +63,8 @@ impl Integrator for Taylor {
         match system.derived_program() {
             None => Err(
                 "the Taylor method expands the model's expression graph: state the \
-                         model as expressions (lg.Model, tape::EomProgram)"
+                         model as expressions (lg.Model, tape::EomProgram) or trace a Rust \
+                         system (trace::WithProgram)"
                     .into(),
             ),
             Some(p) if !p.taylor().0.is_analytic() => Err("the model takes |x| or sign(x) of \

@@ -63,6 +63,17 @@ macro_rules! any_model {
                 }
             }
 
+            /// The eq. 55 program on the model's expression graph (a scene's traced on first
+            /// use), or why there is none.
+            pub(crate) fn program(&self) -> Result<&crate::tape::EomFunction> {
+                match self {
+                    AnyModel::Energy(m) | AnyModel::Particles(m, _) => m
+                        .program()
+                        .ok_or_else(|| bad("the model has no equations of motion".into())),
+                    $(AnyModel::$scene(s) => s.program(),)*
+                }
+            }
+
             /// The particles' positions at the states (t_i, q_i) (`q` row after row) as
             /// (count, dim, values), or `None` for a system stated by its energies only.
             pub(crate) fn positions(&self, t: &[f64], q: &[f64]) -> Option<Positions> {
