@@ -79,6 +79,15 @@ pub trait Dynamics {
         None
     }
 
+    /// The eq. 55 program the Taylor method expands: [`derived_program`](Self::derived_program),
+    /// unless the system makes one only when asked (a Rust scene traced into the graph,
+    /// [`crate::trace::WithProgram`], whose trace and compilation would otherwise slow the
+    /// first run of every other method). A wrapper that changes the equations must not pass
+    /// it on.
+    fn taylor_program(&self) -> Option<&crate::tape::EomFunction> {
+        self.derived_program()
+    }
+
     /// The Lagrangian L = T − U.
     fn lagrangian<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
         self.kinetic_energy(t, q, qd) - self.potential_energy(t, q)

@@ -13,7 +13,15 @@
 //! the exact identities with `atan2`, `ln` and `exp`.
 //!
 //! [`WithProgram`] pairs a Rust system with its traced eq. 55 program: the system computes as
-//! before and [`Dynamics::derived_program`] answers from the trace, made on first request.
+//! before, and the Taylor method ([`Dynamics::taylor_program`]) gets the program, traced and
+//! compiled on its first request. The other methods keep the Rust route. Measured through Python
+//! (2026-11-28, `--profile ci`, the 2-core machine under load; milliseconds, best of 5): tracing
+//! and compiling costs 0.6 (damped oscillator), 1.3 (Kepler), 2.5 (double pendulum) and about
+//! 10 (a 3-link chain) before a first run, more than a whole DOP853 or `auto` run of most
+//! scenes (Kepler's `auto` at 1e-9: 0.07 ms, 1.4 ms with the trace), and a sweep that builds
+//! the scene per run would pay it every run. Once compiled, the program's Jacobians would make
+//! Gauss–Legendre 6 1.4–3.3 times faster and leave Radau IIA as it is, and DOP853 is the Rust
+//! code's speed either way; so only Taylor, which cannot run without it, pays for the trace.
 
 use crate::error::{Error, Result};
 use crate::tape::{
@@ -724,9 +732,8 @@ pub fn eom_program<S: TraceEnergies + ?Sized>(system: &S, what: &str) -> Result<
 }
 
 /// A Rust system with its eq. 55 program traced on first request: everything the system
-/// computes it still computes ([`Dynamics`] is passed through), and what needs the expression
-/// graph — the Taylor method, the compiled Jacobians of the implicit methods — takes the program
-/// ([`Dynamics::derived_program`]).
+/// computes it still computes ([`Dynamics`] is passed through), and the Taylor method, which
+/// needs the expression graph, takes the program ([`Dynamics::taylor_program`]).
 #[derive(Debug)]
 pub struct WithProgram<S> {
     system: S,
@@ -804,9 +811,12 @@ impl<S: TraceEnergies> Dynamics for WithProgram<S> {
     fn lagrangian<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
         self.system.lagrangian(t, q, qd)
     }
-    /// The traced program; `None` when the system cannot be traced (then
-    /// [`WithProgram::program`] says why).
-    fn derived_program(&self) -> Option<&EomFunction> {
+    /// The traced program, traced and compiled on this first request; `None` when the system
+    /// cannot be traced (then [`WithProgram::program`] says why). Only the Taylor method asks:
+    /// [`Dynamics::derived_program`] stays `None`, so that every other method runs the Rust
+    /// code as before, with no trace to pay for on a system's first run (see the module
+    /// documentation for the measurements).
+    fn taylor_program(&self) -> Option<&EomFunction> {
         self.program().ok()
     }
     fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {

@@ -60,7 +60,7 @@ impl Integrator for Taylor {
         _q0: &[f64],
         _qd0: &[f64],
     ) -> std::result::Result<(), String> {
-        match system.derived_program() {
+        match system.taylor_program() {
             None => Err(
                 "the Taylor method expands the model's expression graph: state the \
                          model as expressions (lg.Model, tape::EomProgram) or trace a Rust \
@@ -86,7 +86,7 @@ impl Integrator for Taylor {
                     .into(),
             });
         }
-        let Some(eom) = run.system.derived_program() else {
+        let Some(eom) = run.system.taylor_program() else {
             return Err(Error::InvalidInput {
                 what: "method",
                 why: "taylor needs a model stated as expressions".into(),

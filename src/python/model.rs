@@ -168,6 +168,9 @@ impl Dynamics for AnyModel {
     fn derived_program(&self) -> Option<&crate::tape::EomFunction> {
         each!(self, s => s.derived_program())
     }
+    fn taylor_program(&self) -> Option<&crate::tape::EomFunction> {
+        each!(self, s => s.taylor_program())
+    }
     fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
         each!(self, s => s.energy(t, q, qd))
     }

@@ -139,13 +139,16 @@ fn every_scene_traces_to_its_accelerations() {
     }
 }
 
-/// Taylor on every scene fits (its series exists: no |x| of the state in any scene).
+/// Taylor on every scene fits (its series exists: no |x| of the state in any scene), and only
+/// Taylor takes the traced program.
 fn check_taylor_fits<S: Scene>() {
     let model = scene::<S>();
     let n = model.dof();
     Method::Taylor
         .check_fits(&model, 0.0, &vec![0.3; n], &vec![0.1; n])
         .unwrap_or_else(|e| panic!("{}: {e}", S::INFO.name));
+    // Only Taylor takes the program: the other methods keep the Rust route.
+    assert!(model.taylor_program().is_some() && model.derived_program().is_none());
 }
 
 #[test]
@@ -350,7 +353,7 @@ fn what_cannot_be_traced_is_a_typed_error_with_the_reason() {
     assert!(why.contains("re()"), "{why}");
     // The system still runs without the program, and Taylor says it has none.
     let model = WithProgram::new(System::new(1, Branching), "my system");
-    assert!(model.derived_program().is_none());
+    assert!(model.taylor_program().is_none() && model.derived_program().is_none());
     assert!(model.accelerations(0.0, &[1.0], &[0.0]).is_ok());
     assert!(
         Method::Taylor
