@@ -811,13 +811,13 @@ impl<S: TraceEnergies> Dynamics for WithProgram<S> {
     fn lagrangian<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
         self.system.lagrangian(t, q, qd)
     }
-    /// The traced program, traced and compiled on this first request; `None` when the system
-    /// cannot be traced (then [`WithProgram::program`] says why). Only the Taylor method asks:
+    /// The traced program, traced and compiled on this first request, or why the system
+    /// cannot be traced ([`Error::NotTraceable`]'s message). Only the Taylor method asks:
     /// [`Dynamics::derived_program`] stays `None`, so that every other method runs the Rust
     /// code as before, with no trace to pay for on a system's first run (see the module
     /// documentation for the measurements).
-    fn taylor_program(&self) -> Option<&EomFunction> {
-        self.program().ok()
+    fn taylor_program(&self) -> std::result::Result<&EomFunction, String> {
+        self.program().map_err(|e| e.to_string())
     }
     fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
         self.system.energy(t, q, qd)

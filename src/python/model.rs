@@ -168,7 +168,7 @@ impl Dynamics for AnyModel {
     fn derived_program(&self) -> Option<&crate::tape::EomFunction> {
         each!(self, s => s.derived_program())
     }
-    fn taylor_program(&self) -> Option<&crate::tape::EomFunction> {
+    fn taylor_program(&self) -> std::result::Result<&crate::tape::EomFunction, String> {
         each!(self, s => s.taylor_program())
     }
     fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
