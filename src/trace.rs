@@ -10,7 +10,9 @@
 //! not known while tracing, so a branch on it, a comparison or `re()` fails), and the functions
 //! the graph lacks (`cbrt`, `exp_m1`, `ln_1p`, the inverse hyperbolic functions, `signum`, the
 //! spherical Bessel functions, `%`). `asin`, `acos`, `atan`, `log`, `exp2` are recorded through
-//! the exact identities with `atan2`, `ln` and `exp`.
+//! identities with `atan2`, `ln` and `exp`, equal to round-off. Numbers fold, and 0 · x, 1 · x,
+//! x ± 0 simplify as the graph's own simplifier does (different from the `f64` code only where
+//! x is not finite).
 //!
 //! [`WithProgram`] pairs a Rust system with its traced eq. 55 program: the system computes as
 //! before, and the Taylor method ([`Dynamics::taylor_program`]) gets the program, traced and

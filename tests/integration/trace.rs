@@ -152,6 +152,46 @@ fn check_taylor_fits<S: Scene>() {
 }
 
 #[test]
+fn both_routes_of_a_scene_trace_alike() {
+    // The energy route (T written out) and the particle route (T from the traced positions by
+    // `tape::particle_kinetic`) of the same chains: one program's accelerations.
+    let dp = DoublePendulum::new(1.0, 2.0, 1.5, 0.5, 9.81);
+    let chain = NPendulum::new(vec![1.0, 0.5, 2.0], vec![0.7, 1.1, 0.4], 9.81);
+    let energy = [
+        WithProgram::new(dp.system(), "energy")
+            .program()
+            .unwrap()
+            .clone(),
+        WithProgram::new(chain.clone().system(), "energy")
+            .program()
+            .unwrap()
+            .clone(),
+    ];
+    let particle = [
+        WithProgram::new(dp.particles(), "particle")
+            .program()
+            .unwrap()
+            .clone(),
+        WithProgram::new(chain.particles(), "particle")
+            .program()
+            .unwrap()
+            .clone(),
+    ];
+    for (a, b) in energy.iter().zip(&particle) {
+        let n = a.program().dof();
+        let (q, qd): (Vec<f64>, Vec<f64>) = (0..n)
+            .map(|i| (0.3 * i as f64 - 0.2, 0.5 - 0.4 * i as f64))
+            .unzip();
+        let (mut x, mut y) = (vec![0.0; n], vec![0.0; n]);
+        a.accelerations(0.0, &q, &qd, &mut x).unwrap();
+        b.accelerations(0.0, &q, &qd, &mut y).unwrap();
+        for (u, v) in x.iter().zip(&y) {
+            assert!((u - v).abs() < 1e-12 * u.abs().max(1.0), "{x:?} vs {y:?}");
+        }
+    }
+}
+
+#[test]
 fn taylor_fits_every_scene() {
     for (_, check) in every_scene!(check_taylor_fits) {
         check();
