@@ -24,6 +24,20 @@
 //! the scene per run would pay it every run. Once compiled, the program's Jacobians would make
 //! Gauss–Legendre 6 1.4–3.3 times faster and leave Radau IIA as it is, and DOP853 is the Rust
 //! code's speed either way; so only Taylor, which cannot run without it, pays for the trace.
+//!
+//! ```
+//! use lagrangian::integrators::{Method, Options, solve};
+//! use lagrangian::scenes::DoublePendulum;
+//! use lagrangian::trace::WithProgram;
+//! let system = DoublePendulum::new(1.0, 1.0, 1.0, 1.0, 9.81).system();
+//! let model = WithProgram::new(system, "double pendulum");
+//! let options = Options::adaptive(1e-12, 1e-12);
+//! let taylor = solve(&model, &[1.0, 0.5], &[0.0, 0.0], (0.0, 2.0), Method::Taylor, &options)?;
+//! let dop853 = solve(&model, &[1.0, 0.5], &[0.0, 0.0], (0.0, 2.0), Method::Dop853, &options)?;
+//! let (a, b) = (taylor.last().unwrap().1, dop853.last().unwrap().1);
+//! assert!((a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9);
+//! # Ok::<(), lagrangian::Error>(())
+//! ```
 
 use crate::error::{Error, Result};
 use crate::tape::{
