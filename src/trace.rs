@@ -16,14 +16,19 @@
 //!
 //! [`WithProgram`] pairs a Rust system with its traced eq. 55 program: the system computes as
 //! before, and the Taylor method ([`Dynamics::taylor_program`]) gets the program, traced and
-//! compiled on its first request. The other methods keep the Rust route. Measured through Python
-//! (2026-11-28, `--profile ci`, the 2-core machine under load; milliseconds, best of 5): tracing
-//! and compiling costs 0.6 (damped oscillator), 1.3 (Kepler), 2.5 (double pendulum) and about
-//! 10 (a 3-link chain) before a first run, more than a whole DOP853 or `auto` run of most
-//! scenes (Kepler's `auto` at 1e-9: 0.07 ms, 1.4 ms with the trace), and a sweep that builds
-//! the scene per run would pay it every run. Once compiled, the program's Jacobians would make
-//! Gauss–Legendre 6 1.4–3.3 times faster and leave Radau IIA as it is, and DOP853 is the Rust
-//! code's speed either way; so only Taylor, which cannot run without it, pays for the trace.
+//! compiled on its first request. The other methods keep the Rust route. Why: measured
+//! through Python (2026-11-28, `--profile ci`, the 2-core machine under load; best of 5),
+//! tracing and compiling costs 0.6 ms (damped oscillator), 1.3 ms (Kepler), 2.5 ms (double
+//! pendulum) and about 10 ms (a 3-link chain) before a scene's first run — more than a whole
+//! run of most scenes (Kepler's `auto` at 1e-9: 0.07 ms, 1.4 ms with the trace), and paid on
+//! every run of a sweep that builds the scene per run. Once compiled the program is faster: the
+//! double pendulum stated with `lg.Model` (the same program) against the Rust scene over
+//! t = 100 (`benches/python_vs_rust.py`) takes 6.7 against 13.6 ms with DOP853 at 1e-10 and 199
+//! against 306 ms with Gauss–Legendre 4 at dt = 1e-3, and the program's Jacobians made
+//! Gauss–Legendre 6 1.4–3.3 times faster on the scenes (Radau IIA the same). So a long run would
+//! gain from the program and a short one lose; routing by history (the program once some run
+//! made it) would change results at round-off from one run to the next. Only Taylor, which
+//! cannot run without it, pays for the trace.
 //!
 //! ```
 //! use lagrangian::integrators::{Method, Options, solve};
