@@ -51,6 +51,17 @@ pub enum Error {
         why: String,
     },
 
+    /// A Rust system cannot be traced into an expression graph ([`crate::trace`]): its energies
+    /// read a value (a branch, a comparison) or call a function the graph lacks. Nothing is
+    /// derived from such a trace, so no wrong model results.
+    #[error("{what} cannot be traced into an expression graph: {why}")]
+    NotTraceable {
+        /// The system (a scene's name).
+        what: String,
+        /// The first operation that could not be recorded.
+        why: String,
+    },
+
     /// A scene's argument is unknown, repeated, of the wrong kind, not finite, or missing.
     #[error("{scene}: invalid argument {parameter}: {why}")]
     SceneArgument {

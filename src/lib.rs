@@ -58,6 +58,7 @@ mod tape_particles;
 mod taylor;
 #[cfg(test)]
 mod tests;
+pub mod trace;
 
 pub use dynamics::{Dynamics, Structure};
 pub use error::{Error, Result};

@@ -525,7 +525,7 @@ class Model:
 
         These are what ``method="taylor"`` sums at every step: found order by order by series
         arithmetic on the model's expressions, with one solve by the mass matrix per order (no
-        symbolic inverse). Models stated as expressions only (not ``lg.scenes``); ``order``
+        symbolic inverse); a scene's from its energies traced into the expression graph. ``order``
         from 1 to 100. ``"auto"`` runs ``taylor`` where it estimates it cheaper than
         ``dop853`` (see ``simulate``); ``method="taylor"`` asks for it by name.
 

@@ -21,8 +21,9 @@ __all__ = ["SceneModel"]
 class SceneModel(Model):
     """A model backed by a Rust scene; made by the functions of :mod:`lagrangian.scenes`.
 
-    Everything a :class:`Model` does, plus the scene's own drawing and, for the scenes that
-    have one, its exact solution (:meth:`exact`). ``kinetic``, ``potential`` and the other
+    Everything a :class:`Model` does, every method included (``"taylor"`` runs on the scene's
+    energies traced into the expression graph), plus the scene's own drawing and, for the scenes
+    that have one, its exact solution (:meth:`exact`). ``kinetic``, ``potential`` and the other
     expressions are ``None``: the energies are written in Rust.
     """
 

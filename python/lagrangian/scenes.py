@@ -2,6 +2,12 @@
 
 Each function returns a :class:`~lagrangian.scenes.SceneModel` (a :class:`~lagrangian.Model`)
 backed by the native Rust system (its energies written in Rust, not compiled from expressions).
+Every method of a model stated with :class:`~lagrangian.Model` applies, ``"taylor"`` included:
+on the first ``method="taylor"`` run (or ``taylor_series``) the scene's Rust energies are traced
+into the expression graph (the parameters' values as numbers in it) and its eq. 55 program is
+derived and compiled as a model stated in Python is (about 1–10 ms). Every other method runs the
+Rust code, as before, and pays nothing for it; ``"auto"`` does not trace, so it chooses among
+the other methods.
 The functions are made from the scene registry (``src/scenes/registry.rs``): their parameters,
 defaults, docstrings and coordinate names are the ones declared there, and the arguments are
 checked by name in Rust. ``model.coordinates`` gives the coordinates for loads in

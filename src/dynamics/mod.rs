@@ -84,6 +84,23 @@ pub trait Dynamics {
         None
     }
 
+    /// The eq. 55 program the Taylor method expands, or why there is none:
+    /// [`derived_program`](Self::derived_program), unless the system makes one only when asked
+    /// (a Rust scene traced into the graph, [`crate::trace::WithProgram`], whose trace and
+    /// compilation would otherwise slow the first run of every other method). A wrapper that
+    /// changes the equations must not pass it on.
+    ///
+    /// # Errors
+    /// The reason, as the Taylor method reports it.
+    fn taylor_program(&self) -> std::result::Result<&crate::tape::EomFunction, String> {
+        self.derived_program().ok_or_else(|| {
+            "the Taylor method expands the model's expression graph: state the model as \
+             expressions (lg.Model, tape::EomProgram) or trace a Rust system \
+             (trace::WithProgram)"
+                .into()
+        })
+    }
+
     /// The Lagrangian L = T − U.
     fn lagrangian<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
         self.kinetic_energy(t, q, qd) - self.potential_energy(t, q)

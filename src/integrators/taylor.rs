@@ -60,17 +60,13 @@ impl Integrator for Taylor {
         _q0: &[f64],
         _qd0: &[f64],
     ) -> std::result::Result<(), String> {
-        match system.derived_program() {
-            None => Err(
-                "the Taylor method expands the model's expression graph: state the \
-                         model as expressions (lg.Model, tape::EomProgram)"
-                    .into(),
-            ),
-            Some(p) if !p.taylor().0.is_analytic() => Err("the model takes |x| or sign(x) of \
+        match system.taylor_program() {
+            Err(why) => Err(why),
+            Ok(p) if !p.taylor().0.is_analytic() => Err("the model takes |x| or sign(x) of \
                  the state, which have no Taylor series across x = 0 (a step would run past \
                  the kink unseen): use dop853, whose error control finds it"
                 .into()),
-            Some(_) => Ok(()),
+            Ok(_) => Ok(()),
         }
     }
 
@@ -85,12 +81,13 @@ impl Integrator for Taylor {
                     .into(),
             });
         }
-        let Some(eom) = run.system.derived_program() else {
-            return Err(Error::InvalidInput {
+        let eom = run
+            .system
+            .taylor_program()
+            .map_err(|why| Error::InvalidInput {
                 what: "method",
-                why: "taylor needs a model stated as expressions".into(),
-            });
-        };
+                why,
+            })?;
         let (program, params) = eom.taylor();
         let (rtol, atol) = (run.options.rtol, run.options.atol);
         // The order for the tighter of the two tolerances, fixed for the run.

@@ -68,6 +68,7 @@ impl From<Error> for PyErr {
             Error::DimensionMismatch { .. }
             | Error::InvalidInput { .. }
             | Error::SceneArgument { .. }
+            | Error::NotTraceable { .. }
             | Error::UnsupportedMethod { .. }
             | Error::NoStaticEquilibrium { .. } => PyValueError::new_err(msg),
             Error::SingularMassMatrix { .. } => SingularMassMatrixError::new_err(msg),

@@ -313,7 +313,7 @@ impl PyModel {
 
     /// The normalized Taylor coefficients qₖ = q⁽ᵏ⁾(t)/k! and q̇ₖ of the motion through
     /// (t, q, q̇), k = 0..=order, as two arrays of shape (order + 1, n): what the Taylor method
-    /// sums at each step. Models stated as expressions only.
+    /// sums at each step (a scene's from its traced expression graph).
     fn taylor_series<'py>(
         &self,
         py: Python<'py>,
@@ -327,15 +327,7 @@ impl PyModel {
             check_vector("q", &q, n)?;
             check_vector("qd", &qd, n)?;
             check_vector("t", &[t], 1)?;
-            let program = self
-                .model
-                .derived_program()
-                .ok_or_else(|| Error::InvalidInput {
-                    what: "model",
-                    why: "Taylor series need a model stated as expressions (lg.Model), not a \
-                      Rust scene"
-                        .into(),
-                })?;
+            let program = self.model.program()?;
             if !(1..=crate::tape::MAX_TAYLOR_ORDER).contains(&order) {
                 return Err(Error::InvalidInput {
                     what: "order",

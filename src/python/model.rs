@@ -8,6 +8,7 @@ use crate::tape::{
     Binary, Energies, EnergyModel, EomProgram, Function, Graph, Inputs, Node, Tape, TapeParticles,
     Unary, particle_kinetic,
 };
+use crate::trace::WithProgram;
 use crate::{
     CartesianForces, Dissipation, Dynamics, Error, GeneralizedForces, KineticEnergy,
     ParticleSystem, Particles, Potential, Result, Scalar, Structure, System,
@@ -26,7 +27,7 @@ macro_rules! any_model {
             /// Stated by particles: the energy model of T = ½ Σ m |ṙ|² derived from the
             /// positions, and the particles for drawing.
             Particles(EnergyModel, TapeParticles),
-            $($scene(<$scene as Scene>::System),)*
+            $($scene(WithProgram<<$scene as Scene>::System>),)*
         }
 
         /// `$body` with `$s` bound to the system inside whichever variant `$model` is.
@@ -46,7 +47,8 @@ macro_rules! any_model {
                 let name = args.info().name;
                 $(
                     if name == <$scene as Scene>::INFO.name {
-                        return Ok(AnyModel::$scene(<$scene as Scene>::build(args)?));
+                        let system = <$scene as Scene>::build(args)?;
+                        return Ok(AnyModel::$scene(WithProgram::new(system, name)));
                     }
                 )*
                 Err(bad(format!("the scene {name} has no variant")))
@@ -57,7 +59,18 @@ macro_rules! any_model {
             pub(crate) fn scene_driven(&self) -> Option<bool> {
                 match self {
                     AnyModel::Energy(_) | AnyModel::Particles(..) => None,
-                    $(AnyModel::$scene(s) => Some(s.driven()),)*
+                    $(AnyModel::$scene(s) => Some(s.system().driven()),)*
+                }
+            }
+
+            /// The eq. 55 program on the model's expression graph (a scene's traced on first
+            /// use), or why there is none.
+            pub(crate) fn program(&self) -> Result<&crate::tape::EomFunction> {
+                match self {
+                    AnyModel::Energy(m) | AnyModel::Particles(m, _) => m
+                        .program()
+                        .ok_or_else(|| bad("the model has no equations of motion".into())),
+                    $(AnyModel::$scene(s) => s.program(),)*
                 }
             }
 
@@ -67,7 +80,7 @@ macro_rules! any_model {
                 match self {
                     AnyModel::Energy(_) => None,
                     AnyModel::Particles(_, p) => Some(positions_of(p, t, q)),
-                    $(AnyModel::$scene(s) => s.positions(t, q),)*
+                    $(AnyModel::$scene(s) => s.system().positions(t, q),)*
                 }
             }
         }
@@ -154,6 +167,9 @@ impl Dynamics for AnyModel {
     }
     fn derived_program(&self) -> Option<&crate::tape::EomFunction> {
         each!(self, s => s.derived_program())
+    }
+    fn taylor_program(&self) -> std::result::Result<&crate::tape::EomFunction, String> {
+        each!(self, s => s.taylor_program())
     }
     fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
         each!(self, s => s.energy(t, q, qd))

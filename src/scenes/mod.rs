@@ -3,6 +3,12 @@
 //! a `system()` constructor (and `particles()` where the particle route applies) and, for tests
 //! and benches, its hand-derived closed-form accelerations. Each also implements
 //! [`registry::Scene`], its one declaration for the catalog and the Python binding.
+//!
+//! Every scene's energies trace into the expression graph ([`crate::trace`]): none branches on
+//! the state's values or calls a function the graph lacks, so the Taylor method runs on every
+//! scene (`tests/integration/trace.rs` checks each traced program against the Rust code). A new
+//! scene must keep to that, or its Taylor runs fail with [`crate::Error::NotTraceable`] naming
+//! the operation.
 
 mod ball_in_sphere;
 mod charged_particle;

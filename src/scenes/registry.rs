@@ -9,6 +9,7 @@
 //! produced from that list. Adding a scene is one file and one line in `scenes!`.
 
 use crate::error::{Error, Result};
+use crate::trace::TraceEnergies;
 use crate::{Dynamics, ParticleSystem, Particles, System};
 
 /// The kind and default of one parameter.
@@ -313,7 +314,9 @@ pub fn exact_planar(
 /// A ready-made system declared for the catalog: implemented by each scene's parameter struct.
 pub trait Scene {
     /// The system the scene's arguments build.
-    type System: Dynamics + Drawn;
+    /// Every scene's system can be traced ([`TraceEnergies`]) for the methods that need the
+    /// expression graph (Taylor).
+    type System: Dynamics + Drawn + TraceEnergies;
 
     /// The catalog entry.
     const INFO: SceneInfo;

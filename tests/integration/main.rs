@@ -28,3 +28,4 @@ mod step_limit;
 mod tape_speed;
 mod taylor;
 mod taylor_series;
+mod trace;

@@ -142,12 +142,9 @@ def test_stability_expected_outcomes(report: Dict[str, Any]) -> None:
                 assert o["status"] in ("solved", "n/a"), (case, method, o)
                 if o["status"] == "solved":
                     assert o["error"] < 1e-4
-    # A singular mass matrix is refused by every method with a typed error (taylor does not
-    # apply to a Rust scene: no expression graph to expand).
+    # A singular mass matrix is refused by every method with a typed error (taylor included: it
+    # expands the scene's energies traced into the expression graph).
     for method, o in m["ball_singular"].items():
-        if method == "taylor":
-            assert o["status"] == "n/a"
-            continue
         assert o["status"] == "error", method
         assert o["detail"].split(":")[0] in ("SingularMassMatrixError", "ConvergenceError")
     # Long run: every symplectic method keeps the oscillator's energy.

@@ -381,3 +381,83 @@ def test_elastic_pendulum_dashpot_absent_at_zero():
     free = lg.scenes.elastic_pendulum().accelerations(0.0, [r, th], [rd, thd])
     assert_allclose(damped.accelerations(0.0, [r, th], [rd, thd]), free - [0.3 * rd, 0.0],
                     rtol=1e-13)
+
+
+# Every scene traced into the expression graph: the traced eq. 55 program (what the Taylor method
+# expands) gives the Rust scene's accelerations, q̈ = 2 cq[2] of the Taylor series through the
+# state, at random states; where the Rust scene refuses (the massless statics scenes), so does
+# the trace.
+@pytest.mark.parametrize("name", sorted(CATALOG))
+def test_traced_scene_has_the_rust_accelerations(name):
+    model = getattr(lg.scenes, name)()
+    n = len(model.coordinates)
+    rng = np.random.default_rng(len(name))
+    for _ in range(10):
+        t = float(rng.uniform(-2.0, 2.0))
+        q = 0.4 + 0.5 * rng.uniform(-1.0, 1.0, n)
+        qd = rng.uniform(-1.0, 1.0, n)
+        try:
+            want = model.accelerations(t, q, qd)
+        except lg.SingularMassMatrixError:
+            with pytest.raises(lg.SingularMassMatrixError):
+                model.taylor_series(q, qd, t=t, order=2)
+            continue
+        cq, cqd = model.taylor_series(q, qd, t=t, order=2)
+        assert_allclose(cq[0], q, rtol=0, atol=0)
+        assert_allclose(cq[1], qd, rtol=1e-15, atol=1e-15)
+        assert_allclose(2.0 * cq[2], want, rtol=1e-12, atol=1e-12 * max(1.0, np.abs(want).max()))
+        assert_allclose(cqd[1], want, rtol=1e-12, atol=1e-12 * max(1.0, np.abs(want).max()))
+
+
+@pytest.mark.parametrize("name", EXACT)
+def test_taylor_on_a_scene_meets_its_exact_solution(name):
+    model = getattr(lg.scenes, name)()
+    q0, qd0 = EXACT_STATES[name]
+    t = np.linspace(0.0, 3.0, 7)
+    for tol in (1e-8, 1e-12):
+        sol = model.simulate(q0, qd0, 3.0, method="taylor", rtol=tol, atol=tol, t_eval=t)
+        assert sol.stats["method"] == "taylor"
+        for i, ti in enumerate(t):
+            q, qd = model.exact(float(ti), q0, qd0)
+            assert_allclose(sol.q[i], q, rtol=0, atol=20 * tol * max(1.0, np.abs(q).max()))
+            assert_allclose(sol.qd[i], qd, rtol=0, atol=20 * tol * max(1.0, np.abs(qd).max()))
+
+
+def test_taylor_on_the_pendulum_scene_keeps_the_elliptic_period():
+    # From rest at θ₀, back at θ₀ after T = 4 K(sin(θ₀/2)) √(l/g) (K by the AGM).
+    l, g, theta0 = 1.5, 9.81, 2.0
+    k = math.sin(theta0 / 2.0)
+    a, b = 1.0, math.sqrt(1.0 - k * k)
+    while abs(a - b) > 1e-16 * a:
+        a, b = (a + b) / 2.0, math.sqrt(a * b)
+    period = 4.0 * (math.pi / (2.0 * a)) * math.sqrt(l / g)
+    model = lg.scenes.simple_pendulum(m=1.0, l=l, g=g)
+    sol = model.simulate([theta0], [0.0], period, method="taylor", rtol=1e-13, atol=1e-13)
+    assert abs(sol.q[-1, 0] - theta0) < 1e-10
+    assert abs(sol.qd[-1, 0]) < 1e-10
+
+
+@pytest.mark.parametrize("name", ["double_pendulum", "damped_oscillator", "henon_heiles"])
+def test_every_method_runs_on_a_scene(name):
+    # Each registered method runs and agrees with a tight DOP853 run, or refuses with its reason
+    # (the explicit splittings on a system that is not separable, the symplectic methods on a
+    # dissipative one).
+    model = getattr(lg.scenes, name)()
+    n = len(model.coordinates)
+    q0, qd0 = [0.5, -0.3][:n], [0.0, 0.2][:n]
+    ref = model.simulate(q0, qd0, 1.0, method="dop853", rtol=1e-12, atol=1e-12)
+    ran = []
+    for method in lg.methods():
+        _, adaptive, _ = _lagrangian.method_info(method)
+        step = {"dt": 1e-3} if adaptive is False else {"rtol": 1e-9, "atol": 1e-9}
+        try:
+            sol = model.simulate(q0, qd0, 1.0, method=method, **step)
+        except ValueError as e:
+            assert "cannot integrate this system" in str(e), (method, e)
+            assert method not in ("taylor", "auto", "dop853", "radau5", "gauss6"), (method, e)
+            continue
+        assert_allclose(sol.q[-1], ref.q[-1], atol=1e-3)
+        ran.append(method)
+    assert "taylor" in ran
+    if name == "henon_heiles":
+        assert ran == lg.methods()
