@@ -8,9 +8,11 @@
 //! builds the scene from each run's arguments, on the thread that runs it. Ctrl-C is polled
 //! from one place, the calling thread, every 20 ms; the runs only read an atomic flag.
 
+use super::args::{StepOptions, check_finite, run_options};
 use super::events::{CompiledEvent, EventSpec};
 use super::model::{AnyModel, Backend};
-use super::{PyModel, StepOptions, check_finite, run_options, scenes};
+use super::py_model::PyModel;
+use super::scenes;
 use crate::integrators::{
     Failed, Method, Occurrences, Output, RunResult, Solution, Statistics, Status, Systems,
     solve_many,

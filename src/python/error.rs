@@ -11,6 +11,7 @@ use numpy::PyArray1;
 use pyo3::create_exception;
 use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
+use std::panic::{AssertUnwindSafe, catch_unwind};
 
 create_exception!(
     lagrangian,
@@ -160,4 +161,9 @@ pub(crate) fn panic_error(payload: Box<dyn std::any::Any + Send>) -> PyErr {
     LagrangianError::new_err(format!(
         "internal error in lagrangian ({what}); please report it with the model that caused it"
     ))
+}
+
+/// Run `f`, turning a panic into `LagrangianError`.
+pub(super) fn guard<T>(f: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
+    catch_unwind(AssertUnwindSafe(f)).unwrap_or_else(|p| Err(panic_error(p)))
 }

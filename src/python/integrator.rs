@@ -7,7 +7,10 @@
 //! with heyoka.py, whose `taylor_adaptive.propagate_until` is this interface). Here the options
 //! are parsed once, only the final state is kept, and nothing is made in Python but what is read.
 
-use super::{check_finite, ctrl_c, error, guard, interrupted, solution, states};
+use super::args::{check_finite, check_vector};
+use super::error::{self, guard};
+use super::interrupt::{ctrl_c, interrupted};
+use super::{solution, states};
 use crate::integrators::{Method, Options, Output, Solution, Statistics, Status, solve_resumed};
 use crate::python::model::AnyModel;
 use crate::{Dynamics, Error};
@@ -60,8 +63,8 @@ impl PyIntegrator {
     ) -> PyResult<Self> {
         let n = model.dof();
         check_finite("t0", t0)?;
-        super::check_vector("q0", &q0, n)?;
-        super::check_vector("qd0", &qd0, n)?;
+        check_vector("q0", &q0, n)?;
+        check_vector("qd0", &qd0, n)?;
         options.output = Output::Final;
         options.dense = false;
         // Any span: with `Output::Final` the checks do not depend on it.

@@ -2,8 +2,9 @@
 //! `lagrangian.scenes` builds its functions, construction by name from a mapping of named
 //! arguments, drawing geometry and exact solutions.
 
+use super::error::guard;
 use super::model::AnyModel;
-use super::{PyModel, guard};
+use super::py_model::PyModel;
 use crate::scenes::registry::{self, Arguments, Coordinates, Kind, Value};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};

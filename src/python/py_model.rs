@@ -1,0 +1,662 @@
+//! The compiled model, [`PyModel`] (`NativeModel` in Python): a system stated in Python by its
+//! energies or particles, or a Rust scene, and every method `lagrangian.Model` calls on it:
+//! evaluations at given states, `simulate`, the kept-state integrator, equilibria,
+//! linearization and modes.
+//!
+//! `simulate` releases the GIL while it runs and polls for Ctrl-C ([`ctrl_c`]); its energy
+//! column is computed on the same thread ([`with_energy`]).
+
+use super::args::{StepOptions, check_finite, check_vector, count, run_options};
+use super::error::{self, guard, panic_error};
+use super::interrupt::{ctrl_c, interrupted};
+use super::model::{self, AnyModel, Backend, CompiledModel, RawNode, Spec, WithLoads};
+use super::states::{self, States};
+use super::{events, first_order, integrator, linear, solution};
+use crate::integrators::{Failed, Method, Options, Solution, Status, solve_partial};
+use crate::{Dynamics, Error, StaticsOptions, equilibrium};
+use numpy::ndarray::{Array2, Array3};
+use numpy::{
+    IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayDyn, PyArrayMethods, PyReadonlyArray1,
+    PyReadonlyArray2, PyReadonlyArrayDyn,
+};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyTuple, PyType};
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::str::FromStr;
+use std::sync::{Arc, Mutex};
+
+/// A compiled model: a system stated in Python by its energies (or particles), or a Rust scene.
+///
+/// Built by `lagrangian.Model` and `lagrangian.scenes`; immutable and safe to share between
+/// threads.
+#[pyclass(name = "NativeModel", module = "lagrangian._lagrangian", frozen)]
+pub struct PyModel {
+    pub(super) model: Arc<AnyModel>,
+    pub(super) compiled: Option<Arc<CompiledModel>>,
+}
+
+impl PyModel {
+    /// `eval` at each state of (t, q, q̇) in the fast form ([`States`]), each writing a value of
+    /// shape `shape` (`[]`: a float); the values as an array of shape `shape`, or (k, *shape)
+    /// for k states. `None` when the arguments are not in the fast form.
+    ///
+    /// The one exit of every evaluation at given states, so the one place that no NaN or
+    /// infinity passes: finite inputs can still overflow (q̇ = 1e200 squared), and then the
+    /// result is [`Error::NonFinite`] naming `what`, not the value.
+    #[allow(clippy::too_many_arguments)]
+    fn each_state<'py>(
+        &self,
+        py: Python<'py>,
+        what: &'static str,
+        t: &Bound<'py, PyAny>,
+        q: &Bound<'py, PyAny>,
+        qd: &Bound<'py, PyAny>,
+        shape: &[usize],
+        eval: impl Fn(f64, &[f64], &[f64], &mut [f64]) -> PyResult<()>,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        guard(|| {
+            let n = self.model.dof();
+            let Some(states) = States::read(t, q, qd, n) else {
+                return Ok(None);
+            };
+            let size = shape.iter().product::<usize>();
+            let mut values = vec![0.0; size * states.count()];
+            for (k, out) in values.chunks_exact_mut(size).enumerate() {
+                let (q, qd) = states.state(k, n);
+                eval(states.t, q, qd, out)?;
+                crate::checks::finite(out, what, states.t)?;
+            }
+            let mut dims = states.rows.map(|k| vec![k]).unwrap_or_default();
+            dims.extend_from_slice(shape);
+            Ok(Some(match dims.len() {
+                0 => values[0].into_pyobject(py)?.into_any(),
+                1 => PyArray1::from_vec(py, values).into_any(),
+                _ => PyArray1::from_vec(py, values).reshape(dims)?.into_any(),
+            }))
+        })
+    }
+}
+
+#[pymethods]
+impl PyModel {
+    /// Compile a model from serialized expression nodes `(op, number, i, j)` and the node
+    /// indices of its parts, bound to the parameter values `params`; `backend` says what runs
+    /// the derived eq. 55 program (`"native"` or `"interpreter"`).
+    #[staticmethod]
+    #[pyo3(signature = (nodes, dof, params, kinetic=None, potential=None, dissipation=None,
+                        forces=None, positions=None, dim=0, masses=None, backend="native"))]
+    #[allow(clippy::too_many_arguments)]
+    fn compile(
+        nodes: Vec<RawNode>,
+        dof: usize,
+        params: Vec<f64>,
+        kinetic: Option<usize>,
+        potential: Option<usize>,
+        dissipation: Option<usize>,
+        forces: Option<Vec<usize>>,
+        positions: Option<Vec<usize>>,
+        dim: usize,
+        masses: Option<Vec<usize>>,
+        backend: &str,
+    ) -> PyResult<Self> {
+        guard(|| {
+            let spec = Spec {
+                backend: Backend::named(backend)?,
+                nodes: &nodes,
+                dof,
+                params: params.len(),
+                kinetic,
+                potential,
+                dissipation,
+                forces,
+                positions,
+                dim,
+                masses,
+            };
+            let compiled = CompiledModel::new(&spec)?;
+            let model = compiled.bind(&params)?;
+            Ok(Self {
+                model: Arc::new(model),
+                compiled: Some(Arc::new(compiled)),
+            })
+        })
+    }
+
+    /// The same compiled model with other parameter values (nothing is recompiled).
+    fn with_parameters(&self, params: Vec<f64>) -> PyResult<Self> {
+        guard(|| {
+            let compiled = self.compiled.as_ref().ok_or_else(|| {
+                PyValueError::new_err("a scene is rebuilt from its arguments, not rebound")
+            })?;
+            Ok(Self {
+                model: Arc::new(compiled.bind(&params)?),
+                compiled: Some(compiled.clone()),
+            })
+        })
+    }
+
+    /// Number of coordinates.
+    #[getter]
+    fn dof(&self) -> usize {
+        self.model.dof()
+    }
+
+    /// Whether h = q̇·p − L is a constant of a run (`stats["conserved"]`, of `simulate` and of
+    /// an ensemble): nothing drives or damps the model, and no event `resets` the state.
+    fn conserved(&self, resets: bool) -> bool {
+        !resets && self.model.structure().conservative()
+    }
+
+    /// The structure flags the engine uses: time dependence of L, constant mass matrix,
+    /// separability, dissipation, forcing; and whether the equations of motion read t at all
+    /// (`driven`: L, Φ or Q″ do), which `time_dependent` alone does not say.
+    fn structure<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let s = self.model.structure();
+        let driven = match &self.compiled {
+            Some(compiled) => compiled.driven(),
+            None => self.model.scene_driven().unwrap_or(s.time_dependent),
+        };
+        let d = PyDict::new(py);
+        d.set_item("dof", s.dof)?;
+        d.set_item("time_dependent", s.time_dependent)?;
+        d.set_item("driven", driven)?;
+        d.set_item("constant_mass", s.constant_mass)?;
+        d.set_item("separable", s.separable)?;
+        d.set_item("dissipative", s.dissipative)?;
+        d.set_item("forced", s.forced)?;
+        d.set_item("conservative", s.conservative())?;
+        d.set_item("backend", self.model.backend())?;
+        Ok(d)
+    }
+
+    /// Accelerations q̈ at (t, q, q̇) from Lagrange's equations (seed eq. 55): shape (n,), or
+    /// (k, n) for k states given as rows. `None` when the arguments are not in the fast form of
+    /// [`States`] (the package converts them and calls again).
+    fn accelerations<'py>(
+        &self,
+        py: Python<'py>,
+        t: &Bound<'py, PyAny>,
+        q: &Bound<'py, PyAny>,
+        qd: &Bound<'py, PyAny>,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let n = self.model.dof();
+        self.each_state(py, "accelerations", t, q, qd, &[n], |t, q, qd, out| {
+            self.model.accelerations_into(t, q, qd, out)?;
+            Ok(())
+        })
+    }
+
+    /// The normalized Taylor coefficients qₖ = q⁽ᵏ⁾(t)/k! and q̇ₖ of the motion through
+    /// (t, q, q̇), k = 0..=order, as two arrays of shape (order + 1, n): what the Taylor method
+    /// sums at each step (a scene's from its traced expression graph).
+    fn taylor_series<'py>(
+        &self,
+        py: Python<'py>,
+        t: f64,
+        q: Vec<f64>,
+        qd: Vec<f64>,
+        order: usize,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+        let n = self.model.dof();
+        let coefficients = guard(|| {
+            check_vector("q", &q, n)?;
+            check_vector("qd", &qd, n)?;
+            check_vector("t", &[t], 1)?;
+            let program = self.model.program()?;
+            if !(1..=crate::tape::MAX_TAYLOR_ORDER).contains(&order) {
+                return Err(Error::InvalidInput {
+                    what: "order",
+                    why: format!("{order} is not in 1..={}", crate::tape::MAX_TAYLOR_ORDER),
+                }
+                .into());
+            }
+            let (taylor, params) = program.taylor();
+            let mut e = taylor.expansion(params, order);
+            e.expand(t, &q, &qd)?;
+            let (mut cq, mut cv) = (Vec::new(), Vec::new());
+            for k in 0..=order {
+                cq.extend_from_slice(e.q(k));
+                cv.extend_from_slice(e.qd(k));
+            }
+            crate::checks::finite(&cq, "Taylor coefficients", t)?;
+            crate::checks::finite(&cv, "Taylor coefficients", t)?;
+            Ok((cq, cv))
+        })?;
+        let shape = [order + 1, n];
+        Ok((
+            PyArray1::from_vec(py, coefficients.0)
+                .reshape(shape)?
+                .into_any(),
+            PyArray1::from_vec(py, coefficients.1)
+                .reshape(shape)?
+                .into_any(),
+        ))
+    }
+
+    /// The mass matrix M = ∂²T/∂q̇² at (t, q, q̇): shape (n, n), or (k, n, n).
+    fn mass_matrix<'py>(
+        &self,
+        py: Python<'py>,
+        t: &Bound<'py, PyAny>,
+        q: &Bound<'py, PyAny>,
+        qd: &Bound<'py, PyAny>,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let n = self.model.dof();
+        self.each_state(py, "mass matrix", t, q, qd, &[n, n], |t, q, qd, out| {
+            out.copy_from_slice(self.model.mass_matrix(t, q, qd)?.transpose().as_slice());
+            Ok(())
+        })
+    }
+
+    /// The energy function h = q̇·p − L at (t, q, q̇): a float, or shape (k,).
+    fn energy<'py>(
+        &self,
+        py: Python<'py>,
+        t: &Bound<'py, PyAny>,
+        q: &Bound<'py, PyAny>,
+        qd: &Bound<'py, PyAny>,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.each_state(py, "energy", t, q, qd, &[], |t, q, qd, out| {
+            out[0] = self.model.energy(t, q, qd)?;
+            Ok(())
+        })
+    }
+
+    /// The momenta p = ∂L/∂q̇ at (t, q, q̇): shape (n,), or (k, n).
+    fn momenta<'py>(
+        &self,
+        py: Python<'py>,
+        t: &Bound<'py, PyAny>,
+        q: &Bound<'py, PyAny>,
+        qd: &Bound<'py, PyAny>,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let n = self.model.dof();
+        self.each_state(py, "momenta", t, q, qd, &[n], |t, q, qd, out| {
+            out.copy_from_slice(self.model.momenta(t, q, qd)?.as_slice());
+            Ok(())
+        })
+    }
+
+    /// The Lagrangian L = T − U at (t, q, q̇): a float, or shape (k,).
+    fn lagrangian<'py>(
+        &self,
+        py: Python<'py>,
+        t: &Bound<'py, PyAny>,
+        q: &Bound<'py, PyAny>,
+        qd: &Bound<'py, PyAny>,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.each_state(py, "Lagrangian", t, q, qd, &[], |t, q, qd, out| {
+            out[0] = self.model.lagrangian_at(t, q, qd)?;
+            Ok(())
+        })
+    }
+
+    /// dy/dt = (q̇, q̈) of the first-order system y = (q, q̇) at (t, y): SciPy's `fun(t, y)`;
+    /// y of shape (2n,) or (2n, k) (`vectorized=True`).
+    fn rhs<'py>(
+        &self,
+        py: Python<'py>,
+        t: f64,
+        y: PyReadonlyArrayDyn<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        guard(|| Ok(first_order::rhs(&*self.model, t, y.as_array())?.into_pyarray(py)))
+    }
+
+    /// The 2n × 2n Jacobian of `rhs` at (t, y) by forward-mode AD: SciPy's `jac(t, y)`.
+    fn jacobian<'py>(
+        &self,
+        py: Python<'py>,
+        t: f64,
+        y: PyReadonlyArrayDyn<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        guard(|| Ok(first_order::jacobian(&*self.model, t, y.as_array())?.into_pyarray(py)))
+    }
+
+    /// Whether the model has particles to draw (the particle route, or a scene with positions).
+    #[getter]
+    fn has_positions(&self) -> bool {
+        self.model.has_positions()
+    }
+
+    /// The particles' positions at the states (t_i, q_i): shape (states, particles, dim), or
+    /// `None` for a model stated by its energies only.
+    fn positions<'py>(
+        &self,
+        py: Python<'py>,
+        t: PyReadonlyArray1<'py, f64>,
+        q: PyReadonlyArray2<'py, f64>,
+    ) -> PyResult<Option<Bound<'py, PyArray3<f64>>>> {
+        guard(|| {
+            let n = self.model.dof();
+            let t = t.as_array().iter().copied().collect::<Vec<f64>>();
+            let q = q.as_array();
+            if q.nrows() != t.len() || q.ncols() != n {
+                return Err(PyValueError::new_err(format!(
+                    "q has shape ({}, {}) but needs ({}, {n}): one row of {n} coordinates per time",
+                    q.nrows(),
+                    q.ncols(),
+                    t.len()
+                )));
+            }
+            let q = q.iter().copied().collect::<Vec<f64>>();
+            check_vector("t", &t, t.len())?;
+            if let Some(k) = q.iter().position(|x| !x.is_finite()) {
+                return Err(PyValueError::new_err(format!(
+                    "q[{}, {}] = {} is not finite",
+                    k / n,
+                    k % n,
+                    q[k]
+                )));
+            }
+            let Some((count, dim, r)) = self.model.positions(&t, &q) else {
+                return Ok(None);
+            };
+            if let Some(k) = r.iter().position(|x| !x.is_finite()) {
+                let state = k / (count * dim).max(1);
+                return Err(Error::NonFinite {
+                    what: "positions",
+                    t: t[state],
+                }
+                .into());
+            }
+            let r = Array3::from_shape_vec((t.len(), count, dim), r)
+                .map_err(|e| PyValueError::new_err(e.to_string()))?;
+            Ok(Some(r.into_pyarray(py)))
+        })
+    }
+
+    /// Integrate from (q0, qd0) at t0 to t_end; returns the run as an instance of
+    /// `solution_type` (a subclass of [`PySolution`], the package's `Solution`) carrying the
+    /// coordinate and event names, or `None` when q0 or qd0 is not in the fast form of
+    /// [`states::vector`] (the package converts and checks them and calls again). A failed run
+    /// raises with its partial solution, of the same type, as `solution`.
+    #[pyo3(signature = (q0, qd0, t_end, t0, method, dt, rtol, atol, t_eval, max_steps, every,
+                        events, dense, backend, solution_type, names, event_names))]
+    #[allow(clippy::too_many_arguments)]
+    fn simulate<'py>(
+        &self,
+        py: Python<'py>,
+        q0: &Bound<'py, PyAny>,
+        qd0: &Bound<'py, PyAny>,
+        t_end: f64,
+        t0: f64,
+        method: &str,
+        dt: Option<f64>,
+        rtol: f64,
+        atol: f64,
+        t_eval: Option<PyReadonlyArray1<'py, f64>>,
+        max_steps: Option<i64>,
+        every: Option<i64>,
+        events: Vec<events::EventSpec>,
+        dense: bool,
+        backend: &str,
+        solution_type: &Bound<'py, PyType>,
+        names: &Bound<'py, PyAny>,
+        event_names: &Bound<'py, PyAny>,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let n = self.model.dof();
+        let (Some(q0), Some(qd0)) = (states::vector(q0, n), states::vector(qd0, n)) else {
+            return Ok(None);
+        };
+        check_finite("t0", t0)?;
+        check_finite("t_end", t_end)?;
+        let times = t_eval.map(|t| t.as_array().iter().copied().collect());
+        let backend = Backend::named(backend)?;
+        let events = events
+            .into_iter()
+            .map(|spec| events::event(spec, n, backend))
+            .collect::<Result<Vec<_>, Error>>()?;
+        let (method, mut options) = run_options(
+            (t0, t_end),
+            method,
+            StepOptions { dt, rtol, atol },
+            max_steps,
+            (times, every),
+        )?;
+        let conserved = self.conserved(events.iter().any(|e| e.reset.is_some()));
+        options.events = events;
+        options.dense = dense;
+        options.validate(t0, t_end)?;
+        let model = self.model.clone();
+        let pending: Mutex<Option<PyErr>> = Mutex::new(None);
+        let outcome = py.detach(|| {
+            catch_unwind(AssertUnwindSafe(
+                || -> Result<_, Box<(Failed, Vec<f64>)>> {
+                    let interrupt = ctrl_c(&pending);
+                    match solve_partial(
+                        &*model,
+                        &q0,
+                        &qd0,
+                        (t0, t_end),
+                        method,
+                        &options,
+                        Some(&interrupt),
+                    ) {
+                        Ok(sol) => match with_energy(&model, sol) {
+                            (sol, h, None) => Ok((sol, h)),
+                            (sol, h, Some(error)) => {
+                                let last =
+                                    sol.last().map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
+                                let failed = Failed {
+                                    error,
+                                    partial: Some(Solution {
+                                        status: Status::Failed,
+                                        ..sol
+                                    }),
+                                    last,
+                                };
+                                Err(Box::new((failed, h)))
+                            }
+                        },
+                        Err(mut failed) => {
+                            let h = match failed.partial.take() {
+                                Some(sol) => {
+                                    let (sol, h, cut) = with_energy(&model, sol);
+                                    if cut.is_some() {
+                                        // The last state kept is the one the error names.
+                                        failed.last = sol
+                                            .last()
+                                            .map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
+                                    }
+                                    failed.partial = Some(sol);
+                                    h
+                                }
+                                None => Vec::new(),
+                            };
+                            Err(Box::new((failed, h)))
+                        }
+                    }
+                },
+            ))
+        });
+        let wrap = solution::Wrap {
+            kind: solution_type,
+            names,
+            event_names,
+        };
+        let (sol, energy) = match outcome {
+            Err(panic) => return Err(panic_error(panic)),
+            Ok(Err(failed)) => {
+                let (failed, energy) = *failed;
+                if let Error::Interrupted { t } = failed.error {
+                    return Err(interrupted(&pending, t));
+                }
+                return Err(error::with_partial(py, failed, energy, conserved, &wrap));
+            }
+            Ok(Ok(done)) => done,
+        };
+        wrap.wrap(
+            solution::RunOutput {
+                sol,
+                energy,
+                conserved,
+            },
+            None,
+        )
+        .map(Some)
+    }
+
+    /// An integrator standing at (t0, q0, q̇0) with this method and these options (`dt` a step
+    /// size > 0: each call's span gives the direction); see [`integrator::PyIntegrator`].
+    #[pyo3(signature = (q0, qd0, t0, method, dt, rtol, atol, max_steps, events, backend))]
+    #[allow(clippy::too_many_arguments)]
+    fn integrator(
+        &self,
+        q0: Vec<f64>,
+        qd0: Vec<f64>,
+        t0: f64,
+        method: &str,
+        dt: Option<f64>,
+        rtol: f64,
+        atol: f64,
+        max_steps: Option<i64>,
+        events: Vec<events::EventSpec>,
+        backend: &str,
+    ) -> PyResult<integrator::PyIntegrator> {
+        guard(|| {
+            let n = self.model.dof();
+            let backend = Backend::named(backend)?;
+            let events = events
+                .into_iter()
+                .map(|spec| events::event(spec, n, backend))
+                .collect::<Result<Vec<_>, Error>>()?;
+            let method = Method::from_str(method)?;
+            // A step size, as the Rust API states it: each call's span gives the direction.
+            let mut options = match dt {
+                Some(dt) => Options::fixed(dt),
+                None => Options::adaptive(rtol, atol),
+            };
+            if let Some(max_steps) = max_steps {
+                options.max_steps = count("max_steps", max_steps)?;
+            }
+            let conserved = self.conserved(events.iter().any(|e| e.reset.is_some()));
+            options.events = events;
+            integrator::PyIntegrator::new(
+                self.model.clone(),
+                (t0, q0, qd0),
+                method,
+                options,
+                conserved,
+            )
+        })
+    }
+
+    /// An equilibrium near `q_guess` (q̈ = 0 at q̇ = 0; virtual work, seed §3, when T is
+    /// quadratic in q̇), loads added; `frozen` solves at t even if the forces change with t.
+    /// Returns (q, residual, iterations, stability, eigenvalues, stiffness, reason,
+    /// spectrum re, spectrum im) — the spectrum `None` where M is singular.
+    #[pyo3(signature = (q_guess, t=0.0, loads=None, params=Vec::new(), max_iterations=100,
+                        max_step=f64::INFINITY, frozen=false))]
+    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
+    fn equilibrium<'py>(
+        &self,
+        py: Python<'py>,
+        q_guess: Vec<f64>,
+        t: f64,
+        loads: Option<(Vec<RawNode>, Vec<usize>)>,
+        params: Vec<f64>,
+        max_iterations: usize,
+        max_step: f64,
+        frozen: bool,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let n = self.model.dof();
+        check_vector("q_guess", &q_guess, n)?;
+        check_finite("t", t)?;
+        let options = StaticsOptions {
+            max_iterations,
+            max_step,
+            frozen_time: frozen,
+            ..StaticsOptions::default()
+        };
+        let loads = guard(|| {
+            Ok(loads
+                .map(|(nodes, outputs)| model::loads(&nodes, &outputs, n, &params))
+                .transpose()?)
+        })?;
+        let model = self.model.clone();
+        let found = py
+            .detach(|| {
+                catch_unwind(AssertUnwindSafe(|| match &loads {
+                    Some(loads) => {
+                        let with = WithLoads {
+                            model: &model,
+                            loads,
+                        };
+                        equilibrium(&with, t, &q_guess, &options)
+                    }
+                    None => equilibrium(&*model, t, &q_guess, &options),
+                }))
+            })
+            .map_err(panic_error)??;
+        let k = &found.stiffness;
+        let stiffness = Array2::from_shape_fn((n, n), |(i, j)| k[(i, j)]);
+        let (re, im) = match &found.spectrum {
+            Some(s) => {
+                let (re, im) = linear::complex_vector(py, s);
+                (Some(re), Some(im))
+            }
+            None => (None, None),
+        };
+        (
+            PyArray1::from_slice(py, found.q.as_slice()),
+            found.residual,
+            found.iterations,
+            linear::stability_name(found.stability),
+            PyArray1::from_slice(py, found.eigenvalues.as_slice()),
+            stiffness.into_pyarray(py),
+            found.reason.clone(),
+            re,
+            im,
+        )
+            .into_pyobject(py)
+    }
+
+    /// The linearization at (t, q, q̇) (`crate::linearize`) as a pair: (t, q, qd,
+    /// accelerations, M, C, K, A, eigenvalues re, eigenvalues im), and B = ∂ẋ/∂u for the
+    /// parameters of indices `inputs` at the values `params` (`None` without `inputs`).
+    #[pyo3(signature = (t, q, qd, inputs=None, params=Vec::new()))]
+    fn linearize<'py>(
+        &self,
+        py: Python<'py>,
+        t: f64,
+        q: Vec<f64>,
+        qd: Vec<f64>,
+        inputs: Option<Vec<usize>>,
+        params: Vec<f64>,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        guard(|| {
+            let inputs = inputs.as_deref().map(|i| (i, params.as_slice()));
+            let compiled = self.compiled.as_deref();
+            linear::linearize_py(py, &*self.model, compiled, (t, &q, &qd), inputs)
+        })
+    }
+
+    /// The modes about the equilibrium q at t (`crate::modes`), as a tuple (see `linear.rs`).
+    fn modes<'py>(&self, py: Python<'py>, t: f64, q: Vec<f64>) -> PyResult<Bound<'py, PyTuple>> {
+        guard(|| linear::modes_py(py, &*self.model, t, &q))
+    }
+}
+
+/// The energy function h at every point of `sol`. Where h cannot be evaluated (it overflows),
+/// the solution is cut before that point and the error says where: no NaN in what is returned.
+fn with_energy(model: &AnyModel, mut sol: Solution) -> (Solution, Vec<f64>, Option<Error>) {
+    let mut h = Vec::with_capacity(sol.len());
+    for i in 0..sol.len() {
+        match model.energy(sol.t[i], sol.q_at(i), sol.qd_at(i)) {
+            Ok(e) if e.is_finite() => h.push(e),
+            outcome => {
+                let t = sol.t[i];
+                sol.t.truncate(i);
+                sol.q.truncate(i * sol.dof);
+                sol.qd.truncate(i * sol.dof);
+                let error = match outcome {
+                    Err(e) => e,
+                    Ok(_) => Error::NonFinite { what: "energy", t },
+                };
+                return (sol, h, Some(error));
+            }
+        }
+    }
+    (sol, h, None)
+}
