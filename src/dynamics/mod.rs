@@ -10,8 +10,10 @@
 //! return owned vectors.
 
 mod jacobian;
+mod qp_form;
 
 pub(crate) use jacobian::{acceleration_jacobian, jacobian};
+pub(crate) use qp_form::ForceParts;
 
 use crate::Scalar;
 use crate::checks::{check_state, finite};

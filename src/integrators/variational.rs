@@ -24,7 +24,7 @@ use super::run::{Integrator, Run, SegmentStepper};
 use crate::Scalar;
 use crate::dynamics::Dynamics;
 use crate::dynamics::jacobian;
-use crate::eom::ForceParts;
+use crate::dynamics::ForceParts;
 use crate::error::{Error, Result};
 use crate::nonlinear::{Convergence, Lu, Verdict, max_norm, newton_update, same_step};
 use nalgebra::DMatrix;

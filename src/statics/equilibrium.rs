@@ -5,7 +5,7 @@ use super::stability::{Stability, classify};
 use crate::checks::check_state;
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
-use crate::linearize::{Linearization, linearize, modes_unchecked};
+use super::linearize::{Linearization, linearize, modes_unchecked};
 use crate::nonlinear::{Stopping, damped_newton};
 use nalgebra::{Complex, DMatrix, DVector};
 

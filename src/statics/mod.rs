@@ -39,10 +39,14 @@
 //! `equilibrium` solver sits above them and solves with `crate::nonlinear`.
 
 mod equilibrium;
+mod input_matrix;
+mod linearize;
 mod residual;
 mod stability;
 
 pub use equilibrium::{Equilibrium, StaticsOptions, equilibrium};
+pub use input_matrix::input_matrix;
+pub use linearize::{Linearization, ModeProblem, Modes, linearize, modes};
 pub use residual::static_stiffness;
 pub(crate) use residual::{static_residual, static_stiffness_of};
 pub use stability::Stability;

@@ -6,7 +6,7 @@
 
 use crate::derived::eom_program::{Energies, eom_graph};
 use crate::dynamics::Dynamics;
-use crate::energy_model::EnergyModel;
+use crate::routes::EnergyModel;
 use crate::expr::graph::{Binary, Graph, Unary};
 use crate::program::compile::Tape;
 use crate::program::eval::Function;

@@ -96,7 +96,7 @@ pub fn input_matrix(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::energy_model::EnergyModel;
+    use crate::routes::EnergyModel;
     use crate::expr::graph::{Binary, Unary};
     use approx::assert_relative_eq;
 
