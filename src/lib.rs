@@ -57,18 +57,18 @@ mod tests;
 pub mod trace;
 
 pub use dynamics::{Dynamics, Structure};
+pub use energies::{Dissipation, GeneralizedForces, KineticEnergy, Potential};
 pub use error::{Error, Result};
 pub use integrators::solve_with_interrupt;
 pub use integrators::{Method, Options, Output, Solution, Statistics, solve};
-pub use energies::{Dissipation, GeneralizedForces, KineticEnergy, Potential};
-pub use routes::{
-    CartesianForces, EnergyRoute, MappedForces, ParticleGravity, ParticleKinetic, ParticleSystem,
-    Particles, System,
-};
 /// The Python extension module `lagrangian._lagrangian`, for the `extension/` crate that links it.
 #[cfg(feature = "python")]
 #[doc(hidden)]
 pub use python::lagrangian_module as python_module;
+pub use routes::{
+    CartesianForces, EnergyRoute, MappedForces, ParticleGravity, ParticleKinetic, ParticleSystem,
+    Particles, System,
+};
 pub use scalar::{Scalar, re};
 pub use statics::{
     Equilibrium, Linearization, ModeProblem, Modes, Stability, StaticsOptions, equilibrium,

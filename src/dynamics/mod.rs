@@ -7,7 +7,8 @@
 //!
 //! The generic `*_into` methods run on any [`Scalar`], so integrators get exact Jacobians of the
 //! accelerations by calling them with dual numbers. The `f64` methods check their inputs and
-//! return owned vectors.
+//! return owned vectors. `qp_form.rs` gives the implicit symplectic methods the (q, p) form of
+//! any `Dynamics` (`ForceParts`).
 
 mod jacobian;
 mod qp_form;

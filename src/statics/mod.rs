@@ -36,7 +36,8 @@
 //!
 //! The files, one way: `residual` (r and K at rest) and `stability` (the verdict, and the
 //! energy criterion) sit below the modes (`linearize.rs`), which use both; the
-//! `equilibrium` solver sits above them and solves with `crate::nonlinear`.
+//! `equilibrium` solver sits above them and solves with `crate::nonlinear`. `input_matrix.rs`
+//! adds to a linearization the input matrix B of a model stated at run time.
 
 mod equilibrium;
 mod input_matrix;
