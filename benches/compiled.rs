@@ -2,7 +2,7 @@
 //! (`closed_forms/`) against the same systems built in Rust from a [`Graph`] and compiled
 //! ([`EomProgram`] behind an [`EnergyModel`], what a Rust user of `tape` gets), both integrated
 //! by [`solve`] with the same method. `benches/compiled_models.py` drives it to add the models
-//! stated through the Python API and print the README's table.
+//! stated through the Python API and print the table of docs/site/python.rst.
 //!
 //! ```text
 //! cargo bench -p lagrangian-benches --bench compiled --features jit -- \

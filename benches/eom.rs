@@ -2,7 +2,7 @@
 //!
 //! Groups: `double_pendulum` (closed form, energy route, particle route) and `n_pendulum/N` for
 //! N = 2, 4, 8, 16, 32. `python3 benches/ratios.py` turns criterion's estimates into the table of
-//! ratios that the README quotes.
+//! ratios that docs/site/crate.rst quotes.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use lagrangian::Dynamics;

@@ -10,8 +10,8 @@
 //! - `error_1e-8_double_pendulum/{ad,closed}_<method>`: the adaptive methods at the loosest
 //!   tolerance (of 10^{-k/2}) whose error at t = 10 is below 1e-8, and `ode_solvers_dop853`.
 //!
-//! `python3 benches/ratios.py integrators` prints the README's tables from criterion's
-//! estimates and from `integrators_meta.json`, which this bench writes next to them.
+//! `python3 benches/ratios.py integrators` prints the tables of docs/site/integrators.rst from
+//! criterion's estimates and from `integrators_meta.json`, which this bench writes next to them.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use lagrangian::Dynamics;

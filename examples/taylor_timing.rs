@@ -1,5 +1,5 @@
 //! The Taylor method against DOP853 at the same tolerances on the double pendulum (the numbers
-//! in the README's Integrators section): best of REPEAT (default 5) runs, error against DOP853
+//! in docs/site/integrators.rst): best of REPEAT (default 5) runs, error against DOP853
 //! at 1e-15 (so its own row at 1e-15 reads 0). Taylor is timed in its steady state, once the
 //! model has expanded 10⁴ times at the order (its whole expansion is then compiled unrolled). `TOL=1e-9 REPEAT=2000` runs one tolerance, for a
 //! profiler. Run with `cargo run --release --features jit --example taylor_timing`.

@@ -34,48 +34,46 @@
 mod checks;
 mod derived;
 mod dynamics;
-mod energy_model;
+mod energies;
 mod eom;
 mod error;
 mod expr;
 pub mod integrators;
 mod linalg;
-mod linearize;
 #[cfg(feature = "jit")]
 mod native;
 mod nonlinear;
-mod particles;
 mod program;
 #[cfg(feature = "python")]
 mod python;
+mod routes;
 mod scalar;
 pub mod scenes;
-mod sensitivity;
 mod statics;
-mod system;
 pub mod tape;
-mod tape_particles;
 mod taylor;
 #[cfg(test)]
 mod tests;
 pub mod trace;
 
 pub use dynamics::{Dynamics, Structure};
+pub use energies::{Dissipation, GeneralizedForces, KineticEnergy, Potential};
 pub use error::{Error, Result};
 pub use integrators::solve_with_interrupt;
 pub use integrators::{Method, Options, Output, Solution, Statistics, solve};
-pub use linearize::{Linearization, ModeProblem, Modes, linearize, modes};
-pub use particles::{
-    CartesianForces, EnergyRoute, MappedForces, ParticleGravity, ParticleKinetic, ParticleSystem,
-    Particles,
-};
 /// The Python extension module `lagrangian._lagrangian`, for the `extension/` crate that links it.
 #[cfg(feature = "python")]
 #[doc(hidden)]
 pub use python::lagrangian_module as python_module;
+pub use routes::{
+    CartesianForces, EnergyRoute, MappedForces, ParticleGravity, ParticleKinetic, ParticleSystem,
+    Particles, System,
+};
 pub use scalar::{Scalar, re};
-pub use statics::{Equilibrium, Stability, StaticsOptions, equilibrium, static_stiffness};
-pub use system::{Dissipation, GeneralizedForces, KineticEnergy, Potential, System};
+pub use statics::{
+    Equilibrium, Linearization, ModeProblem, Modes, Stability, StaticsOptions, equilibrium,
+    linearize, modes, static_stiffness,
+};
 
 /// The dual-number library the crate differentiates with, re-exported for model code.
 pub use num_dual;

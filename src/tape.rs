@@ -76,7 +76,6 @@ pub use crate::derived::eom_program::{
     Energies, EomFunction, EomGraph, EomProgram, eom_graph, particle_kinetic,
 };
 pub use crate::derived::models;
-pub use crate::energy_model::{EnergyModel, TapeSystem};
 pub use crate::expr::derive::{Seeds, Wrt, gradient, tangent, tangents};
 pub use crate::expr::graph::{Binary, Graph, Node, Unary};
 #[cfg(feature = "jit")]
@@ -84,6 +83,6 @@ pub use crate::native::tape::{NativeFunction, NativeTape};
 pub use crate::program::compile::Tape;
 pub use crate::program::eval::Function;
 pub use crate::program::inputs::Inputs;
-pub use crate::sensitivity::input_matrix;
-pub use crate::tape_particles::TapeParticles;
+pub use crate::routes::{EnergyModel, TapeParticles, TapeSystem};
+pub use crate::statics::input_matrix;
 pub use crate::taylor::{Expansion, MAX_TAYLOR_ORDER, StepRule, TaylorProgram};

@@ -753,7 +753,7 @@ impl EomFunction {
     }
 
     /// The (q, p) form of the implicit symplectic methods at (t, q, q̇): p = ∂L/∂q̇ into `p` and
-    /// G = Q″ + ∂L/∂q − ∂Φ/∂q̇ into `g` (what `eom`'s `ForceParts` computes from the parts).
+    /// G = Q″ + ∂L/∂q − ∂Φ/∂q̇ into `g` (what `dynamics`'s `ForceParts` computes from the parts).
     ///
     /// # Panics
     /// If a slice has the wrong length.

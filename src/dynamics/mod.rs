@@ -7,11 +7,14 @@
 //!
 //! The generic `*_into` methods run on any [`Scalar`], so integrators get exact Jacobians of the
 //! accelerations by calling them with dual numbers. The `f64` methods check their inputs and
-//! return owned vectors.
+//! return owned vectors. `qp_form.rs` gives the implicit symplectic methods the (q, p) form of
+//! any `Dynamics` (`ForceParts`).
 
 mod jacobian;
+mod qp_form;
 
 pub(crate) use jacobian::{acceleration_jacobian, jacobian};
+pub(crate) use qp_form::ForceParts;
 
 use crate::Scalar;
 use crate::checks::{check_state, finite};

@@ -8,7 +8,6 @@
 //! - [`Forces::accelerations`] and [`Forces::accelerations_constant`]: the one right-hand side
 //!   and its LDLᵀ tail ([`factor`], [`solve`]): M factored with typed errors naming t and q,
 //!   solved, checked finite;
-//! - [`ForceParts`]: the (q, p) form ṗ = ∂L/∂q + Q″ − ∂Φ/∂q̇ of the implicit symplectic methods.
 //!
 //! A route supplies only M and the terms its kinetic energy gives (T's
 //! ∂T/∂q − (∂²T/∂q̇∂q) q̇ − ∂²T/∂q̇∂t): [`System`](crate::System) by [`passes::inertia`],
@@ -16,9 +15,6 @@
 //! [`ParticleSystem`](crate::ParticleSystem) as Σ m_j J_jᵀJ_j and Σ J_jᵀ(F_j − m_j a_j).
 
 pub(crate) mod passes;
-mod qp_form;
-
-pub(crate) use qp_form::ForceParts;
 
 use crate::error::{Error, Result};
 use crate::linalg::{FactorFailure, ldlt_in_place, ldlt_solve};

@@ -27,8 +27,8 @@
 use super::implicit::{FixedSteps, ImplicitStep, Legendre};
 use super::run::{Integrator, Run, SegmentStepper};
 use crate::dynamics::Dynamics;
+use crate::dynamics::ForceParts;
 use crate::dynamics::jacobian;
-use crate::eom::ForceParts;
 use crate::error::{Error, Result};
 use crate::nonlinear::{Convergence, Lu, Verdict, max_norm, newton_update, same_step};
 use nalgebra::DMatrix;

@@ -1,7 +1,7 @@
 //! What the implicit integrators share: the inverse Legendre map p ↦ q̇, and the fixed steps
 //! of an implicit method, halved where Newton fails. Their Newton iterations are
 //! [`crate::nonlinear`]'s, their Jacobians [`crate::dynamics`]'s; the force G = ∂L/∂q + Q″ −
-//! ∂Φ/∂q̇ of the (q, p) form of eq. 55 is [`crate::eom`]'s `ForceParts`.
+//! ∂Φ/∂q̇ of the (q, p) form of eq. 55 is [`crate::dynamics`]'s `ForceParts`.
 //!
 //! Every buffer is allocated once per run, so the step loops do not touch the allocator.
 

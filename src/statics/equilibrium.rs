@@ -1,11 +1,11 @@
 //! The equilibrium solver: a root of the residual at rest, classified by the modes there.
 
+use super::linearize::{Linearization, linearize, modes_unchecked};
 use super::residual::{STEADY_OFFSETS, STEADY_TOLERANCE, StaticProblem};
 use super::stability::{Stability, classify};
 use crate::checks::check_state;
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
-use crate::linearize::{Linearization, linearize, modes_unchecked};
 use crate::nonlinear::{Stopping, damped_newton};
 use nalgebra::{Complex, DMatrix, DVector};
 

@@ -36,13 +36,18 @@
 //!
 //! The files, one way: `residual` (r and K at rest) and `stability` (the verdict, and the
 //! energy criterion) sit below the modes (`linearize.rs`), which use both; the
-//! `equilibrium` solver sits above them and solves with `crate::nonlinear`.
+//! `equilibrium` solver sits above them and solves with `crate::nonlinear`. `input_matrix.rs`
+//! adds to a linearization the input matrix B of a model stated at run time.
 
 mod equilibrium;
+mod input_matrix;
+mod linearize;
 mod residual;
 mod stability;
 
 pub use equilibrium::{Equilibrium, StaticsOptions, equilibrium};
+pub use input_matrix::input_matrix;
+pub use linearize::{Linearization, ModeProblem, Modes, linearize, modes};
 pub use residual::static_stiffness;
 pub(crate) use residual::{static_residual, static_stiffness_of};
 pub use stability::Stability;

@@ -6,11 +6,11 @@
 
 use crate::derived::eom_program::{Energies, eom_graph};
 use crate::dynamics::Dynamics;
-use crate::energy_model::EnergyModel;
 use crate::expr::graph::{Binary, Graph, Unary};
 use crate::program::compile::Tape;
 use crate::program::eval::Function;
 use crate::program::inputs::Inputs;
+use crate::routes::EnergyModel;
 use crate::taylor::TaylorProgram;
 use crate::taylor::series::SeriesOp;
 use std::sync::Arc;

@@ -17,9 +17,9 @@ Module = Tuple[str, ...]
 
 # Bottom to top: a room may name only rooms at or below its own position.
 LAYERS = [
-    "error", "scalar", "checks", "linalg", "system", "expr", "program", "native", "taylor",
-    "eom", "dynamics", "particles", "routes", "tape", "nonlinear", "integrators", "statics",
-    "linearize", "solve", "trace", "scenes", "python",
+    "error", "scalar", "checks", "linalg", "nonlinear", "energies", "eom", "expr", "program",
+    "native", "taylor", "derived", "dynamics", "routes", "tape", "integrators", "statics", "trace",
+    "scenes", "python", "tests",
 ]
 
 

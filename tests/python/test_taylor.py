@@ -218,7 +218,7 @@ def test_taylor_series_rejects_what_it_cannot_expand():
 
 def test_energy_over_ten_thousand_periods():
     # Small oscillations (period ≈ 2π/ω of the slow mode): the energy stays at round-off, its
-    # drift linear in time; the slope is printed (pytest -s) for the README.
+    # drift linear in time; the slope is printed (pytest -s) for docs/site/report.rst.
     model = double_pendulum()
     q0, qd0 = [0.1, 0.05], [0.0, 0.0]
     w = np.sqrt(np.linalg.eigvals(np.linalg.solve(

@@ -4,10 +4,10 @@
 //! needed: M q̈ and the mixed terms of eq. 55 are the total derivative of p, which the
 //! integrators take from p itself.
 
-use super::by_dof;
-use super::passes::{Wrt, gradient};
+use super::Dynamics;
 use crate::Scalar;
-use crate::dynamics::Dynamics;
+use crate::eom::by_dof;
+use crate::eom::passes::{Wrt, gradient};
 
 /// Which parts of the force G = ∂L/∂q + Q″ − ∂Φ/∂q̇ a system has.
 #[derive(Debug, Clone, Copy)]

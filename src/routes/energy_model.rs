@@ -317,7 +317,7 @@ mod tests {
     use crate::expr::graph::{Binary, Graph, Unary};
     use crate::program::compile::Tape;
     use crate::program::inputs::Inputs;
-    use crate::tape_particles::TapeParticles;
+    use crate::routes::TapeParticles;
     use approx::assert_relative_eq;
     use std::sync::Arc;
 
@@ -486,7 +486,7 @@ mod tests {
         use num_dual::Dual64;
         let n = q.len();
         let (mut g, mut tmp) = (vec![0.0; n], vec![0.0; n]);
-        crate::eom::ForceParts::of(system).force_into(system, t, q, qd, &mut g, &mut tmp);
+        crate::dynamics::ForceParts::of(system).force_into(system, t, q, qd, &mut g, &mut tmp);
         let td = Dual64::new(t, 1.0);
         let qdual: Vec<Dual64> = q.iter().zip(qd).map(|(&x, &v)| Dual64::new(x, v)).collect();
         let vdual: Vec<Dual64> = qd.iter().map(|&v| Dual64::from_re(v)).collect();
@@ -608,7 +608,7 @@ mod tests {
         use num_dual::Dual64;
         let (_, derived, particles) = every_term();
         let energy = particles.energy_route();
-        let parts = crate::eom::ForceParts::of(&energy);
+        let parts = crate::dynamics::ForceParts::of(&energy);
         let program = derived.derived_program().unwrap();
         for (t, q, v) in [
             (0.2, [0.5, -1.1], [0.9, 0.3]),

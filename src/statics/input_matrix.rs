@@ -96,8 +96,8 @@ pub fn input_matrix(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::energy_model::EnergyModel;
     use crate::expr::graph::{Binary, Unary};
+    use crate::routes::EnergyModel;
     use approx::assert_relative_eq;
 
     /// A pendulum with a torque F: T = ½ m l² θ̇², U = −m g l cos θ, Q = F; parameters

@@ -1,19 +1,10 @@
 //! The energy route: a system composed of its kinetic energy, potential, dissipation and
 //! generalized forces (seed eq. 55). Absent parts are `()` and cost nothing.
 
-mod dissipation;
-mod forces;
-mod kinetic;
-mod potential;
-
-pub use dissipation::Dissipation;
-pub use forces::GeneralizedForces;
-pub use kinetic::KineticEnergy;
-pub use potential::Potential;
-
 use crate::Scalar;
 use crate::checks::check_lengths;
 use crate::dynamics::{Dynamics, Structure};
+use crate::energies::{Dissipation, GeneralizedForces, KineticEnergy, Potential};
 use crate::eom::passes::{InertiaOut, Wrt, gradient, inertia};
 use crate::eom::{self, Forces, by_dof};
 use crate::error::Result;

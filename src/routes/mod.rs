@@ -1,0 +1,17 @@
+//! The routes from a model to its equations of motion, each a [`Dynamics`](crate::Dynamics):
+//! [`System`] composed of its energies, [`ParticleSystem`] from particle positions,
+//! [`EnergyModel`] from an energy stated at run time as a graph, and [`TapeParticles`], the
+//! particle map of a run-time model.
+
+mod energy_model;
+mod particles;
+mod system;
+mod tape_particles;
+
+pub use energy_model::{EnergyModel, TapeSystem};
+pub use particles::{
+    CartesianForces, EnergyRoute, MappedForces, ParticleGravity, ParticleKinetic, ParticleSystem,
+    Particles,
+};
+pub use system::System;
+pub use tape_particles::TapeParticles;
