@@ -218,6 +218,10 @@ fn too_many_steps(t: f64, steps: usize, needed: Option<usize>) -> String {
             "{steps} steps taken by t = {t} without reaching the end of the span: raise max_steps, \
              loosen the tolerances or use a larger dt"
         ),
+        Some(_) if steps == usize::MAX => format!(
+            "the fixed step needs more than {steps} steps to reach the end of the span: no step \
+             was taken from t = {t}; use a larger dt"
+        ),
         Some(needed) => format!(
             "the fixed step needs {needed} steps to reach the end of the span, more than \
              max_steps = {steps}: no step was taken from t = {t}; raise max_steps or use a \

@@ -82,3 +82,14 @@ pub use num_dual;
 #[doc = include_str!("../README.md")]
 #[cfg(doctest)]
 pub struct ReadmeDoctests;
+
+/// The Rust examples the documentation site shows, run as doc tests so that their assertions
+/// keep holding (`cargo test --doc`).
+#[doc = concat!("```\n", include_str!("../examples/auto_fixed_step.rs"), "\n```")]
+#[cfg(doctest)]
+pub struct AutoFixedStepExample;
+
+/// See [`AutoFixedStepExample`].
+#[doc = concat!("```\n", include_str!("../examples/two_mass_modes.rs"), "\n```")]
+#[cfg(doctest)]
+pub struct TwoMassModesExample;

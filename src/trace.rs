@@ -44,17 +44,16 @@
 //! # Ok::<(), lagrangian::Error>(())
 //! ```
 
+use crate::derived::eom_program::{Energies, EomFunction, EomProgram, particle_kinetic};
 use crate::error::{Error, Result};
-use crate::tape::{
-    Binary, Energies, EomFunction, EomProgram, Graph, Node, Unary, particle_kinetic,
-};
+use crate::expr::graph::{Binary, Graph, Node, Unary};
 use crate::{
     CartesianForces, Dissipation, Dynamics, GeneralizedForces, KineticEnergy, ParticleSystem,
     Particles, Potential, Scalar, Structure, System,
 };
 use num_dual::{DualNum, DualStruct, Mappable};
 use num_traits::{FromPrimitive, Inv, Num, One, Signed, Zero};
-use std::cell::{Cell, RefCell};
+use std::cell::RefCell;
 use std::cmp::Ordering;
 use std::fmt;
 use std::iter::{Product, Sum};
@@ -62,6 +61,7 @@ use std::ops::{
     Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Rem, RemAssign, Sub, SubAssign,
 };
 use std::sync::OnceLock;
+use std::sync::atomic::{AtomicU64, Ordering as AtomicOrdering};
 
 /// A scalar that records the operations on it as nodes of an expression graph.
 ///
@@ -91,8 +91,11 @@ struct Recording {
 
 thread_local! {
     static RECORDING: RefCell<Option<Recording>> = const { RefCell::new(None) };
-    static TRACES: Cell<u64> = const { Cell::new(0) };
 }
+
+/// The number of the next recording, unique across threads: a `Traced` node is `Send`, and one
+/// carried to another thread must not match that thread's recording.
+static TRACES: AtomicU64 = AtomicU64::new(1);
 
 /// Clears the recording when [`record`] ends, also by a panic in the traced code.
 struct Finish;
@@ -130,10 +133,7 @@ pub fn record(
     dof: usize,
     f: impl FnOnce(Traced, &[Traced], &[Traced]) -> Vec<Traced>,
 ) -> std::result::Result<(Graph, Vec<usize>), String> {
-    let trace = TRACES.with(|n| {
-        n.set(n.get() + 1);
-        n.get()
-    });
+    let trace = TRACES.fetch_add(1, AtomicOrdering::Relaxed);
     let busy = RECORDING.with_borrow_mut(|r| {
         if r.is_some() {
             return true;
@@ -639,16 +639,26 @@ impl DualNum for Traced {
         self.lacking("atanh", f64::atanh)
     }
     fn sph_j0(&self) -> Self {
-        self.lacking("a spherical Bessel function", |x| x)
+        self.lacking("a spherical Bessel function", |x| {
+            <f64 as DualNum>::sph_j0(&x)
+        })
     }
     fn sph_j1(&self) -> Self {
-        self.lacking("a spherical Bessel function", |x| x)
+        self.lacking("a spherical Bessel function", |x| {
+            <f64 as DualNum>::sph_j1(&x)
+        })
     }
     fn sph_j2(&self) -> Self {
-        self.lacking("a spherical Bessel function", |x| x)
+        self.lacking("a spherical Bessel function", |x| {
+            <f64 as DualNum>::sph_j2(&x)
+        })
     }
     fn mul_add(&self, a: Self, b: Self) -> Self {
-        *self * a + b
+        match (self.0, a.0, b.0) {
+            // f64's mul_add rounds once; so does the fold.
+            (Value::Number(x), Value::Number(y), Value::Number(z)) => Self::number(x.mul_add(y, z)),
+            _ => *self * a + b,
+        }
     }
 }
 

@@ -321,10 +321,8 @@ def simulate_many(
     qd = np.ascontiguousarray(np.broadcast_to(qd, (k, n)))
     base = model.with_parameters(**fixed) if fixed else model
     t_end, options = _options(t0, t_end, method, dt, rtol, atol, t_eval, max_steps, final_only)
-    if isinstance(events, Event):
-        raise TypeError("events must be a sequence of lagrangian.Event: pass events=[event]")
+    event_specs(events or (), base._coordinates, base._parameters)  # checked before any run
     events = list(events or ())
-    event_specs(events, base._coordinates, base._parameters)  # checked before any run
     if workers is not None:
         workers = at_least_one("workers", workers, "thread")
     mode = "final" if final_only else "steps" if t_eval is None else "t_eval"

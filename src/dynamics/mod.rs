@@ -83,7 +83,7 @@ pub trait Dynamics {
     /// take the accelerations' Jacobian and the (q, p) form of the implicit symplectic methods
     /// from its machine code instead of from dual numbers. A wrapper that changes the equations
     /// must not pass it on.
-    fn derived_program(&self) -> Option<&crate::tape::EomFunction> {
+    fn derived_program(&self) -> Option<&crate::derived::eom_program::EomFunction> {
         None
     }
 
@@ -95,7 +95,9 @@ pub trait Dynamics {
     ///
     /// # Errors
     /// The reason, as the Taylor method reports it.
-    fn taylor_program(&self) -> std::result::Result<&crate::tape::EomFunction, String> {
+    fn taylor_program(
+        &self,
+    ) -> std::result::Result<&crate::derived::eom_program::EomFunction, String> {
         self.derived_program().ok_or_else(|| {
             "the Taylor method expands the model's expression graph: state the model as \
              expressions (lg.Model, tape::EomProgram) or trace a Rust system \

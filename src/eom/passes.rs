@@ -1,7 +1,7 @@
 //! The forward-mode derivative passes behind the equations of motion.
 //!
 //! Each term of eq. 55 gets only the pass it needs (the design is described in
-//! docs/ARCHITECTURE.md and the README's "How the derivatives are taken"):
+//! docs/ARCHITECTURE.md and docs/site/crate.rst, "How the derivatives are taken"):
 //! - [`gradient`]: one first-order vector-dual pass (∂U/∂q, ∂Φ/∂q̇, p = ∂T/∂q̇);
 //! - [`inertia`]: everything T contributes, M = ∂²T/∂q̇² and the kinetic terms
 //!   ∂T/∂q − (∂²T/∂q̇∂q) q̇ − ∂²T/∂q̇∂t, from one hyper-dual pass whose first directions are q̇ and

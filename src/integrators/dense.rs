@@ -10,7 +10,7 @@
 //! interpolant as a [`Dense`] solution, callable anywhere in the span.
 
 use crate::error::{Error, Result};
-use crate::tape::Expansion;
+use crate::taylor::Expansion;
 
 /// y(θ) = y₀ + θ(F₀ + (1−θ)(F₁ + θ(F₂ + (1−θ)(F₃ + …)))), the form of Hairer's `CONTD5`/`CONTD8`.
 pub(crate) fn polynomial(theta: f64, y0: &[f64], f: &[Vec<f64>], out: &mut [f64]) {

@@ -37,7 +37,7 @@ pub fn solve<S: Dynamics + ?Sized>(
     method: Method,
     options: &Options,
 ) -> Result<Solution> {
-    solve_inner(system, q0, qd0, span, method, options, None, true, &[]).map_err(|f| f.error)
+    solve_inner(system, q0, qd0, span, method, options, None, &[]).map_err(|f| f.error)
 }
 
 /// [`solve`] that keeps what was computed when the run fails: the [`Failed`] error carries
@@ -73,7 +73,7 @@ pub fn solve_partial<S: Dynamics + ?Sized>(
     options: &Options,
     interrupt: Option<&dyn Fn(f64) -> bool>,
 ) -> std::result::Result<Solution, Failed> {
-    solve_inner(system, q0, qd0, span, method, options, interrupt, true, &[])
+    solve_inner(system, q0, qd0, span, method, options, interrupt, &[])
 }
 
 /// [`solve`] with an interrupt check: `interrupt(t)` is called at every evaluation of the
@@ -88,18 +88,7 @@ pub fn solve_with_interrupt<S: Dynamics + ?Sized>(
     options: &Options,
     interrupt: &dyn Fn(f64) -> bool,
 ) -> Result<Solution> {
-    solve_inner(
-        system,
-        q0,
-        qd0,
-        span,
-        method,
-        options,
-        Some(interrupt),
-        true,
-        &[],
-    )
-    .map_err(|f| f.error)
+    solve_inner(system, q0, qd0, span, method, options, Some(interrupt), &[]).map_err(|f| f.error)
 }
 
 /// [`solve_partial`] from where an earlier run with the same options ended on the roots of the
@@ -116,9 +105,7 @@ pub(crate) fn solve_resumed<S: Dynamics + ?Sized>(
     interrupt: Option<&dyn Fn(f64) -> bool>,
     settling: &[usize],
 ) -> std::result::Result<Solution, Failed> {
-    solve_inner(
-        system, q0, qd0, span, method, options, interrupt, true, settling,
-    )
+    solve_inner(system, q0, qd0, span, method, options, interrupt, settling)
 }
 
 #[allow(clippy::too_many_arguments, clippy::result_large_err)]
@@ -130,20 +117,9 @@ fn solve_inner<'a, S: Dynamics + ?Sized>(
     method: Method,
     options: &'a Options,
     interrupt: Option<&'a dyn Fn(f64) -> bool>,
-    check_stability: bool,
     settling: &[usize],
 ) -> std::result::Result<Solution, Failed> {
-    let mut solver = Solver::start(
-        system,
-        q0,
-        qd0,
-        span,
-        method,
-        options,
-        interrupt,
-        check_stability,
-        settling,
-    )?;
+    let mut solver = Solver::start(system, q0, qd0, span, method, options, interrupt, settling)?;
     solver.run.batched = true;
     loop {
         match solver.step() {
@@ -230,7 +206,7 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
         method: Method,
         options: &'a Options,
     ) -> Result<Self> {
-        Self::start(system, q0, qd0, span, method, options, None, true, &[])
+        Self::start(system, q0, qd0, span, method, options, None, &[])
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -242,7 +218,6 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
         method: Method,
         options: &'a Options,
         interrupt: Option<&'a dyn Fn(f64) -> bool>,
-        check_stability: bool,
         settling: &[usize],
     ) -> Result<Self> {
         let (t0, t_end) = span;
@@ -270,7 +245,7 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
         };
         method.check_fits(system, t0, q0, qd0)?;
         options.check_method(method)?;
-        if let (Some(dt), Some(true), true) = (options.dt, method.is_explicit(), check_stability) {
+        if let (Some(dt), Some(true)) = (options.dt, method.is_explicit()) {
             step_limit::check(system, t0, q0, qd0, dt, method)?;
         }
         let run = Run::new(

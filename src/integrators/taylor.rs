@@ -25,9 +25,9 @@ use super::dense::Interpolant;
 use super::run::{Flow, Integrator, Run, SegmentStepper};
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
-use crate::tape::{Expansion, StepRule};
 #[cfg(feature = "jit")]
 use crate::taylor::RowEnd;
+use crate::taylor::{Expansion, StepRule};
 
 /// Jorba & Zou's order for the tolerance ε, p = ⌈−ln ε / 2 + 1⌉, capped where double precision
 /// has nothing left to gain (p = 40 is ε ≈ 1e-34).

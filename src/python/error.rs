@@ -38,7 +38,8 @@ create_exception!(
     lagrangian,
     TooManyStepsError,
     StepSizeError,
-    "The step budget `max_steps` ran out before the end of the span."
+    "The step budget `max_steps` ran out before the end of the span, or a fixed step needs more \
+     steps than it allows (then no step was taken)."
 );
 create_exception!(
     lagrangian,

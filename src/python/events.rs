@@ -16,7 +16,8 @@ use pyo3::types::PyTuple;
 use super::model::{Backend, RawNode, node_ids};
 use crate::error::{Error, Result};
 use crate::integrators::{Dense, DenseParts, Direction, Event};
-use crate::tape::{Function, Inputs, NativeFunction, Tape};
+use crate::native::tape::NativeFunction;
+use crate::program::{compile::Tape, eval::Function, inputs::Inputs};
 
 /// One event as the package sends it: the serialized expressions, the condition's output, the
 /// reset's targets (velocity or not, coordinate) and outputs, the parameter values, direction

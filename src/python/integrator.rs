@@ -3,8 +3,8 @@
 //! `propagate_until(t)` integrates that state to t in place.
 //!
 //! Why: a short run through `simulate` pays for its arguments, its options, the `Solution` and
-//! its arrays on every call (most of a run of a few dozen steps: see the README's comparison
-//! with heyoka.py, whose `taylor_adaptive.propagate_until` is this interface). Here the options
+//! its arrays on every call (most of a run of a few dozen steps: see docs/site/taylor.rst's
+//! comparison with heyoka.py, whose `taylor_adaptive.propagate_until` is this interface). Here the options
 //! are parsed once, only the final state is kept, and nothing is made in Python but what is read.
 
 use super::args::{check_finite, check_vector};

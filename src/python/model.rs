@@ -2,12 +2,12 @@
 //! that each integrator is compiled once for all of them (the variant is one predictable branch
 //! per evaluation).
 
+use crate::derived::eom_program::{Energies, EomFunction, EomProgram, particle_kinetic};
+use crate::expr::graph::{Binary, Graph, Node, Unary};
+use crate::program::{compile::Tape, eval::Function, inputs::Inputs};
+use crate::routes::{EnergyModel, TapeParticles};
 use crate::scenes::registry::{Arguments, Drawn, Positions, Scene, positions_of, scenes};
 use crate::scenes::*;
-use crate::tape::{
-    Binary, Energies, EnergyModel, EomProgram, Function, Graph, Inputs, Node, Tape, TapeParticles,
-    Unary, particle_kinetic,
-};
 use crate::trace::WithProgram;
 use crate::{
     CartesianForces, Dissipation, Dynamics, Error, GeneralizedForces, KineticEnergy,
@@ -65,7 +65,7 @@ macro_rules! any_model {
 
             /// The eq. 55 program on the model's expression graph (a scene's traced on first
             /// use), or why there is none.
-            pub(crate) fn program(&self) -> Result<&crate::tape::EomFunction> {
+            pub(crate) fn program(&self) -> Result<&EomFunction> {
                 match self {
                     AnyModel::Energy(m) | AnyModel::Particles(m, _) => m
                         .program()
@@ -165,10 +165,10 @@ impl Dynamics for AnyModel {
     fn lagrangian<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
         each!(self, s => s.lagrangian(t, q, qd))
     }
-    fn derived_program(&self) -> Option<&crate::tape::EomFunction> {
+    fn derived_program(&self) -> Option<&EomFunction> {
         each!(self, s => s.derived_program())
     }
-    fn taylor_program(&self) -> std::result::Result<&crate::tape::EomFunction, String> {
+    fn taylor_program(&self) -> std::result::Result<&EomFunction, String> {
         each!(self, s => s.taylor_program())
     }
     fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
@@ -530,7 +530,7 @@ impl CompiledModel {
                 "the model has no equations of motion to differentiate".into()
             ));
         };
-        crate::tape::input_matrix(graph, parts, params, inputs, lin)
+        crate::statics::input_matrix(graph, parts, params, inputs, lin)
     }
 
     /// The system at these parameter values.

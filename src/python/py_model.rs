@@ -204,10 +204,10 @@ impl PyModel {
             check_vector("qd", &qd, n)?;
             check_vector("t", &[t], 1)?;
             let program = self.model.program()?;
-            if !(1..=crate::tape::MAX_TAYLOR_ORDER).contains(&order) {
+            if !(1..=crate::taylor::MAX_TAYLOR_ORDER).contains(&order) {
                 return Err(Error::InvalidInput {
                     what: "order",
-                    why: format!("{order} is not in 1..={}", crate::tape::MAX_TAYLOR_ORDER),
+                    why: format!("{order} is not in 1..={}", crate::taylor::MAX_TAYLOR_ORDER),
                 }
                 .into());
             }

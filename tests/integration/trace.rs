@@ -5,7 +5,7 @@
 //! system and the reason.
 
 use lagrangian::integrators::{Method, Options, solve};
-use lagrangian::num_dual::DualNum;
+use lagrangian::num_dual::{DualNum, DualStruct};
 use lagrangian::scenes::registry::{self, Arguments, Scene};
 use lagrangian::scenes::*;
 use lagrangian::trace::{Traced, WithProgram, eom_program, record};
@@ -433,4 +433,75 @@ fn record_folds_numbers_and_shares_nodes() {
         vec![q[0]]
     });
     assert!(nested.is_ok());
+}
+
+/// On numbers known now a `Traced` computes what `f64` computes, bit for bit, for every
+/// function of num-dual's `DualNum` (a fold that differed would trace a different model).
+#[test]
+fn numbers_fold_as_f64_computes() {
+    type F = fn(&f64) -> f64;
+    type T = fn(&Traced) -> Traced;
+    let unary: [(&str, F, T); 30] = [
+        ("recip", |x| x.recip(), |x| x.recip()),
+        ("powi3", |x| DualNum::powi(x, 3), |x| x.powi(3)),
+        ("powi-2", |x| DualNum::powi(x, -2), |x| x.powi(-2)),
+        ("powf", |x| DualNum::powf(x, 1.7), |x| x.powf(1.7)),
+        ("sqrt", |x| DualNum::sqrt(x), |x| x.sqrt()),
+        ("cbrt", |x| DualNum::cbrt(x), |x| x.cbrt()),
+        ("exp", |x| DualNum::exp(x), |x| x.exp()),
+        ("exp2", |x| DualNum::exp2(x), |x| x.exp2()),
+        ("exp_m1", |x| DualNum::exp_m1(x), |x| x.exp_m1()),
+        ("ln", |x| DualNum::ln(x), |x| x.ln()),
+        ("log", |x| DualNum::log(x, 3.0), |x| x.log(3.0)),
+        ("log2", |x| DualNum::log2(x), |x| x.log2()),
+        ("log10", |x| DualNum::log10(x), |x| x.log10()),
+        ("ln_1p", |x| DualNum::ln_1p(x), |x| x.ln_1p()),
+        ("sin", |x| DualNum::sin(x), |x| x.sin()),
+        ("cos", |x| DualNum::cos(x), |x| x.cos()),
+        ("tan", |x| DualNum::tan(x), |x| x.tan()),
+        ("asin", |x| DualNum::asin(x), |x| x.asin()),
+        ("acos", |x| DualNum::acos(x), |x| x.acos()),
+        ("atan", |x| DualNum::atan(x), |x| x.atan()),
+        ("sinh", |x| DualNum::sinh(x), |x| x.sinh()),
+        ("cosh", |x| DualNum::cosh(x), |x| x.cosh()),
+        ("tanh", |x| DualNum::tanh(x), |x| x.tanh()),
+        ("asinh", |x| DualNum::asinh(x), |x| x.asinh()),
+        ("acosh", |x| DualNum::acosh(x), |x| x.acosh()),
+        ("atanh", |x| DualNum::atanh(x), |x| x.atanh()),
+        ("sph_j0", |x| DualNum::sph_j0(x), |x| x.sph_j0()),
+        ("sph_j1", |x| DualNum::sph_j1(x), |x| x.sph_j1()),
+        ("sph_j2", |x| DualNum::sph_j2(x), |x| x.sph_j2()),
+        ("neg", |x| -x, |x| -*x),
+    ];
+    let same = |a: f64, b: f64| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+    for x in [0.3, -0.7, 1.9, 0.0, 12.5, 1e-9] {
+        let t = Traced::from(x);
+        for (name, f, g) in &unary {
+            assert!(
+                same(g(&t).re(), f(&x)),
+                "{name}({x}): {} against {}",
+                g(&t).re(),
+                f(&x)
+            );
+        }
+        let (s, c) = t.sin_cos();
+        assert!(
+            same(s.re(), x.sin()) && same(c.re(), x.cos()),
+            "sin_cos({x})"
+        );
+        for y in [0.4, -2.5, 1e-3] {
+            let u = Traced::from(y);
+            let z = Traced::from(0.125);
+            for (name, a, b) in [
+                ("atan2", DualNum::atan2(&x, y), t.atan2(u)),
+                ("mul_add", DualNum::mul_add(&x, y, 0.125), t.mul_add(u, z)),
+                ("add", x + y, t + u),
+                ("sub", x - y, t - u),
+                ("mul", x * y, t * u),
+                ("div", x / y, t / u),
+            ] {
+                assert!(same(b.re(), a), "{name}({x}, {y}): {} against {a}", b.re());
+            }
+        }
+    }
 }
