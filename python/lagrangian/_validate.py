@@ -4,8 +4,11 @@ model's parts and drawing, an event's arguments, the run options, an ensemble's 
 linearization's inputs, a picture's file name. Each check raises ``TypeError`` or ``ValueError``
 with a message that says what to give instead. Of the run options only the types are checked
 here (:func:`run_options`, for ``simulate``, ``integrator`` and ``simulate_many`` alike); their
-values are checked in Rust, one message each. The expression language checks its own operands
-(``_expr``, below this module) and the report tooling its own plans (``_workprec``)."""
+values are checked in Rust, one message each. What needs a type defined above this module stays
+beside that type: the expression language checks its own operands (``_expr``, below this
+module), ``_events`` that a list of events holds ``Event`` objects, ``_ensemble`` that an executor
+is one, ``_plot`` and ``_solution`` that a solution's arrays fit its drawing, ``_sympy`` the SymPy
+objects it converts, and the report tooling its own plans (``_workprec``)."""
 
 from __future__ import annotations
 
