@@ -42,6 +42,43 @@ pub enum Error {
         got: usize,
     },
 
+    /// The constraints' Jacobian G (∂g/∂q stacked with the velocity rows' ∂(a·q̇ + b)/∂q̇) has
+    /// dependent rows at this state, so the multipliers λ are not unique and the Schur
+    /// complement G M⁻¹ Gᵀ cannot be factored: a constraint is stated twice (or follows from the
+    /// others), or the mechanism is at a dead point (a singular configuration).
+    #[error(
+        "constraints are dependent at t = {t}, q = {q:?}: {row} is a combination of {others:?} \
+         (G = ∂g/∂q has rank below its number of rows, so the reaction forces are not \
+         determined); remove a redundant constraint, or, at a mechanism's dead point, start from \
+         a configuration away from it"
+    )]
+    DependentConstraints {
+        /// Time of the evaluation.
+        t: f64,
+        /// Configuration of the evaluation.
+        q: Vec<f64>,
+        /// The row found dependent (its [`Constraints::name`](crate::Constraints::name)).
+        row: String,
+        /// The earlier rows it combines (their names; every earlier row when the combination
+        /// could not be isolated).
+        others: Vec<String>,
+    },
+
+    /// A velocity constraint a(t, q)·q̇ + b(t, q) = 0 is not linear in q̇ at this state.
+    #[error(
+        "velocity constraint {row} is not linear in q̇ at t = {t} (its second derivative in q̇ \
+         has an entry of {second_derivative:e}): a velocity constraint must read a(t, q)·q̇ + \
+         b(t, q); state a position constraint g(t, q) = 0 instead when one exists"
+    )]
+    NonlinearVelocityConstraint {
+        /// Time of the evaluation.
+        t: f64,
+        /// The row's name ([`Constraints::name`](crate::Constraints::name)).
+        row: String,
+        /// The largest entry of ∂²(a·q̇ + b)/∂q̇² found.
+        second_derivative: f64,
+    },
+
     /// An option or parameter is outside its valid range.
     #[error("invalid {what}: {why}")]
     InvalidInput {

@@ -32,6 +32,7 @@
 //! ```
 
 mod checks;
+mod constrained;
 mod derived;
 mod dynamics;
 mod energies;
@@ -57,7 +58,8 @@ mod tests;
 pub mod trace;
 
 pub use dynamics::{Dynamics, Structure};
-pub use energies::{Dissipation, GeneralizedForces, KineticEnergy, Potential};
+pub use constrained::{ConstrainedAccelerations, ConstraintResiduals, Constrained};
+pub use energies::{Constraints, Dissipation, GeneralizedForces, KineticEnergy, Potential};
 pub use error::{Error, Result};
 pub use integrators::solve_with_interrupt;
 pub use integrators::{Method, Options, Output, Solution, Statistics, solve};

@@ -72,7 +72,9 @@ impl From<Error> for PyErr {
             | Error::SceneArgument { .. }
             | Error::NotTraceable { .. }
             | Error::UnsupportedMethod { .. }
-            | Error::NoStaticEquilibrium { .. } => PyValueError::new_err(msg),
+            | Error::NoStaticEquilibrium { .. }
+            | Error::DependentConstraints { .. }
+            | Error::NonlinearVelocityConstraint { .. } => PyValueError::new_err(msg),
             Error::SingularMassMatrix { .. } => SingularMassMatrixError::new_err(msg),
             Error::NonFinite { .. } => NonFiniteError::new_err(msg),
             Error::StepSizeTooSmall { .. } => StepSizeError::new_err(format!(

@@ -1,0 +1,544 @@
+//! Constrained systems: Lagrange's equations of the first kind, evaluated at a state.
+//!
+//! The seed's §2 starts from N particles under f constraints and §3.1–3.2 rest on constraint
+//! forces R that do no work in a virtual displacement; §3.6 eliminates the rolling constraints
+//! (eq. 45, 49) by hand. [`Constrained`] keeps the constraints as equations instead
+//! ([`Constraints`]: holonomic rows g(t, q) = 0 and velocity rows a(t, q)·q̇ + b(t, q) = 0) and
+//! adds their reactions to eq. 55 through Lagrange multipliers λ:
+//!
+//! M q̈ = f + Gᵀλ,    G q̈ = −γ,
+//!
+//! where f is everything of eq. 55 but M q̈ (Q″ + ∂L/∂q − (∂²L/∂q̇∂q) q̇ − ∂²L/∂q̇∂t − ∂Φ/∂q̇),
+//! G stacks ∂g/∂q and the velocity rows' A = ∂(a·q̇ + b)/∂q̇, and γ is what the constraints'
+//! time derivative along the motion holds besides G q̈:
+//!
+//! - holonomic rows: γ = d²/ds² g(t + s, q + s q̇) at s = 0 (the second derivative of g along
+//!   the motion with q̈ = 0: (∂(G q̇)/∂q) q̇ + 2 (∂G/∂t) q̇ + ∂²g/∂t²), one pass of num-dual's
+//!   second-order [`Dual2`];
+//! - velocity rows: γ = d/ds (a·q̇ + b)(t + s, q + s q̇, q̇) at s = 0, one first-order pass.
+//!
+//! G comes from forward-mode vector duals over chunks of the coordinates, as eq. 55's passes; no
+//! finite differences anywhere. q̈ and λ follow from M's LDLᵀ and the k × k Schur complement
+//! S = G M⁻¹ Gᵀ (LDLᵀ again): with q̈₀ the unconstrained accelerations (M q̈₀ = f, from the
+//! wrapped system's [`Dynamics::accelerations_into`]), S λ = −γ − G q̈₀ and
+//! q̈ = q̈₀ + M⁻¹Gᵀλ. Gᵀλ is the generalized reaction force, the seed's R: G δq = 0 for every
+//! virtual displacement, so its virtual work λ·G δq vanishes, which is why it drops out of
+//! minimal coordinates.
+//!
+//! Sign convention: the reaction is +Gᵀλ on the right-hand side, so λ has the sign of the force
+//! along ∂g/∂q (a rod x² + y² − l² = 0 in tension pulls towards the pivot: λ < 0).
+//!
+//! A rank-deficient G (a constraint stated twice, or a mechanism at a dead point) is
+//! [`Error::DependentConstraints`] naming the rows; a velocity row not linear in q̇ is
+//! [`Error::NonlinearVelocityConstraint`]. A system without constraints is not wrapped and pays
+//! nothing. This is the evaluation at a state; integration without drift comes later.
+
+use crate::checks::{check_state, finite};
+use crate::dynamics::Dynamics;
+use crate::energies::Constraints;
+use crate::eom::factor;
+use crate::error::{Error, Result};
+use crate::linalg::{ldlt_in_place, ldlt_solve};
+use crate::scalar::{Grad, Hyper, grad_const, grad_part, grad_seed, hyper, hyper_mixed};
+use nalgebra::{DMatrix, DVector, SMatrix, SVector};
+use num_dual::{Dual2, Dual64};
+
+/// Directions seeded per pass of the Jacobian G and of the linearity check.
+const CHUNK: usize = 4;
+
+/// Entries of ∂²(a·q̇ + b)/∂q̇² above this fraction of the row's largest |∂(a·q̇ + b)/∂q̇| (or
+/// of 1) make the row nonlinear in q̇ (dual numbers give exact zeros for a linear row).
+const LINEARITY_TOLERANCE: f64 = 1e-12;
+
+/// A [`Dynamics`] system under [`Constraints`]: Lagrange's equations of the first kind at a
+/// state, seed eq. 55 with the reactions of the constraints (seed §2, §3.1: forces R that do no
+/// work in a virtual displacement),
+///
+/// M q̈ = f + Gᵀλ,    G q̈ = −γ,
+///
+/// with f everything of eq. 55 but M q̈, G the constraints' Jacobian
+/// ([`constraint_jacobian`](Self::constraint_jacobian), holonomic rows ∂g/∂q, velocity rows
+/// ∂(a·q̇ + b)/∂q̇) and γ ([`gamma`](Self::gamma)) the rest of the constraints' derivative along
+/// the motion: d²/ds² g(t + s, q + s q̇) and d/ds (a·q̇ + b)(t + s, q + s q̇, q̇) at s = 0, by
+/// dual numbers. q̈ and λ come from M's LDLᵀ and the Schur complement G M⁻¹ Gᵀ; Gᵀλ is the
+/// generalized reaction force. Sign convention: +Gᵀλ on the right-hand side, so λ has the sign
+/// of the reaction along ∂g/∂q.
+///
+/// ```
+/// use lagrangian::{Constrained, Constraints, KineticEnergy, Potential, Scalar, System};
+///
+/// /// A unit point mass in the plane under gravity g = 9.81 (y up).
+/// struct Point;
+/// impl KineticEnergy for Point {
+///     fn kinetic<D: Scalar>(&self, _t: D, _q: &[D], qd: &[D]) -> D {
+///         (qd[0] * qd[0] + qd[1] * qd[1]) * 0.5
+///     }
+/// }
+/// struct Gravity;
+/// impl Potential for Gravity {
+///     fn potential<D: Scalar>(&self, _t: D, q: &[D]) -> D {
+///         q[1] * 9.81
+///     }
+/// }
+/// /// A rod of length 1 from the origin.
+/// struct Rod;
+/// impl Constraints for Rod {
+///     fn holonomic_count(&self) -> usize {
+///         1
+///     }
+///     fn holonomic<D: Scalar>(&self, _t: D, q: &[D], out: &mut [D]) {
+///         out[0] = q[0] * q[0] + q[1] * q[1] - 1.0;
+///     }
+/// }
+///
+/// let pendulum = Constrained::new(System::new(2, Point).with_potential(Gravity), Rod);
+/// // Hanging at rest: no acceleration, and the rod carries the weight.
+/// let at_rest = pendulum.evaluate(0.0, &[0.0, -1.0], &[0.0, 0.0])?;
+/// assert!(at_rest.accelerations.norm() < 1e-14);
+/// assert!((at_rest.reaction_forces[1] - 9.81).abs() < 1e-12);
+/// # Ok::<(), lagrangian::Error>(())
+/// ```
+#[derive(Debug, Clone)]
+pub struct Constrained<S, C> {
+    system: S,
+    constraints: C,
+}
+
+/// q̈, λ and the reactions Gᵀλ at one state ([`Constrained::evaluate`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ConstrainedAccelerations {
+    /// q̈ (length n).
+    pub accelerations: DVector<f64>,
+    /// λ, one per row, holonomic rows first (length k).
+    pub multipliers: DVector<f64>,
+    /// The generalized reaction forces Gᵀλ (length n), the seed's R in generalized
+    /// coordinates.
+    pub reaction_forces: DVector<f64>,
+}
+
+/// How far a state is from satisfying the constraints ([`Constrained::residuals`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ConstraintResiduals {
+    /// g(t, q), one per holonomic row.
+    pub position: DVector<f64>,
+    /// One per row, holonomic rows first: ġ = G q̇ + ∂g/∂t, then a·q̇ + b.
+    pub velocity: DVector<f64>,
+}
+
+impl ConstraintResiduals {
+    /// The largest absolute residual, positions and velocities together (0 without rows).
+    pub fn max_abs(&self) -> f64 {
+        self.position
+            .iter()
+            .chain(self.velocity.iter())
+            .fold(0.0, |m, r| m.max(r.abs()))
+    }
+}
+
+impl<S: Dynamics, C: Constraints> Constrained<S, C> {
+    /// `system` under `constraints`.
+    pub fn new(system: S, constraints: C) -> Self {
+        Self {
+            system,
+            constraints,
+        }
+    }
+
+    /// The wrapped system.
+    pub fn system(&self) -> &S {
+        &self.system
+    }
+
+    /// The constraints.
+    pub fn constraints(&self) -> &C {
+        &self.constraints
+    }
+
+    /// Number of generalized coordinates n.
+    pub fn dof(&self) -> usize {
+        self.system.dof()
+    }
+
+    /// Number of constraint rows k (holonomic and velocity).
+    pub fn rows(&self) -> usize {
+        self.holonomic_rows() + self.velocity_rows()
+    }
+
+    fn holonomic_rows(&self) -> usize {
+        if self.constraints.is_present() {
+            self.constraints.holonomic_count()
+        } else {
+            0
+        }
+    }
+
+    fn velocity_rows(&self) -> usize {
+        if self.constraints.is_present() {
+            self.constraints.velocity_count()
+        } else {
+            0
+        }
+    }
+
+    /// The time seeded for a derivative along the motion: dt/ds = 1 when the constraints depend
+    /// on t, else a constant.
+    fn time_rate(&self) -> f64 {
+        if self.constraints.depends_on_time() {
+            1.0
+        } else {
+            0.0
+        }
+    }
+
+    /// G (k × n): ∂g/∂q for the holonomic rows, then ∂(a·q̇ + b)/∂q̇ for the velocity rows.
+    ///
+    /// # Errors
+    /// [`Error::DimensionMismatch`] or [`Error::NonFinite`] for a bad state,
+    /// [`Error::NonlinearVelocityConstraint`] for a velocity row not linear in q̇,
+    /// [`Error::NonFinite`] when G is not finite.
+    pub fn constraint_jacobian(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<DMatrix<f64>> {
+        check_state(self.dof(), t, q, Some(qd))?;
+        let (k, n) = (self.rows(), self.dof());
+        let mut g = vec![0.0; k * n];
+        self.jacobian_into(t, q, qd, &mut g);
+        finite(&g, "constraint Jacobian", t)?;
+        self.check_linear(t, q, qd, &g)?;
+        Ok(DMatrix::from_row_slice(k, n, &g))
+    }
+
+    /// γ (length k): G q̈ + γ is the constraints' second time derivative (holonomic rows) or
+    /// first (velocity rows) along the motion, so that the constrained accelerations satisfy
+    /// G q̈ = −γ.
+    ///
+    /// # Errors
+    /// As [`constraint_jacobian`](Self::constraint_jacobian), and [`Error::NonFinite`] when γ is
+    /// not finite.
+    pub fn gamma(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<DVector<f64>> {
+        check_state(self.dof(), t, q, Some(qd))?;
+        let mut gamma = vec![0.0; self.rows()];
+        self.gamma_into(t, q, qd, &mut gamma);
+        finite(&gamma, "constraint bias γ", t)?;
+        Ok(DVector::from_vec(gamma))
+    }
+
+    /// The residuals at (t, q, q̇): g, and ġ = G q̇ + ∂g/∂t with a·q̇ + b (a consistent state has
+    /// both zero).
+    ///
+    /// # Errors
+    /// [`Error::DimensionMismatch`] or [`Error::NonFinite`] for a bad state or a residual that
+    /// is not finite.
+    pub fn residuals(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<ConstraintResiduals> {
+        check_state(self.dof(), t, q, Some(qd))?;
+        let (kh, kv) = (self.holonomic_rows(), self.velocity_rows());
+        let mut position = vec![0.0; kh];
+        let mut velocity = vec![0.0; kh + kv];
+        if kh > 0 {
+            self.constraints.holonomic(t, q, &mut position);
+            let td = Dual64::new(t, self.time_rate());
+            let qq: Vec<Dual64> = q.iter().zip(qd).map(|(&x, &v)| Dual64::new(x, v)).collect();
+            let mut out = vec![Dual64::from(0.0); kh];
+            self.constraints.holonomic(td, &qq, &mut out);
+            for (r, o) in velocity.iter_mut().zip(&out) {
+                *r = o.eps;
+            }
+        }
+        if kv > 0 {
+            self.constraints.velocity(t, q, qd, &mut velocity[kh..]);
+        }
+        finite(&position, "constraint residual", t)?;
+        finite(&velocity, "constraint velocity residual", t)?;
+        Ok(ConstraintResiduals {
+            position: DVector::from_vec(position),
+            velocity: DVector::from_vec(velocity),
+        })
+    }
+
+    /// q̈, λ and the reactions Gᵀλ at (t, q, q̇) (module docs).
+    ///
+    /// # Errors
+    /// As [`evaluate_into`](Self::evaluate_into).
+    pub fn evaluate(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<ConstrainedAccelerations> {
+        let (n, k) = (self.dof(), self.rows());
+        let mut qdd = DVector::zeros(n);
+        let mut lambda = DVector::zeros(k);
+        let mut reactions = DVector::zeros(n);
+        self.evaluate_into(
+            t,
+            q,
+            qd,
+            qdd.as_mut_slice(),
+            lambda.as_mut_slice(),
+            reactions.as_mut_slice(),
+        )?;
+        Ok(ConstrainedAccelerations {
+            accelerations: qdd,
+            multipliers: lambda,
+            reaction_forces: reactions,
+        })
+    }
+
+    /// The constrained accelerations q̈ alone.
+    ///
+    /// # Errors
+    /// As [`evaluate_into`](Self::evaluate_into).
+    pub fn accelerations(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<DVector<f64>> {
+        self.evaluate(t, q, qd).map(|e| e.accelerations)
+    }
+
+    /// [`evaluate`](Self::evaluate) into caller-owned slices: `qdd` and `reactions` of length n,
+    /// `multipliers` of length k.
+    ///
+    /// # Errors
+    /// [`Error::DimensionMismatch`] for a slice of the wrong length; [`Error::NonFinite`] for a
+    /// non-finite state, G, γ or result; [`Error::NonlinearVelocityConstraint`];
+    /// [`Error::SingularMassMatrix`] when M cannot be factored; [`Error::DependentConstraints`]
+    /// when G M⁻¹ Gᵀ cannot (G rank-deficient).
+    pub fn evaluate_into(
+        &self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        qdd: &mut [f64],
+        multipliers: &mut [f64],
+        reactions: &mut [f64],
+    ) -> Result<()> {
+        let (n, k) = (self.dof(), self.rows());
+        check_state(n, t, q, Some(qd))?;
+        for (what, expected, got) in [
+            ("accelerations", n, qdd.len()),
+            ("multipliers", k, multipliers.len()),
+            ("reaction forces", n, reactions.len()),
+        ] {
+            if got != expected {
+                return Err(Error::DimensionMismatch {
+                    what,
+                    expected,
+                    got,
+                });
+            }
+        }
+        // The unconstrained accelerations q̈₀ (M q̈₀ = f, eq. 55).
+        self.system.accelerations_into(t, q, qd, qdd)?;
+        reactions.fill(0.0);
+        if k == 0 {
+            return Ok(());
+        }
+        let mut g = vec![0.0; k * n];
+        self.jacobian_into(t, q, qd, &mut g);
+        finite(&g, "constraint Jacobian", t)?;
+        self.check_linear(t, q, qd, &g)?;
+        let mut gamma = vec![0.0; k];
+        self.gamma_into(t, q, qd, &mut gamma);
+        finite(&gamma, "constraint bias γ", t)?;
+
+        let mut m = vec![0.0; n * n];
+        self.system.mass_matrix_into(t, q, qd, &mut m);
+        finite(&m, "mass matrix", t)?;
+        factor(&mut m, n, t, q)?;
+        // X = M⁻¹Gᵀ, row i = M⁻¹ Gᵢᵀ.
+        let mut x = g.clone();
+        for row in x.chunks_exact_mut(n) {
+            ldlt_solve(&m, n, row);
+        }
+        // S = G M⁻¹ Gᵀ and its right-hand side −γ − G q̈₀.
+        let mut s = vec![0.0; k * k];
+        for i in 0..k {
+            for j in 0..k {
+                s[i * k + j] = dot(&g[i * n..(i + 1) * n], &x[j * n..(j + 1) * n]);
+            }
+            multipliers[i] = -gamma[i] - dot(&g[i * n..(i + 1) * n], qdd);
+        }
+        let mut sf = s.clone();
+        if ldlt_in_place(&mut sf, k).is_err() {
+            return Err(self.dependent(&s, t, q));
+        }
+        ldlt_solve(&sf, k, multipliers);
+        finite(multipliers, "constraint multipliers", t)?;
+        for (i, &l) in multipliers.iter().enumerate() {
+            for j in 0..n {
+                reactions[j] += g[i * n + j] * l;
+                qdd[j] += x[i * n + j] * l;
+            }
+        }
+        finite(reactions, "reaction forces", t)?;
+        finite(qdd, "accelerations", t)
+    }
+
+    /// G into `g` (row-major k × n), unchecked: forward-mode duals over chunks of q (holonomic
+    /// rows) and of q̇ (velocity rows).
+    fn jacobian_into(&self, t: f64, q: &[f64], qd: &[f64], g: &mut [f64]) {
+        let (kh, kv, n) = (self.holonomic_rows(), self.velocity_rows(), self.dof());
+        let tc = grad_const::<f64, CHUNK>(t);
+        for start in (0..n).step_by(CHUNK) {
+            let seeded = |x: &[f64]| -> Vec<Grad<f64, CHUNK>> {
+                x.iter()
+                    .enumerate()
+                    .map(|(j, &v)| {
+                        if (start..start + CHUNK).contains(&j) {
+                            grad_seed(v, j - start)
+                        } else {
+                            grad_const(v)
+                        }
+                    })
+                    .collect()
+            };
+            let width = CHUNK.min(n - start);
+            if kh > 0 {
+                let qq = seeded(q);
+                let mut out = vec![tc; kh];
+                self.constraints.holonomic(tc, &qq, &mut out);
+                for (i, o) in out.iter().enumerate() {
+                    for c in 0..width {
+                        g[i * n + start + c] = grad_part(o, c);
+                    }
+                }
+            }
+            if kv > 0 {
+                let qq: Vec<_> = q.iter().map(|&v| grad_const(v)).collect();
+                let vv = seeded(qd);
+                let mut out = vec![tc; kv];
+                self.constraints.velocity(tc, &qq, &vv, &mut out);
+                for (i, o) in out.iter().enumerate() {
+                    for c in 0..width {
+                        g[(kh + i) * n + start + c] = grad_part(o, c);
+                    }
+                }
+            }
+        }
+    }
+
+    /// γ into `gamma` (length k), unchecked: one second-order pass along (t + s, q + s q̇) for
+    /// the holonomic rows, one first-order pass for the velocity rows.
+    fn gamma_into(&self, t: f64, q: &[f64], qd: &[f64], gamma: &mut [f64]) {
+        let (kh, kv) = (self.holonomic_rows(), self.velocity_rows());
+        let rate = self.time_rate();
+        if kh > 0 {
+            let td = Dual2::new(t, rate, 0.0);
+            let qq: Vec<Dual2<f64>> = q
+                .iter()
+                .zip(qd)
+                .map(|(&x, &v)| Dual2::new(x, v, 0.0))
+                .collect();
+            let mut out = vec![Dual2::from(0.0); kh];
+            self.constraints.holonomic(td, &qq, &mut out);
+            for (y, o) in gamma.iter_mut().zip(&out) {
+                *y = o.v2;
+            }
+        }
+        if kv > 0 {
+            let td = Dual64::new(t, rate);
+            let qq: Vec<Dual64> = q.iter().zip(qd).map(|(&x, &v)| Dual64::new(x, v)).collect();
+            let vv: Vec<Dual64> = qd.iter().map(|&v| Dual64::from(v)).collect();
+            let mut out = vec![Dual64::from(0.0); kv];
+            self.constraints.velocity(td, &qq, &vv, &mut out);
+            for (y, o) in gamma[kh..].iter_mut().zip(&out) {
+                *y = o.eps;
+            }
+        }
+    }
+
+    /// Refuse a velocity row whose Hessian in q̇ is not zero at the state: hyper-dual passes over
+    /// pairs of chunks of q̇ (the upper block triangle). `g` is G, for the rows' scales.
+    fn check_linear(&self, t: f64, q: &[f64], qd: &[f64], g: &[f64]) -> Result<()> {
+        let (kh, kv, n) = (self.holonomic_rows(), self.velocity_rows(), self.dof());
+        if kv == 0 {
+            return Ok(());
+        }
+        type H = Hyper<f64, CHUNK, CHUNK>;
+        let tc: H = hyper(t, None, None);
+        let qq: Vec<H> = q.iter().map(|&v| hyper(v, None, None)).collect();
+        let mut worst = vec![0.0_f64; kv];
+        for a in (0..n).step_by(CHUNK) {
+            for b in (a..n).step_by(CHUNK) {
+                let vv: Vec<H> = qd
+                    .iter()
+                    .enumerate()
+                    .map(|(j, &v)| {
+                        let e1 = (a..a + CHUNK).contains(&j).then(|| {
+                            let mut e = SVector::<f64, CHUNK>::zeros();
+                            e[j - a] = 1.0;
+                            e
+                        });
+                        let e2 = (b..b + CHUNK).contains(&j).then(|| {
+                            let mut e = SMatrix::<f64, 1, CHUNK>::zeros();
+                            e[j - b] = 1.0;
+                            e
+                        });
+                        hyper(v, e1, e2)
+                    })
+                    .collect();
+                let mut out = vec![tc; kv];
+                self.constraints.velocity(tc, &qq, &vv, &mut out);
+                for (w, o) in worst.iter_mut().zip(&out) {
+                    for i in 0..CHUNK.min(n - a) {
+                        for j in 0..CHUNK.min(n - b) {
+                            let h = hyper_mixed(o, i, j);
+                            // A NaN is kept as the worst, so it is refused too.
+                            if h.is_nan() || h.abs() > *w {
+                                *w = if h.is_nan() { f64::NAN } else { h.abs() };
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        for (r, &w) in worst.iter().enumerate() {
+            let row = kh + r;
+            let scale = g[row * n..(row + 1) * n]
+                .iter()
+                .fold(1.0_f64, |m, x| m.max(x.abs()));
+            if w.is_nan() || w > LINEARITY_TOLERANCE * scale {
+                return Err(Error::NonlinearVelocityConstraint {
+                    t,
+                    row: self.constraints.name(row),
+                    second_derivative: w,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The typed error for a Schur complement `s` (k × k) that LDLᵀ refused: the first row whose
+    /// leading block fails is dependent on earlier ones, with the coefficients of the
+    /// combination from the block before it.
+    fn dependent(&self, s: &[f64], t: f64, q: &[f64]) -> Error {
+        let k = self.rows();
+        let name = |i: usize| self.constraints.name(i);
+        let lead = |j: usize| -> Vec<f64> {
+            (0..j)
+                .flat_map(|r| s[r * k..r * k + j].iter().copied())
+                .collect()
+        };
+        let failing = (1..=k).find(|&j| ldlt_in_place(&mut lead(j), j).is_err());
+        let (row, others) = match failing {
+            Some(j) => {
+                let row = j - 1;
+                let mut f = lead(row);
+                let others = if row == 0 || ldlt_in_place(&mut f, row).is_err() {
+                    Vec::new()
+                } else {
+                    // S₀ c = S[0..row, row]: Gᵣ ≈ Σ cᵢ Gᵢ in the M⁻¹ metric.
+                    let mut c: Vec<f64> = (0..row).map(|i| s[i * k + row]).collect();
+                    ldlt_solve(&f, row, &mut c);
+                    let big = c.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+                    (0..row)
+                        .filter(|&i| c[i].abs() > 1e-8 * big)
+                        .map(name)
+                        .collect()
+                };
+                (row, others)
+            }
+            None => (k - 1, (0..k - 1).map(name).collect()),
+        };
+        Error::DependentConstraints {
+            t,
+            q: q.to_vec(),
+            row: name(row),
+            others,
+        }
+    }
+}
+
+fn dot(x: &[f64], y: &[f64]) -> f64 {
+    x.iter().zip(y).map(|(a, b)| a * b).sum()
+}
