@@ -18,7 +18,8 @@ Module = Tuple[str, ...]
 # Bottom to top: a room may name only rooms at or below its own position.
 LAYERS = [
     "error", "scalar", "checks", "linalg", "nonlinear", "energies", "eom", "expr", "program",
-    "native", "taylor", "derived", "dynamics", "routes", "tape", "integrators", "statics", "trace",
+    "native", "taylor", "derived", "dynamics", "routes", "tape", "constrained",
+    "integrators", "statics", "trace",
     "scenes", "python", "tests",
 ]
 
