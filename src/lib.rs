@@ -57,8 +57,8 @@ mod taylor;
 mod tests;
 pub mod trace;
 
+pub use constrained::{Constrained, ConstrainedAccelerations, ConstraintResiduals};
 pub use dynamics::{Dynamics, Structure};
-pub use constrained::{ConstrainedAccelerations, ConstraintResiduals, Constrained};
 pub use energies::{Constraints, Dissipation, GeneralizedForces, KineticEnergy, Potential};
 pub use error::{Error, Result};
 pub use integrators::solve_with_interrupt;

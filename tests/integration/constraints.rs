@@ -130,11 +130,8 @@ fn close(a: f64, b: f64, tol: f64) -> bool {
 }
 
 fn point(m: f64, gravity: bool) -> System<Diagonal, Linear> {
-    System::new(2, Diagonal(vec![m, m])).with_potential(Linear(vec![0.0, if gravity {
-        m * G
-    } else {
-        0.0
-    }]))
+    System::new(2, Diagonal(vec![m, m]))
+        .with_potential(Linear(vec![0.0, if gravity { m * G } else { 0.0 }]))
 }
 
 #[test]
@@ -164,7 +161,9 @@ fn cartesian_pendulum_matches_minimal_coordinates_and_rod_tension() {
             assert!(close(e.reaction_forces[i], -tension * q[i] / l, 1e-13));
         }
         // The reaction does no work on the motion (R·q̇ = 0) and the state is consistent.
-        let power = e.reaction_forces.dot(&nalgebra::DVector::from_row_slice(&qd));
+        let power = e
+            .reaction_forces
+            .dot(&nalgebra::DVector::from_row_slice(&qd));
         assert!(power.abs() < 1e-12 * (1.0 + tension.abs() * v.abs()));
         assert!(pendulum.residuals(0.3, &q, &qd).unwrap().max_abs() < 1e-14);
     }
@@ -234,7 +233,11 @@ fn knife_edge_side_force() {
         let want = [(f + lambda * s) / m, -lambda * c / m, 0.0];
         for i in 0..3 {
             assert!(close(e.accelerations[i], want[i], 1e-14), "{e:?}");
-            assert!(close(e.reaction_forces[i], [lambda * s, -lambda * c, 0.0][i], 1e-14));
+            assert!(close(
+                e.reaction_forces[i],
+                [lambda * s, -lambda * c, 0.0][i],
+                1e-14
+            ));
         }
         // No force: uniform circular motion, centripetal side force of size m v ω along the
         // normal (−sin φ, cos φ) turned towards the centre.
@@ -326,7 +329,10 @@ fn jacobian_and_gamma_against_hand_derivations() {
             for j in 0..2 {
                 assert!(close(g[(i, j)], want_g[i][j], 1e-14), "G {g} row {i}");
             }
-            assert!(close(gamma[i], want_gamma[i], 1e-13), "γ {gamma} {want_gamma:?}");
+            assert!(
+                close(gamma[i], want_gamma[i], 1e-13),
+                "γ {gamma} {want_gamma:?}"
+            );
         }
     }
 }
@@ -363,7 +369,10 @@ fn many_coordinates_cross_the_chunks() {
         assert!(close(*a, push / total, 1e-14), "{}", e.accelerations);
     }
     let g = chain.constraint_jacobian(0.0, &q, &[0.5; 9]).unwrap();
-    assert_eq!((g[(3, 3)], g[(3, 4)], g[(4, 4)], g[(4, 5)]), (-1.0, 1.0, -1.0, 1.0));
+    assert_eq!(
+        (g[(3, 3)], g[(3, 4)], g[(4, 4)], g[(4, 5)]),
+        (-1.0, 1.0, -1.0, 1.0)
+    );
 }
 
 #[test]
@@ -403,7 +412,9 @@ fn a_dead_point_is_a_typed_error() {
     assert!(close(e.reaction_forces[1], G, 1e-14));
     // A row whose gradient vanishes (x² + y² − 0 at the origin) is dependent on nothing.
     let degenerate = Constrained::new(point(1.0, true), holonomic(&[Row::Circle(0.0)]));
-    let err = degenerate.evaluate(0.0, &[0.0, 0.0], &[0.0, 0.0]).unwrap_err();
+    let err = degenerate
+        .evaluate(0.0, &[0.0, 0.0], &[0.0, 0.0])
+        .unwrap_err();
     assert!(
         matches!(&err, Error::DependentConstraints { row, others, .. }
             if row == "row 0" && others.is_empty()),
@@ -420,7 +431,9 @@ fn a_velocity_constraint_quadratic_in_the_velocities_is_refused() {
             velocity: vec![VRow::Knife, VRow::Speed],
         },
     );
-    let err = c.evaluate(0.0, &[0.6, 0.8, 0.1], &[0.0, 0.0, 0.0]).unwrap_err();
+    let err = c
+        .evaluate(0.0, &[0.6, 0.8, 0.1], &[0.0, 0.0, 0.0])
+        .unwrap_err();
     match &err {
         Error::NonlinearVelocityConstraint {
             row,
@@ -471,7 +484,8 @@ fn wrong_lengths_and_bad_values_are_typed_errors() {
         c.evaluate(f64::NAN, &q, &qd),
         Err(Error::NonFinite { .. })
     ));
-    c.evaluate_into(0.0, &q, &qd, &mut a, &mut l, &mut r).unwrap();
+    c.evaluate_into(0.0, &q, &qd, &mut a, &mut l, &mut r)
+        .unwrap();
     assert!(a.iter().chain(&l).chain(&r).all(|v| v.is_finite()));
     // A massless coordinate is the mass matrix's typed error, not a NaN.
     let massless = Constrained::new(
