@@ -63,7 +63,8 @@ pub trait Constraints {
     /// derivative in q̇ is not zero ([`Error::NonlinearVelocityConstraint`](crate::Error)).
     fn velocity<D: Scalar>(&self, _t: D, _q: &[D], _qd: &[D], _out: &mut [D]) {}
 
-    /// Whether any row depends on `t` explicitly (a moving, rheonomic constraint).
+    /// Whether any row depends on `t` explicitly (a moving, rheonomic constraint). `false` lets
+    /// the derivative passes hold t constant, so a row that does read t must keep the default.
     fn depends_on_time(&self) -> bool {
         true
     }
