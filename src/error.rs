@@ -79,6 +79,42 @@ pub enum Error {
         second_derivative: f64,
     },
 
+    /// A state does not satisfy the constraints: g(t, q) ≠ 0 (position level) or
+    /// ġ = G q̇ + ∂g/∂t, a·q̇ + b ≠ 0 (velocity level) beyond the tolerance.
+    #[error(
+        "inconsistent state at t = {t}: {constraint} is violated at the {level} level (residual \
+         {residual:e}); call Constrained::project (model.project in Python) for the nearest \
+         consistent state"
+    )]
+    InconsistentState {
+        /// Time of the state.
+        t: f64,
+        /// The worst row's name ([`Constraints::name`](crate::Constraints::name)).
+        constraint: String,
+        /// "position" (g) or "velocity" (ġ, a·q̇ + b).
+        level: &'static str,
+        /// The row's residual.
+        residual: f64,
+    },
+
+    /// The projection of a state onto the constraints (Gauss–Newton for the positions) did not
+    /// converge within its iterations.
+    #[error(
+        "projection onto the constraints failed at t = {t} after {iterations} iterations: \
+         {constraint} keeps a residual of {residual:e}; start closer to a configuration that \
+         satisfies it, or check that it has a real solution near q"
+    )]
+    ProjectionFailed {
+        /// Time of the state.
+        t: f64,
+        /// The worst row's name ([`Constraints::name`](crate::Constraints::name)).
+        constraint: String,
+        /// The row's last residual.
+        residual: f64,
+        /// Iterations performed.
+        iterations: usize,
+    },
+
     /// An option or parameter is outside its valid range.
     #[error("invalid {what}: {why}")]
     InvalidInput {

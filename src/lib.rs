@@ -57,7 +57,9 @@ mod taylor;
 mod tests;
 pub mod trace;
 
-pub use constrained::{Constrained, ConstrainedAccelerations, ConstraintResiduals};
+pub use constrained::{
+    Constrained, ConstrainedAccelerations, ConstraintResiduals, PROJECTION_TOLERANCE,
+};
 pub use dynamics::{Dynamics, Structure};
 pub use energies::{Constraints, Dissipation, GeneralizedForces, KineticEnergy, Potential};
 pub use error::{Error, Result};

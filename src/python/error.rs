@@ -75,6 +75,8 @@ impl From<Error> for PyErr {
             | Error::NoStaticEquilibrium { .. }
             | Error::DependentConstraints { .. }
             | Error::NonlinearVelocityConstraint { .. } => PyValueError::new_err(msg),
+            Error::InconsistentState { .. } => PyValueError::new_err(msg),
+            Error::ProjectionFailed { .. } => PyValueError::new_err(msg),
             Error::SingularMassMatrix { .. } => SingularMassMatrixError::new_err(msg),
             Error::NonFinite { .. } => NonFiniteError::new_err(msg),
             Error::StepSizeTooSmall { .. } => StepSizeError::new_err(format!(

@@ -3,7 +3,8 @@
 
 use crate::common::Rng;
 use lagrangian::{
-    Constrained, Constraints, Error, GeneralizedForces, KineticEnergy, Potential, Scalar, System,
+    Constrained, Constraints, Error, GeneralizedForces, KineticEnergy, PROJECTION_TOLERANCE,
+    Potential, Scalar, System,
 };
 
 const G: f64 = 9.81;
@@ -55,6 +56,8 @@ enum Row {
     Driven,
     /// q₀² q₁ + sin(q₀ q₁ t) (for the AD checks).
     Mixed,
+    /// x² + 1 (no real solution).
+    Hopeless,
 }
 
 impl Row {
@@ -66,6 +69,7 @@ impl Row {
             Row::Wire(w) => -q[0] * (t * w).sin() + q[1] * (t * w).cos(),
             Row::Driven => q[0] - t.sin(),
             Row::Mixed => q[0] * q[0] * q[1] + (q[0] * q[1] * t).sin(),
+            Row::Hopeless => q[0] * q[0] + 1.0,
         }
     }
 }
@@ -510,4 +514,239 @@ fn no_constraints_is_the_wrapped_system() {
     assert_eq!(e.multipliers.len(), 0);
     assert_eq!(e.reaction_forces.norm(), 0.0);
     assert_eq!(c.residuals(0.0, &q, &qd).unwrap().max_abs(), 0.0);
+}
+
+// Consistent states (issue 41, item 5): `project` and `check_consistent`.
+
+#[test]
+fn a_pendulum_state_off_the_circle_projects_back_radially() {
+    let (m, l) = (1.7, 0.8);
+    let pendulum = Constrained::new(point(m, true), holonomic(&[Row::Circle(l)]));
+    let mut rng = Rng(41);
+    for _ in 0..20 {
+        let a = rng.uniform(-3.0, 3.0);
+        let (c, s) = (a.cos(), a.sin());
+        let stretch = 1.0 + rng.uniform(-0.05, 0.05);
+        let q0 = [l * stretch * c, l * stretch * s];
+        // Tangential speed w, radial speed u.
+        let (w, u) = (rng.uniform(-2.0, 2.0), rng.uniform(-1.0, 1.0));
+        let qd0 = [-w * s + u * c, w * c + u * s];
+        let (q, qd) = pendulum.project(0.0, &q0, &qd0, None).unwrap();
+        assert!((q[0].hypot(q[1]) - l).abs() < 1e-14, "{q:?}");
+        assert!((qd[0] * q[0] + qd[1] * q[1]).abs() < 1e-14);
+        // Equal masses: M⁻¹Gᵀ is radial, so the correction is along q0.
+        assert!((q[0] * q0[1] - q[1] * q0[0]).abs() < 1e-15);
+        assert!(q[0] * q0[0] + q[1] * q0[1] > 0.0);
+        // The tangential speed is kept.
+        assert!(close(-qd[0] * s + qd[1] * c, w, 1e-14));
+        pendulum.check_consistent(0.0, &q, &qd, None).unwrap();
+    }
+}
+
+#[test]
+fn a_consistent_state_is_left_unchanged_and_passes() {
+    let (m, l) = (1.7, 0.8);
+    let pendulum = Constrained::new(point(m, true), holonomic(&[Row::Circle(l)]));
+    let a = 0.3_f64;
+    let q0 = [l * a.cos(), l * a.sin()];
+    let qd0 = [-1.1 * a.sin(), 1.1 * a.cos()];
+    let (q, qd) = pendulum.project(0.0, &q0, &qd0, None).unwrap();
+    assert_eq!(q, q0);
+    assert_eq!(qd, qd0);
+    pendulum.check_consistent(0.0, &q0, &qd0, None).unwrap();
+    pendulum
+        .check_consistent(0.0, &q0, &qd0, Some(PROJECTION_TOLERANCE))
+        .unwrap();
+    // Off the circle: refused at the position level, naming the row.
+    match pendulum.check_consistent(0.0, &[q0[0] * 1.001, q0[1] * 1.001], &qd0, None) {
+        Err(Error::InconsistentState {
+            constraint,
+            level,
+            residual,
+            ..
+        }) => {
+            assert_eq!(constraint, "row 0");
+            assert_eq!(level, "position");
+            assert!(close(residual, l * l * (1.001_f64.powi(2) - 1.0), 1e-12));
+        }
+        other => panic!("{other:?}"),
+    }
+    // On the circle with a radial velocity: refused at the velocity level.
+    let radial = [0.5 * a.cos(), 0.5 * a.sin()];
+    match pendulum.check_consistent(0.0, &q0, &radial, None) {
+        Err(e @ Error::InconsistentState { .. }) => {
+            let Error::InconsistentState {
+                level, residual, ..
+            } = &e
+            else {
+                unreachable!()
+            };
+            assert_eq!(*level, "velocity");
+            assert!(close(*residual, 2.0 * l * 0.5, 1e-14));
+            assert!(e.to_string().contains("project"), "{e}");
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn velocity_rows_project_velocities_only() {
+    // Knife edge: sin φ ẋ − cos φ ẏ = 0; the positions are free.
+    let (m, inertia) = (1.3, 0.2);
+    let knife = Constrained::new(
+        System::new(3, Diagonal(vec![m, m, inertia])),
+        Rows {
+            holonomic: Vec::new(),
+            velocity: vec![VRow::Knife],
+        },
+    );
+    let mut rng = Rng(11);
+    for _ in 0..20 {
+        let q0 = [
+            rng.uniform(-1.0, 1.0),
+            rng.uniform(-1.0, 1.0),
+            rng.uniform(-3.0, 3.0),
+        ];
+        let qd0 = [
+            rng.uniform(-2.0, 2.0),
+            rng.uniform(-2.0, 2.0),
+            rng.uniform(-2.0, 2.0),
+        ];
+        let (q, qd) = knife.project(0.0, &q0, &qd0, None).unwrap();
+        assert_eq!(q, q0);
+        let (s, c) = q0[2].sin_cos();
+        // The sideways speed is removed, the speed along the blade and the turning rate kept.
+        assert!((s * qd[0] - c * qd[1]).abs() < 1e-15);
+        assert!(close(c * qd[0] + s * qd[1], c * qd0[0] + s * qd0[1], 1e-14));
+        assert_eq!(qd[2], qd0[2]);
+        knife.check_consistent(0.0, &q, &qd, None).unwrap();
+    }
+    // Rolling cylinder (x = rθ): ẋ − r θ̇ = 0, corrected in the metric diag(m, J).
+    let (m, r) = (2.0, 0.3);
+    let j = 0.5 * m * r * r;
+    let rolling = Constrained::new(
+        System::new(2, Diagonal(vec![m, j])),
+        holonomic(&[Row::Rolling(r)]),
+    );
+    let (q, qd) = rolling
+        .project(0.0, &[0.6, 2.0], &[1.0, 0.0], None)
+        .unwrap();
+    assert!((q[0] - r * q[1]).abs() < 1e-15);
+    assert!((qd[0] - r * qd[1]).abs() < 1e-15);
+    // Momentum-like balance: the correction is M⁻¹Gᵀμ with G = (1, −r), so
+    // m Δẋ / 1 = J Δθ̇ / (−r).
+    assert!(close(m * (qd[0] - 1.0), -j * qd[1] / r, 1e-14));
+}
+
+#[test]
+fn a_moving_constraint_uses_its_time_derivative() {
+    // x − sin t = 0: x = sin t, ẋ = cos t; y is free and kept.
+    let driven = Constrained::new(point(1.0, true), holonomic(&[Row::Driven]));
+    let t = 0.7_f64;
+    let (q, qd) = driven.project(t, &[0.5, 0.3], &[0.0, 0.2], None).unwrap();
+    assert!((q[0] - t.sin()).abs() < 1e-15);
+    assert_eq!(q[1], 0.3);
+    assert!((qd[0] - t.cos()).abs() < 1e-15);
+    assert_eq!(qd[1], 0.2);
+    driven.check_consistent(t, &q, &qd, None).unwrap();
+    // At rest on the moving point is inconsistent at the velocity level.
+    assert!(matches!(
+        driven.check_consistent(t, &q, &[0.0, 0.2], None),
+        Err(Error::InconsistentState {
+            level: "velocity",
+            ..
+        })
+    ));
+}
+
+#[test]
+fn the_projection_is_m_orthogonal_with_unequal_masses() {
+    let l = 1.3;
+    let masses = [1.0, 4.0];
+    let system = System::new(2, Diagonal(masses.to_vec())).with_potential(Linear(vec![0.0, 0.0]));
+    let pendulum = Constrained::new(system, holonomic(&[Row::Circle(l)]));
+    let mut rng = Rng(5);
+    for _ in 0..20 {
+        let a = rng.uniform(-3.0, 3.0);
+        let offset = 1e-4 * rng.uniform(-1.0, 1.0);
+        let q0 = [(l + offset) * a.cos(), (l + offset) * a.sin()];
+        let qd0 = [rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0)];
+        let (q, qd) = pendulum.project(0.0, &q0, &qd0, None).unwrap();
+        assert!((q[0].hypot(q[1]) - l).abs() < 1e-14);
+        // Tangent at the projected point.
+        let tangent = [-q[1], q[0]];
+        let m_dot = |d: [f64; 2]| masses[0] * d[0] * tangent[0] + masses[1] * d[1] * tangent[1];
+        let dq = [q[0] - q0[0], q[1] - q0[1]];
+        let size = dq[0].hypot(dq[1]) * masses[1] * l;
+        // Gauss–Newton: M-orthogonal up to O(|Δq|²).
+        assert!(
+            m_dot(dq).abs() <= 10.0 * size * dq[0].hypot(dq[1]) / l + 1e-15,
+            "{dq:?}"
+        );
+        // The velocity correction is M-orthogonal to round-off (G fixed at the projected q).
+        let dv = [qd[0] - qd0[0], qd[1] - qd0[1]];
+        assert!(m_dot(dv).abs() < 1e-14);
+        assert!((qd[0] * q[0] + qd[1] * q[1]).abs() < 1e-14);
+    }
+}
+
+#[test]
+fn a_hopeless_projection_is_a_typed_error() {
+    // x² + 1 = 0 has no real solution: Newton wanders and gives up within its iterations.
+    let hopeless = Constrained::new(point(1.0, false), holonomic(&[Row::Hopeless]));
+    match hopeless.project(0.0, &[0.3, 0.0], &[0.0, 0.0], None) {
+        Err(Error::ProjectionFailed {
+            constraint,
+            iterations,
+            residual,
+            ..
+        }) => {
+            assert_eq!(constraint, "row 0");
+            assert_eq!(iterations, 50);
+            assert!(residual >= 1.0);
+        }
+        Err(Error::DependentConstraints { .. }) => {}
+        other => panic!("{other:?}"),
+    }
+    // A rank-deficient G (a row stated twice) is refused as in `evaluate`.
+    let twice = Constrained::new(
+        point(1.0, false),
+        holonomic(&[Row::Circle(1.0), Row::Circle(1.0)]),
+    );
+    assert!(matches!(
+        twice.project(0.0, &[1.1, 0.2], &[0.0, 0.0], None),
+        Err(Error::DependentConstraints { .. })
+    ));
+}
+
+#[test]
+fn bad_input_to_the_projection_is_a_typed_error() {
+    let pendulum = Constrained::new(point(1.0, true), holonomic(&[Row::Circle(1.0)]));
+    for (q, qd) in [
+        ([f64::NAN, 1.0], [0.0, 0.0]),
+        ([1.0, 0.0], [0.0, f64::INFINITY]),
+    ] {
+        assert!(matches!(
+            pendulum.project(0.0, &q, &qd, None),
+            Err(Error::NonFinite { .. })
+        ));
+        assert!(matches!(
+            pendulum.check_consistent(0.0, &q, &qd, None),
+            Err(Error::NonFinite { .. })
+        ));
+    }
+    assert!(matches!(
+        pendulum.project(f64::NAN, &[1.0, 0.0], &[0.0, 0.0], None),
+        Err(Error::NonFinite { .. })
+    ));
+    assert!(matches!(
+        pendulum.project(0.0, &[1.0], &[0.0, 0.0], None),
+        Err(Error::DimensionMismatch { .. })
+    ));
+    for tol in [0.0, -1.0, f64::NAN] {
+        assert!(matches!(
+            pendulum.project(0.0, &[1.0, 0.0], &[0.0, 0.0], Some(tol)),
+            Err(Error::InvalidInput { .. })
+        ));
+    }
 }
