@@ -75,8 +75,8 @@ pub use routes::{
 };
 pub use scalar::{Scalar, re};
 pub use statics::{
-    Equilibrium, Linearization, ModeProblem, Modes, Stability, StaticsOptions, equilibrium,
-    linearize, modes, static_stiffness,
+    ConstrainedEquilibrium, Equilibrium, Linearization, ModeProblem, Modes, Stability,
+    StaticsOptions, constrained_equilibrium, equilibrium, linearize, modes, static_stiffness,
 };
 
 /// The dual-number library the crate differentiates with, re-exported for model code.

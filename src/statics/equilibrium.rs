@@ -74,7 +74,7 @@ impl StaticsOptions {
         }
     }
 
-    fn validate(&self) -> Result<()> {
+    pub(super) fn validate(&self) -> Result<()> {
         let nonneg = [
             ("abs_tolerance", self.abs_tolerance),
             ("rel_tolerance", self.rel_tolerance),

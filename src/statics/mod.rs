@@ -37,14 +37,21 @@
 //! The files, one way: `residual` (r and K at rest) and `stability` (the verdict, and the
 //! energy criterion) sit below the modes (`linearize.rs`), which use both; the
 //! `equilibrium` solver sits above them and solves with `crate::nonlinear`. `input_matrix.rs`
-//! adds to a linearization the input matrix B of a model stated at run time.
+//! adds to a linearization the input matrix B of a model stated at run time. `constrained.rs`
+//! sits above `equilibrium` and [`crate::Constrained`]: equilibria on the manifold g(t, q) = 0 of
+//! the holonomic rows, r(q) = Gᵀλ, classified by the Hessian reduced to null(G)
+//! ([`constrained_equilibrium`](crate::constrained_equilibrium)). Velocity (nonholonomic) rows
+//! do not restrict positions and hold at rest (b = 0 for the usual rolling and knife-edge rows):
+//! the solve and the verdict ignore them.
 
+mod constrained;
 mod equilibrium;
 mod input_matrix;
 mod linearize;
 mod residual;
 mod stability;
 
+pub use constrained::{ConstrainedEquilibrium, constrained_equilibrium};
 pub use equilibrium::{Equilibrium, StaticsOptions, equilibrium};
 pub use input_matrix::input_matrix;
 pub use linearize::{Linearization, ModeProblem, Modes, linearize, modes};
