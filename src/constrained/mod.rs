@@ -428,9 +428,14 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         Ok(())
     }
 
-    /// Replace `r` (length k′ ≤ k, the first k′ rows of G in `g`, row-major k′ × n) by the
-    /// M-orthogonal correction M⁻¹Gᵀ (G M⁻¹ Gᵀ)⁻¹ r (length n), with M at (t, q, q̇).
-    fn correct(&self, t: f64, q: &[f64], qd: &[f64], g: &[f64], r: &mut Vec<f64>) -> Result<()> {
+    /// X = M⁻¹Gᵀ (row i = M⁻¹ Gᵢᵀ) and the LDLᵀ factor of S = G M⁻¹ Gᵀ, for the k = `g.len()` / n
+    /// rows of G in `g` (row-major), with M at (t, q, q̇): the one factorization behind the
+    /// multipliers and the projections.
+    ///
+    /// # Errors
+    /// [`Error::SingularMassMatrix`] when M cannot be factored, [`Error::DependentConstraints`]
+    /// when S cannot (G rank-deficient).
+    fn schur(&self, t: f64, q: &[f64], qd: &[f64], g: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
         let n = self.dof();
         let k = g.len() / n;
         let mut m = vec![0.0; n * n];
@@ -451,7 +456,15 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         if ldlt_in_place(&mut sf, k).is_err() {
             return Err(self.dependent(&s, k, t, q));
         }
-        ldlt_solve(&sf, k, r.as_mut_slice());
+        Ok((x, sf))
+    }
+
+    /// Replace `r` (length k′ ≤ k, the first k′ rows of G in `g`, row-major k′ × n) by the
+    /// M-orthogonal correction M⁻¹Gᵀ (G M⁻¹ Gᵀ)⁻¹ r (length n), with M at (t, q, q̇).
+    fn correct(&self, t: f64, q: &[f64], qd: &[f64], g: &[f64], r: &mut Vec<f64>) -> Result<()> {
+        let n = self.dof();
+        let (x, sf) = self.schur(t, q, qd, g)?;
+        ldlt_solve(&sf, r.len(), r.as_mut_slice());
         let mut d = vec![0.0; n];
         for (i, &mu) in r.iter().enumerate() {
             for j in 0..n {
@@ -541,26 +554,10 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         self.gamma_into(t, q, qd, &mut gamma);
         finite(&gamma, "constraint bias γ", t)?;
 
-        let mut m = vec![0.0; n * n];
-        self.system.mass_matrix_into(t, q, qd, &mut m);
-        finite(&m, "mass matrix", t)?;
-        factor(&mut m, n, t, q)?;
-        // X = M⁻¹Gᵀ, row i = M⁻¹ Gᵢᵀ.
-        let mut x = g.clone();
-        for row in x.chunks_exact_mut(n) {
-            ldlt_solve(&m, n, row);
-        }
-        // S = G M⁻¹ Gᵀ and its right-hand side −γ − G q̈₀.
-        let mut s = vec![0.0; k * k];
+        let (x, sf) = self.schur(t, q, qd, &g)?;
+        // S λ = −γ − G q̈₀.
         for i in 0..k {
-            for j in 0..k {
-                s[i * k + j] = dot(&g[i * n..(i + 1) * n], &x[j * n..(j + 1) * n]);
-            }
             multipliers[i] = -gamma[i] - dot(&g[i * n..(i + 1) * n], qdd);
-        }
-        let mut sf = s.clone();
-        if ldlt_in_place(&mut sf, k).is_err() {
-            return Err(self.dependent(&s, k, t, q));
         }
         ldlt_solve(&sf, k, multipliers);
         finite(multipliers, "constraint multipliers", t)?;
