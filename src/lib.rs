@@ -76,7 +76,8 @@ pub use routes::{
 pub use scalar::{Scalar, re};
 pub use statics::{
     ConstrainedEquilibrium, Equilibrium, Linearization, ModeProblem, Modes, Stability,
-    StaticsOptions, constrained_equilibrium, equilibrium, linearize, modes, static_stiffness,
+    StaticsOptions, constrained_equilibrium, constrained_modes, equilibrium, linearize, modes,
+    static_stiffness,
 };
 
 /// The dual-number library the crate differentiates with, re-exported for model code.

@@ -259,15 +259,7 @@ fn verdict(h: &DMatrix<f64>, g: &DMatrix<f64>, tol: f64) -> (DVector<f64>, Stabi
                 .to_string(),
         );
     }
-    // Z: the last n − k right singular vectors of G (G is k × n; pad to n × n so that the SVD
-    // yields a full Vᵀ).
-    let mut padded = DMatrix::zeros(n, n);
-    padded.rows_mut(0, k).copy_from(g);
-    let svd = padded.svd(false, true);
-    let vt = svd.v_t.expect("requested Vᵀ");
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
-    let z = DMatrix::from_fn(n, n - k, |i, j| vt[(order[k + j], i)]);
+    let z = null_basis(g);
     let reduced = z.transpose() * h * &z;
     let (values, (stability, why)) = classify(&reduced, tol);
     let why = why
@@ -283,9 +275,28 @@ fn verdict(h: &DMatrix<f64>, g: &DMatrix<f64>, tol: f64) -> (DVector<f64>, Stabi
     (values, stability, reason)
 }
 
+/// Z (n × (n − k)): an orthonormal basis of null(G) for G (k × n) of full rank k, the last n − k
+/// right singular vectors of G.
+pub(super) fn null_basis(g: &DMatrix<f64>) -> DMatrix<f64> {
+    let (k, n) = g.shape();
+    // Pad G to n × n so that the SVD yields a full Vᵀ.
+    let mut padded = DMatrix::zeros(n, n);
+    padded.rows_mut(0, k).copy_from(g);
+    let svd = padded.svd(false, true);
+    let vt = svd.v_t.expect("requested Vᵀ");
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
+    DMatrix::from_fn(n, n - k, |i, j| vt[(order[k + j], i)])
+}
+
 /// `Err(DependentConstraints)` when G (k × n) is rank-deficient: the first row whose addition
 /// drops the rank, and the earlier rows of the least-squares combination.
-fn check_rank<C: Constraints>(g: &DMatrix<f64>, constraints: &C, t: f64, q: &[f64]) -> Result<()> {
+pub(super) fn check_rank<C: Constraints>(
+    g: &DMatrix<f64>,
+    constraints: &C,
+    t: f64,
+    q: &[f64],
+) -> Result<()> {
     let k = g.nrows();
     let top = g.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
     let deficient = |rows: usize| -> bool {
@@ -362,17 +373,17 @@ fn check_steady_constraints<C: Constraints>(
 }
 
 /// F(q, λ) = [r(q) − Gᵀλ; g(t, q)] and its Jacobian, for the Newton core.
-struct Augmented<'a, S: ?Sized, C> {
-    statics: StaticProblem<'a, S>,
-    constraints: &'a C,
-    t: f64,
-    n: usize,
-    k: usize,
+pub(super) struct Augmented<'a, S: ?Sized, C> {
+    pub(super) statics: StaticProblem<'a, S>,
+    pub(super) constraints: &'a C,
+    pub(super) t: f64,
+    pub(super) n: usize,
+    pub(super) k: usize,
 }
 
 impl<S: Dynamics + ?Sized, C: Constraints> Augmented<'_, S, C> {
     /// G = ∂g/∂q by one `Dual64` pass per coordinate.
-    fn jacobian_g(&self, q: &[f64]) -> Result<DMatrix<f64>> {
+    pub(super) fn jacobian_g(&self, q: &[f64]) -> Result<DMatrix<f64>> {
         let (n, k) = (self.n, self.k);
         let mut g = DMatrix::zeros(k, n);
         let mut qs: Vec<Dual64> = q.iter().map(|&x| Dual64::from(x)).collect();
@@ -397,7 +408,7 @@ impl<S: Dynamics + ?Sized, C: Constraints> Augmented<'_, S, C> {
     }
 
     /// Σᵢ λᵢ ∂²gᵢ/∂q² by one hyper-dual pass per pair of coordinates.
-    fn curvature(&self, q: &[f64], lambda: &[f64]) -> DMatrix<f64> {
+    pub(super) fn curvature(&self, q: &[f64], lambda: &[f64]) -> DMatrix<f64> {
         let (n, k) = (self.n, self.k);
         let mut h = DMatrix::zeros(n, n);
         let mut out = vec![HyperDual64::from(0.0); k];

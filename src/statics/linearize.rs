@@ -31,14 +31,14 @@ use num_dual::Dual64;
 /// λ with |λ|² below this fraction of max |λ|² count as zero (ω² or K relative to the largest,
 /// as the statics' energy criterion counts K's eigenvalues), real parts beyond it times max |λ|
 /// as positive or negative (the default of [`crate::StaticsOptions::stability_tolerance`]).
-const STABILITY_TOLERANCE: f64 = 1e-9;
+pub(crate) const STABILITY_TOLERANCE: f64 = 1e-9;
 
 /// C (relative to √(|M| |K|)) and the antisymmetric part of K (relative to |K|) below this are
 /// round-off: the undamped problem K φ = ω² M φ applies.
-const UNDAMPED_TOLERANCE: f64 = 1e-12;
+pub(crate) const UNDAMPED_TOLERANCE: f64 = 1e-12;
 
 /// A q at which |r| exceeds this fraction of the load scale is not an equilibrium.
-const EQUILIBRIUM_TOLERANCE: f64 = 1e-8;
+pub(crate) const EQUILIBRIUM_TOLERANCE: f64 = 1e-8;
 
 /// The equations of motion linearized about a state, from [`linearize`].
 #[derive(Debug, Clone, PartialEq)]
@@ -277,7 +277,7 @@ pub(crate) fn modes_unchecked<S: Dynamics + ?Sized>(
 }
 
 /// ±iω for ω² ≥ 0, ±√(−ω²) otherwise.
-fn pair_of(w2: f64) -> [Complex<f64>; 2] {
+pub(crate) fn pair_of(w2: f64) -> [Complex<f64>; 2] {
     let w = w2.abs().sqrt();
     if w2 >= 0.0 {
         [Complex::new(0.0, -w), Complex::new(0.0, w)]
@@ -287,7 +287,7 @@ fn pair_of(w2: f64) -> [Complex<f64>; 2] {
 }
 
 /// Eigenvalues ordered by magnitude, then imaginary part.
-fn sorted(mut values: Vec<Complex<f64>>) -> DVector<Complex<f64>> {
+pub(crate) fn sorted(mut values: Vec<Complex<f64>>) -> DVector<Complex<f64>> {
     values.sort_by(|a, b| a.norm().total_cmp(&b.norm()).then(a.im.total_cmp(&b.im)));
     DVector::from_vec(values)
 }
@@ -318,6 +318,18 @@ fn undamped_modes(lin: &Linearization) -> Option<(Vec<f64>, DMatrix<Complex<f64>
     {
         return None;
     }
+    let (omega2, shapes) = symmetric_modes(m, k)?;
+    Some((omega2, shapes.map(|x| Complex::new(x, 0.0))))
+}
+
+/// The symmetric generalized eigenproblem K φ = ω² M φ of the symmetric parts of K and M (M
+/// positive definite; `None` otherwise): ω² ascending and the shapes as columns, φᵀ M φ = 1,
+/// each with its largest entry positive. Cholesky M = L Lᵀ, then the symmetric eigenproblem of
+/// L⁻¹ K L⁻ᵀ.
+pub(crate) fn symmetric_modes(
+    m: &DMatrix<f64>,
+    k: &DMatrix<f64>,
+) -> Option<(Vec<f64>, DMatrix<f64>)> {
     let l = Cholesky::new((m + m.transpose()) * 0.5)?.l();
     let k_sym = (k + k.transpose()) * 0.5;
     let y = l.solve_lower_triangular(&k_sym)?;
@@ -331,18 +343,21 @@ fn undamped_modes(lin: &Linearization) -> Option<(Vec<f64>, DMatrix<Complex<f64>
     let mut shapes = DMatrix::zeros(n, n);
     for (col, &i) in order.iter().enumerate() {
         let mut phi = l.tr_solve_lower_triangular(&eig.eigenvectors.column(i).into_owned())?;
-        let big = phi
-            .iter()
-            .copied()
-            .fold(0.0_f64, |b, x| if x.abs() > b.abs() { x } else { b });
-        if big < 0.0 {
-            phi = -phi;
-        }
-        for r in 0..n {
-            shapes[(r, col)] = Complex::new(phi[r], 0.0);
-        }
+        largest_positive(&mut phi);
+        shapes.set_column(col, &phi);
     }
     Some((omega2, shapes))
+}
+
+/// Flip a shape so that its largest entry (by magnitude) is positive.
+pub(crate) fn largest_positive(phi: &mut DVector<f64>) {
+    let big = phi
+        .iter()
+        .copied()
+        .fold(0.0_f64, |b, x| if x.abs() > b.abs() { x } else { b });
+    if big < 0.0 {
+        *phi = -&*phi;
+    }
 }
 
 /// The modes from A's eigenvalues: (ω², λ₁ + λ₂) of each pair and the shapes.

@@ -42,9 +42,12 @@
 //! the holonomic rows, r(q) = Gᵀλ, classified by the Hessian reduced to null(G)
 //! ([`constrained_equilibrium`](crate::constrained_equilibrium)). Velocity (nonholonomic) rows
 //! do not restrict positions and hold at rest (b = 0 for the usual rolling and knife-edge rows):
-//! the solve and the verdict ignore them.
+//! the solve and the verdict ignore them. `constrained_modes.rs` sits above `constrained.rs` and
+//! `linearize.rs`: the modes of such an equilibrium, Zᵀ H Z v = ω² Zᵀ M Z v on an orthonormal
+//! basis Z of null(G) ([`constrained_modes`](crate::constrained_modes)).
 
 mod constrained;
+mod constrained_modes;
 mod equilibrium;
 mod input_matrix;
 mod linearize;
@@ -52,6 +55,7 @@ mod residual;
 mod stability;
 
 pub use constrained::{ConstrainedEquilibrium, constrained_equilibrium};
+pub use constrained_modes::constrained_modes;
 pub use equilibrium::{Equilibrium, StaticsOptions, equilibrium};
 pub use input_matrix::input_matrix;
 pub use linearize::{Linearization, ModeProblem, Modes, linearize, modes};

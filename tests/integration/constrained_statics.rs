@@ -1,9 +1,10 @@
 //! Equilibria on the constraint manifold (issue 41 item 6): r(q) = Gᵀλ with g(t, q) = 0,
 //! against the seed's closed forms (§3.2 examples 3 and 4) and a Cartesian pendulum.
 
+use lagrangian::scenes::{DoublePendulum, SimplePendulum};
 use lagrangian::{
     Constrained, Constraints, Error, GeneralizedForces, KineticEnergy, Potential, Scalar,
-    Stability, StaticsOptions, System, constrained_equilibrium,
+    Stability, StaticsOptions, System, constrained_equilibrium, constrained_modes, modes,
 };
 
 const G: f64 = 9.81;
@@ -340,4 +341,221 @@ fn moving_constraint_needs_frozen_time() {
     let e = constrained_equilibrium(&system, 2.0, &[0.1, -1.0], &frozen).unwrap();
     assert!((e.q[1] + 1.2).abs() < 1e-14 && e.q[0].abs() < 1e-14);
     assert!((e.multipliers[0] + G / 2.4).abs() < 1e-12);
+}
+
+/// Two bobs in the plane, coordinates (x₁, y₁, x₂, y₂), masses m₁, m₂, gravity along −y.
+struct TwoBobs {
+    m1: f64,
+    m2: f64,
+}
+impl KineticEnergy for TwoBobs {
+    fn kinetic<D: Scalar>(&self, _t: D, _q: &[D], qd: &[D]) -> D {
+        (qd[0] * qd[0] + qd[1] * qd[1]) * (0.5 * self.m1)
+            + (qd[2] * qd[2] + qd[3] * qd[3]) * (0.5 * self.m2)
+    }
+    fn depends_on_time(&self) -> bool {
+        false
+    }
+}
+impl Potential for TwoBobs {
+    fn potential<D: Scalar>(&self, _t: D, q: &[D]) -> D {
+        q[1] * (self.m1 * G) + q[3] * (self.m2 * G)
+    }
+    fn depends_on_time(&self) -> bool {
+        false
+    }
+}
+
+/// x₁² + y₁² − l₁² and (x₂ − x₁)² + (y₂ − y₁)² − l₂².
+struct TwoRods {
+    l1: f64,
+    l2: f64,
+}
+impl Constraints for TwoRods {
+    fn holonomic_count(&self) -> usize {
+        2
+    }
+    fn holonomic<D: Scalar>(&self, _t: D, q: &[D], out: &mut [D]) {
+        out[0] = q[0] * q[0] + q[1] * q[1] - self.l1 * self.l1;
+        let (dx, dy) = (q[2] - q[0], q[3] - q[1]);
+        out[1] = dx * dx + dy * dy - self.l2 * self.l2;
+    }
+    fn depends_on_time(&self) -> bool {
+        false
+    }
+}
+
+fn cartesian_double(
+    m1: f64,
+    m2: f64,
+    l1: f64,
+    l2: f64,
+) -> Constrained<System<TwoBobs, TwoBobs>, TwoRods> {
+    Constrained::new(
+        System::new(4, TwoBobs { m1, m2 }).with_potential(TwoBobs { m1, m2 }),
+        TwoRods { l1, l2 },
+    )
+}
+
+fn close(a: f64, b: f64, rel: f64) -> bool {
+    (a - b).abs() <= rel * a.abs().max(b.abs())
+}
+
+/// The Cartesian double pendulum, equal masses and lengths, hanging at rest: ω² = (g/l)(2 ∓ √2)
+/// with the angle ratios θ₂/θ₁ = ±√2 (θ₁ = δx₁/l, θ₂ = (δx₂ − δx₁)/l at the bottom).
+#[test]
+fn cartesian_double_pendulum_modes_closed_form() {
+    let (m, l) = (1.3, 0.8);
+    let system = cartesian_double(m, m, l, l);
+    let e = constrained_equilibrium(&system, 0.0, &[0.1, -0.7, 0.3, -1.5], &tight()).unwrap();
+    assert_eq!(e.stability, Stability::Stable, "{}", e.reason);
+    let found = constrained_modes(&system, 0.0, e.q.as_slice(), e.multipliers.as_slice()).unwrap();
+    assert_eq!(found.frequencies.len(), 2);
+    assert_eq!(found.stability, Stability::Stable, "{}", found.reason);
+    let r2 = 2.0_f64.sqrt();
+    for (i, (w2, ratio)) in [((G / l) * (2.0 - r2), r2), ((G / l) * (2.0 + r2), -r2)]
+        .into_iter()
+        .enumerate()
+    {
+        assert!(
+            close(found.omega_squared[i], w2, 1e-10),
+            "{} vs {w2}",
+            found.omega_squared[i]
+        );
+        assert!(close(found.frequencies[i], w2.sqrt(), 1e-10));
+        let phi: Vec<f64> = (0..4).map(|r| found.shapes[(r, i)].re).collect();
+        assert!((0..4).all(|r| found.shapes[(r, i)].im == 0.0));
+        // Horizontal motion only, to first order.
+        assert!(phi[1].abs() < 1e-12 && phi[3].abs() < 1e-12, "{phi:?}");
+        let (th1, th2) = (phi[0] / l, (phi[2] - phi[0]) / l);
+        assert!(close(th2 / th1, ratio, 1e-10), "{} vs {ratio}", th2 / th1);
+        // M-normalized.
+        let norm = m * phi.iter().map(|v| v * v).sum::<f64>();
+        assert!(close(norm, 1.0, 1e-12), "{norm}");
+    }
+}
+
+/// Unequal masses and lengths: the Cartesian reduction agrees with the minimal-coordinate
+/// double pendulum's modes.
+#[test]
+fn cartesian_double_pendulum_matches_minimal_coordinates() {
+    let (m1, m2, l1, l2) = (1.7, 0.6, 1.1, 0.45);
+    let system = cartesian_double(m1, m2, l1, l2);
+    let e = constrained_equilibrium(&system, 0.0, &[0.2, -1.0, -0.1, -1.4], &tight()).unwrap();
+    let found = constrained_modes(&system, 0.0, e.q.as_slice(), e.multipliers.as_slice()).unwrap();
+    let minimal = modes(
+        &DoublePendulum::new(m1, m2, l1, l2, G).system(),
+        0.0,
+        &[0.0, 0.0],
+    )
+    .unwrap();
+    assert_eq!(found.frequencies.len(), 2);
+    for i in 0..2 {
+        assert!(
+            close(found.frequencies[i], minimal.frequencies[i], 1e-10),
+            "{} vs {}",
+            found.frequencies[i],
+            minimal.frequencies[i]
+        );
+        // The same shape in angles: θ = (δx₁/l₁, (δx₂ − δx₁)/l₂) against the minimal one.
+        let phi: Vec<f64> = (0..4).map(|r| found.shapes[(r, i)].re).collect();
+        let (th1, th2) = (phi[0] / l1, (phi[2] - phi[0]) / l2);
+        let (a1, a2) = (minimal.shapes[(0, i)].re, minimal.shapes[(1, i)].re);
+        assert!(
+            close(th2 / th1, a2 / a1, 1e-10),
+            "{} vs {}",
+            th2 / th1,
+            a2 / a1
+        );
+    }
+}
+
+/// The Cartesian pendulum: ω² = g/l at the bottom, moving sideways; at the top a divergence,
+/// reported as `modes` reports the minimal pendulum upside down.
+#[test]
+fn cartesian_pendulum_modes_bottom_and_top() {
+    let (m, l) = (2.0, 1.5);
+    let pendulum = Constrained::new(System::new(2, Mass(m)).with_potential(Weight(m)), circle(l));
+    let bottom = constrained_equilibrium(&pendulum, 0.0, &[0.4, -1.0], &tight()).unwrap();
+    let found = constrained_modes(
+        &pendulum,
+        0.0,
+        bottom.q.as_slice(),
+        bottom.multipliers.as_slice(),
+    )
+    .unwrap();
+    assert_eq!(found.omega_squared.len(), 1);
+    assert!(close(found.omega_squared[0], G / l, 1e-10));
+    assert!(close(found.shapes[(0, 0)].re, 1.0 / m.sqrt(), 1e-12));
+    assert!(found.shapes[(1, 0)].norm() < 1e-12);
+    assert_eq!(found.stability, Stability::Stable, "{}", found.reason);
+
+    let top = constrained_equilibrium(&pendulum, 0.0, &[-0.3, 1.2], &tight()).unwrap();
+    let found =
+        constrained_modes(&pendulum, 0.0, top.q.as_slice(), top.multipliers.as_slice()).unwrap();
+    let minimal = modes(
+        &SimplePendulum::new(m, l, G).system(),
+        0.0,
+        &[std::f64::consts::PI],
+    )
+    .unwrap();
+    assert!(close(found.omega_squared[0], -G / l, 1e-10));
+    assert!(close(
+        found.omega_squared[0],
+        minimal.omega_squared[0],
+        1e-10
+    ));
+    assert!(close(found.frequencies[0], minimal.frequencies[0], 1e-10));
+    assert_eq!(found.stability, Stability::Unstable, "{}", found.reason);
+    assert_eq!(minimal.stability, Stability::Unstable);
+    assert!(found.reason.contains("divergence"), "{}", found.reason);
+    assert_eq!(found.eigenvalues.len(), 2);
+    assert!(close(found.eigenvalues[1].re, (G / l).sqrt(), 1e-10));
+}
+
+#[test]
+fn constrained_modes_errors_are_typed() {
+    let pendulum = Constrained::new(
+        System::new(2, Mass(1.0)).with_potential(Weight(1.0)),
+        circle(1.0),
+    );
+    let lambda = [-G / 2.0];
+    assert!(matches!(
+        constrained_modes(&pendulum, 0.0, &[0.0], &lambda),
+        Err(Error::DimensionMismatch { .. })
+    ));
+    assert!(matches!(
+        constrained_modes(&pendulum, 0.0, &[0.0, -1.0], &[1.0, 2.0]),
+        Err(Error::DimensionMismatch { .. })
+    ));
+    assert!(matches!(
+        constrained_modes(&pendulum, 0.0, &[f64::NAN, -1.0], &lambda),
+        Err(Error::NonFinite { .. })
+    ));
+    assert!(matches!(
+        constrained_modes(&pendulum, 0.0, &[0.0, -1.0], &[f64::NAN]),
+        Err(Error::NonFinite { .. })
+    ));
+    assert!(matches!(
+        constrained_modes(&pendulum, f64::NAN, &[0.0, -1.0], &lambda),
+        Err(Error::NonFinite { .. })
+    ));
+    // Off the manifold, or a wrong multiplier: not an equilibrium.
+    assert!(matches!(
+        constrained_modes(&pendulum, 0.0, &[0.0, -1.1], &lambda),
+        Err(Error::InvalidInput { .. })
+    ));
+    assert!(matches!(
+        constrained_modes(&pendulum, 0.0, &[0.0, -1.0], &[1.0]),
+        Err(Error::InvalidInput { .. })
+    ));
+    // The same row twice: G is rank-deficient.
+    let doubled = Constrained::new(
+        System::new(2, Mass(1.0)).with_potential(Weight(1.0)),
+        Circle { l: 1.0, times: 2 },
+    );
+    assert!(matches!(
+        constrained_modes(&doubled, 0.0, &[0.0, -1.0], &[-G / 2.0, 0.0]),
+        Err(Error::DependentConstraints { .. })
+    ));
 }
