@@ -37,7 +37,7 @@ pub fn solve<S: Dynamics + ?Sized>(
     method: Method,
     options: &Options,
 ) -> Result<Solution> {
-    solve_inner(system, q0, qd0, span, method, options, None, &[]).map_err(|f| f.error)
+    solve_resumed(system, q0, qd0, span, method, options, None, &[]).map_err(|f| f.error)
 }
 
 /// [`solve`] that keeps what was computed when the run fails: the [`Failed`] error carries
@@ -73,7 +73,7 @@ pub fn solve_partial<S: Dynamics + ?Sized>(
     options: &Options,
     interrupt: Option<&dyn Fn(f64) -> bool>,
 ) -> std::result::Result<Solution, Failed> {
-    solve_inner(system, q0, qd0, span, method, options, interrupt, &[])
+    solve_resumed(system, q0, qd0, span, method, options, interrupt, &[])
 }
 
 /// [`solve`] with an interrupt check: `interrupt(t)` is called at every evaluation of the
@@ -88,28 +88,15 @@ pub fn solve_with_interrupt<S: Dynamics + ?Sized>(
     options: &Options,
     interrupt: &dyn Fn(f64) -> bool,
 ) -> Result<Solution> {
-    solve_inner(system, q0, qd0, span, method, options, Some(interrupt), &[]).map_err(|f| f.error)
+    solve_resumed(system, q0, qd0, span, method, options, Some(interrupt), &[]).map_err(|f| f.error)
 }
 
 /// [`solve_partial`] from where an earlier run with the same options ended on the roots of the
 /// events `settling` (a terminal one, or any found within round-off of its end): their sign is
 /// taken a little into the first step, as after a reset, so they do not fire again at once.
+/// With no events settling it is `solve_partial`, which every `solve*` is.
 #[allow(clippy::too_many_arguments, clippy::result_large_err)]
-pub(crate) fn solve_resumed<S: Dynamics + ?Sized>(
-    system: &S,
-    q0: &[f64],
-    qd0: &[f64],
-    span: (f64, f64),
-    method: Method,
-    options: &Options,
-    interrupt: Option<&dyn Fn(f64) -> bool>,
-    settling: &[usize],
-) -> std::result::Result<Solution, Failed> {
-    solve_inner(system, q0, qd0, span, method, options, interrupt, settling)
-}
-
-#[allow(clippy::too_many_arguments, clippy::result_large_err)]
-fn solve_inner<'a, S: Dynamics + ?Sized>(
+pub(crate) fn solve_resumed<'a, S: Dynamics + ?Sized>(
     system: &'a S,
     q0: &[f64],
     qd0: &[f64],
