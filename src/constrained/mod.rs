@@ -47,6 +47,7 @@ use crate::linalg::{ldlt_in_place, ldlt_solve};
 use crate::scalar::{Grad, Hyper, Scalar, grad_const, grad_part, grad_seed, hyper, hyper_mixed};
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 use num_dual::{Dual, Dual2, Dual64};
+use std::sync::OnceLock;
 
 /// Directions seeded per pass of the Jacobian G and of the linearity check.
 const CHUNK: usize = 4;
@@ -127,6 +128,9 @@ const VELOCITY_CORRECTIONS: usize = 3;
 pub struct Constrained<S, C> {
     system: S,
     constraints: C,
+    /// M's LDLᵀ factor when the wrapped system's M is constant ([`crate::Structure`]): made
+    /// once at the first state seen, not at every evaluation of the Schur complement.
+    mass_factor: OnceLock<Result<Vec<f64>>>,
 }
 
 /// q̈, λ and the reactions Gᵀλ at one state ([`Constrained::evaluate`]).
@@ -166,6 +170,7 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         Self {
             system,
             constraints,
+            mass_factor: OnceLock::new(),
         }
     }
 
@@ -440,18 +445,19 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
     fn schur<D: Scalar>(&self, t: D, q: &[D], qd: &[D], g: &[D]) -> Result<(Vec<D>, Vec<D>)> {
         let n = self.dof();
         let k = g.len() / n;
-        let mut m = vec![D::zero(); n * n];
-        self.system.mass_matrix_into(t, q, qd, &mut m);
-        if !m.iter().all(|x| x.re().is_finite()) {
-            return Err(Error::NonFinite {
-                what: "mass matrix",
-                t: t.re(),
-            });
-        }
-        factor(&mut m, n, t, q)?;
         let mut x = g.to_vec();
-        for row in x.chunks_exact_mut(n) {
-            ldlt_solve(&m, n, row);
+        if self.system.structure().constant_mass {
+            let m = self.constant_mass_factor(t.re(), q, qd)?;
+            for row in x.chunks_exact_mut(n) {
+                ldlt_solve(m, n, row);
+            }
+        } else {
+            let mut m = vec![D::zero(); n * n];
+            self.system.mass_matrix_into(t, q, qd, &mut m);
+            mass_factor_in_place(&mut m, n, t, q)?;
+            for row in x.chunks_exact_mut(n) {
+                ldlt_solve(&m, n, row);
+            }
         }
         let mut s = vec![D::zero(); k * k];
         for i in 0..k {
@@ -466,6 +472,20 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
             return Err(self.dependent(&s, k, t.re(), &q));
         }
         Ok((x, sf))
+    }
+
+    /// The LDLᵀ factor of a constant M, made at the first state seen and kept.
+    fn constant_mass_factor<D: Scalar>(&self, t: f64, q: &[D], qd: &[D]) -> Result<&[f64]> {
+        let n = self.dof();
+        let factor = self.mass_factor.get_or_init(|| {
+            let q: Vec<f64> = q.iter().map(|x| x.re()).collect();
+            let qd: Vec<f64> = qd.iter().map(|x| x.re()).collect();
+            let mut m = vec![0.0; n * n];
+            self.system.mass_matrix_into(t, &q, &qd, &mut m);
+            mass_factor_in_place(&mut m, n, t, &q)?;
+            Ok(m)
+        });
+        factor.as_deref().map_err(Clone::clone)
     }
 
     /// Replace `r` (length k′ ≤ k, the first k′ rows of G in `g`, row-major k′ × n) by the
@@ -931,6 +951,18 @@ fn worst_row(r: &[f64], g: &[f64], n: usize, scale: &[f64]) -> (usize, f64) {
         }
     }
     worst
+}
+
+/// M (n × n, at (t, q)) replaced by its LDLᵀ factor: [`Error::NonFinite`] for a non-finite M,
+/// [`Error::SingularMassMatrix`] when it cannot be factored.
+fn mass_factor_in_place<D: Scalar>(m: &mut [D], n: usize, t: D, q: &[D]) -> Result<()> {
+    if !m.iter().all(|x| x.re().is_finite()) {
+        return Err(Error::NonFinite {
+            what: "mass matrix",
+            t: t.re(),
+        });
+    }
+    factor(m, n, t, q)
 }
 
 fn dot<D: Scalar>(x: &[D], y: &[D]) -> D {
