@@ -68,11 +68,7 @@ impl KineticEnergy for Bobs {
 
 impl Potential for Bobs {
     fn potential<D: Scalar>(&self, _t: D, q: &[D]) -> D {
-        q.iter()
-            .skip(1)
-            .step_by(2)
-            .fold(D::zero(), |s, &y| s + y)
-            * (self.m * G)
+        q.iter().skip(1).step_by(2).fold(D::zero(), |s, &y| s + y) * (self.m * G)
     }
     fn depends_on_time(&self) -> bool {
         false

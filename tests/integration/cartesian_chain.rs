@@ -140,7 +140,10 @@ fn cartesian_chain_accelerates_as_the_chain_in_its_angles() {
         let got = cart.evaluate(0.0, &q, &qd).unwrap();
         let scale = expected.iter().fold(G, |m, a| m.max(a.abs()));
         for (a, b) in got.accelerations.iter().zip(&expected) {
-            assert!((a - b).abs() < 1e-12 * scale, "{a} against {b} at θ = {th:?}");
+            assert!(
+                (a - b).abs() < 1e-12 * scale,
+                "{a} against {b} at θ = {th:?}"
+            );
         }
     }
 }
@@ -215,7 +218,11 @@ fn cartesian_double_pendulum_rod_tensions_from_the_multipliers() {
         for (i, m) in [m1, m1, m2, m2].into_iter().enumerate() {
             let gravity = if i % 2 == 1 { -m * G } else { 0.0 };
             let newton = m * e.accelerations[i] - gravity - e.reaction_forces[i];
-            assert!(newton.abs() < 1e-12 * scale, "bob {}: {newton:e}", i / 2 + 1);
+            assert!(
+                newton.abs() < 1e-12 * scale,
+                "bob {}: {newton:e}",
+                i / 2 + 1
+            );
         }
     }
 }
