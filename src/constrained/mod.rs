@@ -509,6 +509,19 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         })
     }
 
+    /// The power of the reactions, Gᵀλ·q̇: zero for constraints that do not move (the seed's R
+    /// does no work), otherwise the rate at which a moving constraint (a driven wire, a moving
+    /// support) or a velocity row's b(t, q) feeds energy in, −λ·∂g/∂t − λ·b. Along a run the
+    /// energy function h = q̇·p − L then changes as dh/dt = Gᵀλ·q̇ + Q″·q̇ − q̇·∂Φ/∂q̇ − ∂L/∂t,
+    /// so that h − ∫ Gᵀλ·q̇ dt balances as in an unconstrained system.
+    ///
+    /// # Errors
+    /// As [`evaluate_into`](Self::evaluate_into).
+    pub fn constraint_power(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
+        let e = self.evaluate(t, q, qd)?;
+        Ok(e.reaction_forces.iter().zip(qd).map(|(r, v)| r * v).sum())
+    }
+
     /// The constrained accelerations q̈ alone.
     ///
     /// # Errors

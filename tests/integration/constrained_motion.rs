@@ -177,6 +177,23 @@ fn bead_on_a_rotating_wire_moves_out_by_cosh() {
         assert!((q[1].atan2(q[0]) - w * t).abs() < 1e-8);
         assert!(sol.stats.constraint_residual < 1e-10);
     }
+    // The wire does work: h = ½ m (ṙ² + ω² r²) = ½ m r₀² ω² cosh 2ωt, so the reactions' power
+    // is dh/dt = m r₀² ω³ sinh 2ωt, exactly what Gᵀλ·q̇ gives on the closed-form state.
+    for t in [0.0, 0.4, 1.1] {
+        let (r, rd) = (r0 * (w * t).cosh(), r0 * w * (w * t).sinh());
+        let (s, c) = (w * t).sin_cos();
+        let q = [r * c, r * s];
+        let qd = [rd * c - r * w * s, rd * s + r * w * c];
+        let h = bead.energy(t, &q, &qd).unwrap();
+        let want_h = 0.5 * m * r0 * r0 * w * w * (2.0 * w * t).cosh();
+        assert!((h - want_h).abs() < 1e-14 * want_h, "{h} {want_h}");
+        let power = bead.constraint_power(t, &q, &qd).unwrap();
+        let want = m * r0 * r0 * w.powi(3) * (2.0 * w * t).sinh();
+        assert!(
+            (power - want).abs() < 1e-13 * (1.0 + want.abs()),
+            "{power} {want}"
+        );
+    }
 }
 
 #[test]
