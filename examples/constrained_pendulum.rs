@@ -43,10 +43,7 @@ impl Constraints for Rod {
 
 fn main() -> lagrangian::Result<()> {
     let (m, l, g, theta0) = (0.5, 1.2, 9.81, 2.5_f64);
-    let pendulum = Constrained::new(
-        System::new(2, Point(m)).with_potential(Gravity(m)),
-        Rod(l),
-    );
+    let pendulum = Constrained::new(System::new(2, Point(m)).with_potential(Gravity(m)), Rod(l));
     // Released from rest at θ₀: one period is T = 4 √(l/g) K(sin(θ₀/2)).
     let period = 4.0 * (l / g).sqrt() * elliptic_k((theta0 / 2.0).sin())?;
     let q0 = [l * theta0.sin(), -l * theta0.cos()];
