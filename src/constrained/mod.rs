@@ -470,19 +470,22 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         for row in x.chunks_exact_mut(n) {
             ldlt_solve(m, n, row);
         }
+        // S is symmetric: one dot product per pair, factored in place (no copy kept for the
+        // error path, which forms S again).
+        let entry = |i: usize, j: usize| dot(&g[i * n..(i + 1) * n], &x[j * n..(j + 1) * n]);
         let mut s = vec![D::zero(); k * k];
         for i in 0..k {
-            for j in 0..k {
-                s[i * k + j] = dot(&g[i * n..(i + 1) * n], &x[j * n..(j + 1) * n]);
+            for j in i..k {
+                s[i * k + j] = entry(i, j);
+                s[j * k + i] = s[i * k + j];
             }
         }
-        let mut sf = s.clone();
-        if ldlt_in_place(&mut sf, k).is_err() {
-            let s: Vec<f64> = s.iter().map(|x| x.re()).collect();
+        if ldlt_in_place(&mut s, k).is_err() {
+            let s: Vec<f64> = (0..k * k).map(|ij| entry(ij / k, ij % k).re()).collect();
             let q: Vec<f64> = q.iter().map(|x| x.re()).collect();
             return Err(self.dependent(&s, k, t.re(), &q));
         }
-        Ok((x, sf))
+        Ok((x, s))
     }
 
     /// The LDLᵀ factor of a constant M, made at the first state seen and kept.
@@ -669,17 +672,18 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         if k == 0 {
             return Ok(());
         }
-        let mut g = vec![D::zero(); k * n];
-        self.jacobian_into(t, q, qd, &mut g);
-        let mut gamma = vec![D::zero(); k];
-        self.gamma_into(t, q, qd, &mut gamma);
-        for (what, x) in [("constraint Jacobian", &g), ("constraint bias γ", &gamma)] {
+        // G and γ in one buffer: one allocation fewer per evaluation.
+        let mut buffer = vec![D::zero(); k * n + k];
+        let (g, gamma) = buffer.split_at_mut(k * n);
+        self.jacobian_into(t, q, qd, g);
+        self.gamma_into(t, q, qd, gamma);
+        for (what, x) in [("constraint Jacobian", &*g), ("constraint bias γ", &*gamma)] {
             if !x.iter().all(|v| v.re().is_finite()) {
                 return Err(Error::NonFinite { what, t: t.re() });
             }
         }
-        let (x, sf) = self.schur(t, q, qd, &g)?;
-        self.apply_multipliers(&g, &gamma, &x, &sf, qdd, multipliers, reactions);
+        let (x, sf) = self.schur(t, q, qd, g)?;
+        self.apply_multipliers(g, gamma, &x, &sf, qdd, multipliers, reactions);
         Ok(())
     }
 
