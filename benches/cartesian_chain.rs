@@ -20,7 +20,8 @@
 //! - `cartesian_chain_rhs/{minimal,cartesian,cartesian_free,jacobian,gamma,mass_matrix}/N`: one
 //!   evaluation at the initial state of the minimal q̈, the constrained q̈, and the parts of the
 //!   latter that the public API shows (the unconstrained q̈₀ with its cached constant M, the
-//!   constraints' Jacobian G, γ, and M = ∂²T/∂q̇², which the Schur complement evaluates anew).
+//!   constraints' Jacobian G, γ, and M = ∂²T/∂q̇², which `Constrained` factors once when it is
+//!   constant and before did at every evaluation).
 //!
 //! The tolerances, errors and evaluation counts go to `cartesian_chain_meta.json` beside
 //! criterion's estimates; `python3 benches/cartesian_chain.py` runs the bench (or, with
