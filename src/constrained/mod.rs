@@ -630,9 +630,15 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         let (n, k) = (self.dof(), self.rows());
         let mut m = vec![0.0; n * n];
         program.mass_and_force(t, q, qd, &mut m, qdd);
-        finite(&m, "mass matrix", t)?;
-        factor(&mut m, n, t, q)?;
-        crate::eom::solve(&m, n, t, qdd)?;
+        // A constant M's factor is kept from the first evaluation.
+        let m: &[f64] = if self.system.structure().constant_mass {
+            self.constant_mass_factor(t, q, qd)?
+        } else {
+            finite(&m, "mass matrix", t)?;
+            factor(&mut m, n, t, q)?;
+            &m
+        };
+        crate::eom::solve(m, n, t, qdd)?;
         reactions.fill(0.0);
         if k == 0 {
             return Ok(());
@@ -645,7 +651,7 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         }
         finite(&g, "constraint Jacobian", t)?;
         finite(&gamma, "constraint bias γ", t)?;
-        let (x, sf) = self.schur_factored(&m, t, q, &g)?;
+        let (x, sf) = self.schur_factored(m, t, q, &g)?;
         self.apply_multipliers(&g, &gamma, &x, &sf, qdd, multipliers, reactions);
         Ok(())
     }
