@@ -96,6 +96,7 @@ mod implicit;
 mod method;
 mod options;
 mod radau;
+mod rattle;
 mod registry;
 mod run;
 mod runge_kutta;
