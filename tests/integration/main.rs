@@ -24,6 +24,7 @@ mod implicit;
 mod integrators;
 mod linearize;
 mod partial;
+mod rattle;
 mod routes;
 mod scenes;
 mod statics;
