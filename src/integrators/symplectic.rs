@@ -6,6 +6,21 @@
 //!
 //! The last kick's force is the first kick's of the next step (FSAL): s force evaluations per
 //! step. M is factored once (LDLᵀ).
+//!
+//! On a constrained system with holonomic rows g(t, q) = 0 (`rattle.rs`), Störmer–Verlet is
+//! RATTLE (Hairer, Lubich & Wanner, *Geometric Numerical Integration*, §VII.1.4):
+//!
+//! v_{1/2} = v₀ + (h/2) a(q₀) − M⁻¹G(q₀)ᵀλ,  q₁ = q₀ + h v_{1/2},  g(t₁, q₁) = 0,
+//! v₁ = v_{1/2} + (h/2) a(q₁) − M⁻¹G(q₁)ᵀμ,  G(q₁) v₁ + ∂g/∂t(t₁, q₁) = 0,
+//!
+//! λ by Newton to round-off, μ from a linear k × k system; it is symmetric and symplectic on
+//! the constraint manifold, so the Yoshida compositions of RATTLE steps keep their order and
+//! their symplecticity (HLW §V.3, §VII.1). Between the composed steps the velocity stage and
+//! the next half kick merge as in the plain splitting (the next drift's multipliers absorb any
+//! change along M⁻¹Gᵀ): one constrained drift per stage, one velocity stage per step. Moving
+//! rows are served (∂g/∂t in the velocity stage). Blanes–Moan's splitting is not a composition
+//! of Verlet steps: its drifts would need the exact free flow on the manifold, and it refuses
+//! constrained models, as every splitting refuses velocity rows.
 
 use super::dense::{Ends, Interpolant};
 use super::rattle::{Manifold, holonomic_only};

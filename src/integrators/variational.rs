@@ -18,6 +18,15 @@
 //! explicit. The map (q_k, p_k) ↦ (q_{k+1}, p_{k+1}) is symplectic and symmetric, of order 2,
 //! for any regular Lagrangian; with dissipation it reproduces the energy decay with no spurious
 //! drift. (It coincides with the one-stage Gauss method on (q, p).)
+//!
+//! On a constrained system with holonomic rows g(t, q) = 0 the step is the discrete
+//! Lagrange–d'Alembert principle with multipliers in RATTLE form (Marsden & West §3.5;
+//! Leyendecker, Marsden & Ortiz, *ZAMM* 88 (2008) 677–708): the first equation gains
+//! −G(q_k)ᵀΛ and is solved with g(t_{k+1}, q_{k+1}) = 0 for (V, Λ) by Newton on the (n + k)
+//! system, p_{k+1} gains G(q_k)ᵀΛ, and the velocity stage of `rattle.rs` (M at q_{k+1}) puts
+//! q̇_{k+1} on G q̇ + ∂g/∂t = 0, p_{k+1} then the momenta of that velocity. Symplectic and
+//! symmetric on the constraint manifold, order 2; each step ends on the constraints to
+//! round-off. Velocity rows are refused.
 
 use super::implicit::{FixedSteps, ImplicitStep, Legendre};
 use super::rattle::{Manifold, holonomic_only};
