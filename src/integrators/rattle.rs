@@ -86,8 +86,13 @@ impl Manifold {
         t: f64,
         q: &[f64],
     ) -> Result<()> {
-        let n = self.n;
         c.jacobian_into(t, q, &self.zero, &mut self.g)?;
+        self.solve_w(mass, t)
+    }
+
+    /// W = M⁻¹Gᵀ from the current G.
+    fn solve_w(&mut self, mass: &[f64], t: f64) -> Result<()> {
+        let n = self.n;
         self.w.copy_from_slice(&self.g);
         for col in self.w.chunks_exact_mut(n) {
             ldlt_solve(mass, n, col);
@@ -96,7 +101,7 @@ impl Manifold {
     }
 
     /// The constrained drift from the point of the last [`tangent`](Self::tangent): q ← q +
-    /// ha (v − WΛ/ha) with g(t1, q) = 0, v ← v − WΛ/ha; then the tangent at the new point.
+    /// ha (v − WΛ/ha) with g(t1, q) = 0, v ← v − WΛ/ha; then G and W at the new point.
     ///
     /// # Errors
     /// [`Error::NewtonFailure`] (or [`Error::NonFinite`]) when the multipliers' Newton iteration
@@ -159,7 +164,10 @@ impl Manifold {
             *vi -= d / ha;
         }
         q.copy_from_slice(&self.trial);
-        self.tangent(c, mass, t1, q)
+        // The tangent at the new point: G from the last iterate, which the last increment (at
+        // round-off) moved by nothing that G could resolve.
+        std::mem::swap(&mut self.g, &mut self.g_trial);
+        self.solve_w(mass, t1)
     }
 
     /// RATTLE's velocity stage at the point of the last [`tangent`](Self::tangent): v ← v − Wμ
