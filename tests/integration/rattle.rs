@@ -287,6 +287,49 @@ fn rattle_follows_a_moving_constraint() {
 }
 
 #[test]
+fn an_event_finds_the_quarter_period_on_the_rattle_interpolant() {
+    // The interpolant's ends carry the constrained q̈: x = 0 is found at T/4 to the method's
+    // error there, and the Gauss methods say what serves a constrained model.
+    let (m, l, th0) = (1.0, 0.7, 1.0_f64);
+    let p = pendulum(m, l);
+    let quarter = (l / G).sqrt() * elliptic_k((th0 / 2.0).sin()).unwrap();
+    let q0 = [l * th0.sin(), -l * th0.cos()];
+    let mut errors = Vec::new();
+    for dt in [1e-3, 5e-4] {
+        let options = Options::fixed(dt).with_event(
+            lagrangian::integrators::Event::new("x = 0", |_t, q, _qd| q[0]).terminal(1),
+        );
+        let sol = solve(
+            &p,
+            &q0,
+            &[0.0, 0.0],
+            (0.0, 10.0),
+            Method::Yoshida4,
+            &options,
+        )
+        .unwrap();
+        let (t, q, _) = sol.last().unwrap();
+        assert!(q[0].abs() < 1e-12 && (q[1] + l).abs() < 1e-9, "{q:?}");
+        errors.push((t - quarter).abs());
+    }
+    assert!(
+        errors[0] < 1e-9 && errors[1] < errors[0] / 8.0,
+        "{errors:?}"
+    );
+    match solve(
+        &p,
+        &q0,
+        &[0.0, 0.0],
+        (0.0, 1.0),
+        Method::Gauss4,
+        &Options::fixed(0.01),
+    ) {
+        Err(Error::UnsupportedMethod { why, .. }) => assert!(why.contains("RATTLE"), "{why}"),
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
 fn splittings_refuse_what_rattle_does_not_hold() {
     // Blanes–Moan is not a composition of Verlet steps; a velocity row has no drift equation.
     let p = pendulum(1.0, 1.0);
