@@ -250,7 +250,7 @@ fn methods_that_do_not_hold_constraints_refuse_them() {
 }
 
 /// Holonomic rows that do not read t, declared so (the trait's default is a moving set).
-struct Still(Rows);
+pub(crate) struct Still(pub(crate) Rows);
 impl Constraints for Still {
     fn holonomic_count(&self) -> usize {
         self.0.holonomic_count()
