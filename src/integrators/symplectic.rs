@@ -444,7 +444,21 @@ impl<S: Dynamics + ?Sized> SegmentStepper<S> for SplittingStepper {
             // merge as in the plain splitting: the velocity stage between them moves v along
             // W = M⁻¹Gᵀ at the same point, which the next drift's multipliers absorb.
             match constraints.as_mut() {
-                Some((c, m)) => m.drift(*c, &kick.factor, tj, q, v, ha)?,
+                Some((c, m)) => m
+                    .drift(*c, &kick.factor, tj, q, v, ha)
+                    .map_err(|e| match e {
+                        // Dated, as every Newton failure, by the step's start.
+                        Error::NewtonFailure {
+                            iterations,
+                            residual,
+                            ..
+                        } => Error::NewtonFailure {
+                            t,
+                            iterations,
+                            residual,
+                        },
+                        e => e,
+                    })?,
                 None => {
                     for (qi, vi) in q.iter_mut().zip(v.iter()) {
                         *qi += ha * vi;

@@ -354,6 +354,30 @@ fn rattle_and_the_constrained_midpoint_are_time_reversible() {
 }
 
 #[test]
+fn a_drift_that_cannot_reach_the_circle_is_a_newton_failure() {
+    // A free particle on the unit circle at speed 3 with h = 0.5: the drift's line q̃ − sW
+    // (radial through q̃, 1.5 from the origin) never meets the circle. A typed error in a
+    // bounded number of iterations, never a hang or NaN.
+    let ring = Constrained::new(point(1.0, false), holonomic(&[Row::Circle(1.0)]));
+    for method in [Method::StormerVerlet, Method::Yoshida4] {
+        match solve(
+            &ring,
+            &[1.0, 0.0],
+            &[0.0, 3.0],
+            (0.0, 2.0),
+            method,
+            &Options::fixed(0.5),
+        ) {
+            Err(Error::NewtonFailure { t, iterations, .. }) => {
+                // Dated by the failing step's start, the first.
+                assert!(t == 0.0 && iterations <= 30, "{method}: {t} {iterations}");
+            }
+            other => panic!("{method}: {other:?}"),
+        }
+    }
+}
+
+#[test]
 fn splittings_refuse_what_rattle_does_not_hold() {
     // Blanes–Moan is not a composition of Verlet steps; a velocity row has no drift equation.
     let p = pendulum(1.0, 1.0);
