@@ -1023,6 +1023,19 @@ impl<S: Dynamics, C: Constraints> crate::dynamics::ConstraintAccess for Constrai
         let mut qdd = vec![0.0; self.dof()];
         self.evaluate_into(t, q, qd, &mut qdd, multipliers, reactions)
     }
+    fn holonomic_rates_into(&self, t: f64, q: &[f64], out: &mut [f64]) {
+        if !self.constraints.depends_on_time() {
+            out.fill(0.0);
+            return;
+        }
+        let qq: Vec<Dual64> = q.iter().map(|&x| Dual64::from_re(x)).collect();
+        let mut rates = vec![Dual64::from_re(0.0); out.len()];
+        self.constraints
+            .holonomic(Dual64::new(t, 1.0), &qq, &mut rates);
+        for (o, r) in out.iter_mut().zip(&rates) {
+            *o = r.eps;
+        }
+    }
 }
 
 /// The tolerance of [`Constrained::project`] and [`Constrained::check_consistent`].

@@ -25,6 +25,7 @@ mod implicit;
 mod integrators;
 mod linearize;
 mod partial;
+mod rattle;
 mod routes;
 mod scenes;
 mod statics;
