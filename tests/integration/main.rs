@@ -10,6 +10,7 @@
 //! (e.g. `cargo test --features jit --test integration events::`).
 
 mod ad;
+mod andrews;
 mod common;
 mod compiled;
 mod constrained_statics;
