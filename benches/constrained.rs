@@ -1,0 +1,197 @@
+//! Andrews' squeezing mechanism (issue 41 item 8; the IVP Test Set's `andrews`) to a relative
+//! error of 1e-7 in q at t = 0.03 against the Test Set's reference, each side with DOP853 at the
+//! loosest tolerance (of 10^{-k/2}, rtol = atol) that meets it:
+//!
+//! - `andrews_1e-7/ode_solvers_dop853_hand`: the limit. The Test Set's M, f, G and γ written
+//!   out by hand, q̈ and λ from the 13 × 13 augmented system per evaluation
+//!   ([`Andrews::test_set_index1`]), integrated by the `ode_solvers` crate's DOP853;
+//! - `andrews_1e-7/dop853_hand`: the same right-hand side through this crate's DOP853 (a
+//!   [`Dynamics`] written by hand, below);
+//! - `andrews_1e-7/dop853_model`: this crate's model from the energies and the constraints
+//!   ([`Andrews::model`], [`lagrangian::Constrained`]) with its DOP853 (and its projection
+//!   onto the constraints after each step).
+//!
+//! The bench writes `andrews_meta.json` (tolerance, steps, error of each side) next to
+//! criterion's estimates; `python3 benches/andrews.py --cargo` runs it and prints the table of
+//! docs/site/andrews.rst with SciPy's DOP853 on a NumPy right-hand side beside it.
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use lagrangian::integrators::{Method, Options, Output, solve};
+use lagrangian::scenes::Andrews;
+use lagrangian::{Dynamics, Potential, Result, Scalar, Structure};
+use std::hint::black_box;
+use std::time::Duration;
+
+/// The accuracy every side must reach: max_i |qᵢ − qᵢ_ref| / |qᵢ_ref| at t = 0.03.
+const TARGET: f64 = 1e-7;
+
+/// End of the Test Set's span.
+const T_END: f64 = 0.03;
+
+/// The largest componentwise relative error of q against the Test Set's reference at 0.03.
+fn error(q: &[f64]) -> f64 {
+    let reference = Andrews::reference_at_0_03().q;
+    q.iter()
+        .zip(&reference)
+        .fold(0.0_f64, |m, (x, r)| m.max((x - r).abs() / r.abs()))
+}
+
+// ---------------------------------------------------------------------------------------------
+// The hand-written index-1 right-hand side, for `ode_solvers` and for this crate
+
+type State = ode_solvers::SVector<f64, 14>;
+
+struct OdeAndrews(Andrews);
+impl ode_solvers::System<f64, State> for OdeAndrews {
+    fn system(&self, _t: f64, y: &State, dy: &mut State) {
+        let y = y.as_slice();
+        let (qdd, _) = self.0.test_set_index1(&y[..7], &y[7..]);
+        let dy = dy.as_mut_slice();
+        dy[..7].copy_from_slice(&y[7..]);
+        dy[7..].copy_from_slice(&qdd);
+    }
+}
+
+/// The Test Set's index-1 equations as a [`Dynamics`]: everything by hand, nothing derived.
+struct HandAndrews(Andrews);
+
+impl HandAndrews {
+    fn mass<D: Scalar>(q: &[D], qd: &[D], out: &mut [D]) {
+        let m = Andrews::test_set_mass_matrix(q);
+        for (o, row) in out.iter_mut().zip(&m) {
+            *o = row.iter().zip(qd).fold(D::zero(), |s, (&a, &v)| s + a * v);
+        }
+    }
+}
+
+impl Dynamics for HandAndrews {
+    fn dof(&self) -> usize {
+        7
+    }
+    fn structure(&self) -> Structure {
+        Structure {
+            dof: 7,
+            time_dependent: false,
+            constant_mass: false,
+            separable: false,
+            dissipative: false,
+            forced: false,
+        }
+    }
+    fn kinetic_energy<D: Scalar>(&self, _t: D, q: &[D], qd: &[D]) -> D {
+        let mut p = [D::zero(); 7];
+        Self::mass(q, qd, &mut p);
+        p.iter().zip(qd).fold(D::zero(), |s, (&a, &v)| s + a * v) * 0.5
+    }
+    fn potential_energy<D: Scalar>(&self, t: D, q: &[D]) -> D {
+        self.0.potential(t, q)
+    }
+    fn potential_gradient_into<D: Scalar>(&self, _t: D, q: &[D], out: &mut [D]) {
+        // f at rest is the torque and the spring alone: −∂U/∂q.
+        let f = self.0.test_set_forces(q, &[D::zero(); 7]);
+        for (o, x) in out.iter_mut().zip(f) {
+            *o = -x;
+        }
+    }
+    fn generalized_forces_into<D: Scalar>(&self, _t: D, _q: &[D], _qd: &[D], out: &mut [D]) {
+        out.fill(D::zero());
+    }
+    fn dissipative_forces_into<D: Scalar>(&self, _t: D, _q: &[D], _qd: &[D], out: &mut [D]) {
+        out.fill(D::zero());
+    }
+    fn momenta_into<D: Scalar>(&self, _t: D, q: &[D], qd: &[D], out: &mut [D]) {
+        Self::mass(q, qd, out);
+    }
+    fn mass_matrix_into<D: Scalar>(&self, _t: D, q: &[D], _qd: &[D], out: &mut [D]) {
+        let m = Andrews::test_set_mass_matrix(q);
+        for (o, x) in out.iter_mut().zip(m.iter().flatten()) {
+            *o = *x;
+        }
+    }
+    fn accelerations_into<D: Scalar>(&self, _t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
+        let (qdd, _) = self.0.test_set_index1(q, qd);
+        out.copy_from_slice(&qdd);
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Runs
+
+/// q at 0.03 and the accepted steps of this crate's DOP853 on `system` at rtol = atol = `tol`.
+fn crate_run<S: Dynamics>(system: &S, tol: f64) -> (Vec<f64>, usize) {
+    let (q0, qd0) = Andrews::initial_state();
+    let options = Options::adaptive(tol, tol).with_output(Output::Final);
+    let sol = solve(system, &q0, &qd0, (0.0, T_END), Method::Dop853, &options).unwrap();
+    let (_, q, _) = sol.last().unwrap();
+    (q.to_vec(), sol.stats.accepted_steps)
+}
+
+/// The same with `ode_solvers`' DOP853 on the hand-written right-hand side.
+fn ode_run(tol: f64) -> (Vec<f64>, usize) {
+    let (q0, qd0) = Andrews::initial_state();
+    let mut y0 = State::zeros();
+    y0.as_mut_slice()[..7].copy_from_slice(&q0);
+    y0.as_mut_slice()[7..].copy_from_slice(&qd0);
+    let mut s = ode_solvers::dop853::Dop853::new(
+        OdeAndrews(Andrews::default()),
+        0.0,
+        T_END,
+        T_END,
+        y0,
+        tol,
+        tol,
+    );
+    // Sparse: the state after every step, no dense-output stages.
+    s.set_output(ode_solvers::OutputType::Sparse);
+    let stats = s.integrate().unwrap();
+    let y = s.y_out().last().unwrap();
+    (y.as_slice()[..7].to_vec(), stats.accepted_steps as usize)
+}
+
+/// The loosest tolerance 10^{-k/2} (k = 8..=28) whose run meets [`TARGET`], its error and steps.
+fn loosest(run: &dyn Fn(f64) -> (Vec<f64>, usize)) -> Option<(f64, f64, usize)> {
+    (8..=28)
+        .map(|k| 10f64.powf(-k as f64 / 2.0))
+        .map(|tol| {
+            let (q, steps) = run(tol);
+            (tol, error(&q), steps)
+        })
+        .find(|&(_, e, _)| e <= TARGET)
+}
+
+fn andrews(c: &mut Criterion) {
+    let squeezer = Andrews::default();
+    let hand = HandAndrews(squeezer);
+    let _model = squeezer.model();
+    let sides: [(&str, &dyn Fn(f64) -> (Vec<f64>, usize)); 2] = [
+        ("ode_solvers_dop853_hand", &ode_run),
+        ("dop853_hand", &|tol| crate_run(&hand, tol)),
+        // ("dop853_model", &|tol| crate_run(&model, tol)),
+    ];
+    let mut g = c.benchmark_group("andrews_1e-7");
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_millis(1500));
+    let mut meta = Vec::new();
+    for (name, run) in sides {
+        let Some((tol, err, steps)) = loosest(run) else {
+            meta.push(format!("\"{name}\": null"));
+            continue;
+        };
+        meta.push(format!(
+            "\"{name}\": {{\"tol\": {tol:e}, \"steps\": {steps}, \"error\": {err:e}}}"
+        ));
+        g.bench_function(name, |b| b.iter(|| black_box(run(tol))));
+    }
+    g.finish();
+    let dir = std::env::var("CARGO_TARGET_DIR").unwrap_or_else(|_| "target".into());
+    let path = std::path::Path::new(&dir)
+        .join("criterion")
+        .join("andrews_meta.json");
+    let _ = std::fs::create_dir_all(path.parent().unwrap());
+    let _ = std::fs::write(&path, format!("{{{}}}\n", meta.join(", ")));
+}
+
+criterion_group!(benches, andrews);
+criterion_main!(benches);
