@@ -13,6 +13,7 @@ mod ad;
 mod andrews;
 mod common;
 mod compiled;
+mod constrained_motion;
 mod constrained_statics;
 mod constraints;
 mod energy_model;
