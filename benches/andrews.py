@@ -239,8 +239,11 @@ RUST_SIDES = {
 def rust_sides(run_cargo: bool):
     target = Path(os.environ.get("CARGO_TARGET_DIR", "target"))
     if run_cargo:
-        subprocess.run(["cargo", "bench", "-p", "lagrangian-benches", "--bench", "constrained"],
-                       check=True, stdout=subprocess.DEVNULL)
+        done = subprocess.run(
+            ["cargo", "bench", "-p", "lagrangian-benches", "--bench", "constrained"],
+            capture_output=True, text=True)
+        if done.returncode != 0:
+            sys.exit(f"cargo bench failed:\n{done.stderr[-3000:]}")
     root = target / "criterion"
     meta_path = root / "andrews_meta.json"
     if not meta_path.exists():
@@ -255,6 +258,34 @@ def rust_sides(run_cargo: bool):
         rows.append({"side": label, "tol": meta[key]["tol"], "error": meta[key]["error"],
                      "seconds": ns * 1e-9, "steps": meta[key]["steps"]})
     return rows
+
+
+EVALUATION = {
+    "hand_index1": "hand-written index-1 q̈ (M, f, G, γ, 13 × 13 solve)",
+    "model_evaluate": "model: Constrained::evaluate (q̈, λ)",
+    "unconstrained_accelerations": "  of which: eq. 55 q̈₀ of the wrapped system (AD)",
+    "mass_matrix": "  of which: M by AD (computed again for the Schur complement)",
+    "constraint_jacobian": "  of which: G by AD",
+    "gamma": "  of which: γ by AD",
+}
+
+
+def evaluation_table() -> None:
+    """Where one evaluation's time goes (`andrews_evaluation` of the same bench)."""
+    root = Path(os.environ.get("CARGO_TARGET_DIR", "target")) / "criterion" / "andrews_evaluation"
+    times = {}
+    for key in EVALUATION:
+        est = root / key / "new" / "estimates.json"
+        if est.exists():
+            times[key] = json.loads(est.read_text())["median"]["point_estimate"]
+    if "hand_index1" not in times:
+        return
+    print("\nOne evaluation at the reference state:\n")
+    print("| part | time | ÷ hand-written |")
+    print("|---|---|---|")
+    for key, label in EVALUATION.items():
+        if key in times:
+            print(f"| {label} | {times[key] / 1e3:.2f} µs | {times[key] / times['hand_index1']:.2f}× |")
 
 
 def main() -> None:
@@ -275,6 +306,7 @@ def main() -> None:
         scipy_ratio = f"{scipy['seconds'] / r['seconds']:.1f}×" if scipy else "–"
         print(f"| {r['side']} | {r['tol']:.0e} | {r['error']:.1e} | "
               f"{r['seconds'] * 1e3:.3f} ms | {over} | {scipy_ratio} |")
+    evaluation_table()
 
 
 if __name__ == "__main__":

@@ -163,11 +163,11 @@ fn loosest(run: &dyn Fn(f64) -> (Vec<f64>, usize)) -> Option<(f64, f64, usize)> 
 fn andrews(c: &mut Criterion) {
     let squeezer = Andrews::default();
     let hand = HandAndrews(squeezer);
-    let _model = squeezer.model();
-    let sides: [(&str, &dyn Fn(f64) -> (Vec<f64>, usize)); 2] = [
+    let model = squeezer.model();
+    let sides: [(&str, &dyn Fn(f64) -> (Vec<f64>, usize)); 3] = [
         ("ode_solvers_dop853_hand", &ode_run),
         ("dop853_hand", &|tol| crate_run(&hand, tol)),
-        // ("dop853_model", &|tol| crate_run(&model, tol)),
+        ("dop853_model", &|tol| crate_run(&model, tol)),
     ];
     let mut g = c.benchmark_group("andrews_1e-7");
     g.sample_size(10)
@@ -193,5 +193,51 @@ fn andrews(c: &mut Criterion) {
     let _ = std::fs::write(&path, format!("{{{}}}\n", meta.join(", ")));
 }
 
-criterion_group!(benches, andrews);
+/// One evaluation of the right-hand side and of its parts at the reference state, to show where
+/// the model's time goes: `andrews_evaluation/{hand_index1, model_evaluate,
+/// unconstrained_accelerations, mass_matrix, constraint_jacobian, gamma}`.
+fn andrews_evaluation(c: &mut Criterion) {
+    let squeezer = Andrews::default();
+    let model = squeezer.model();
+    let system = squeezer.system();
+    let r = Andrews::reference_at_0_03();
+    let (q, qd) = (&r.q[..], &r.qd[..]);
+    let mut g = c.benchmark_group("andrews_evaluation");
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(200))
+        .measurement_time(Duration::from_millis(600));
+    g.bench_function("hand_index1", |b| {
+        b.iter(|| squeezer.test_set_index1(black_box(q), black_box(qd)))
+    });
+    g.bench_function("model_evaluate", |b| {
+        b.iter(|| model.evaluate(0.0, black_box(q), black_box(qd)).unwrap())
+    });
+    g.bench_function("unconstrained_accelerations", |b| {
+        b.iter(|| {
+            system
+                .accelerations(0.0, black_box(q), black_box(qd))
+                .unwrap()
+        })
+    });
+    g.bench_function("mass_matrix", |b| {
+        b.iter(|| {
+            system
+                .mass_matrix(0.0, black_box(q), black_box(qd))
+                .unwrap()
+        })
+    });
+    g.bench_function("constraint_jacobian", |b| {
+        b.iter(|| {
+            model
+                .constraint_jacobian(0.0, black_box(q), black_box(qd))
+                .unwrap()
+        })
+    });
+    g.bench_function("gamma", |b| {
+        b.iter(|| model.gamma(0.0, black_box(q), black_box(qd)).unwrap())
+    });
+    g.finish();
+}
+
+criterion_group!(benches, andrews, andrews_evaluation);
 criterion_main!(benches);

@@ -146,3 +146,30 @@ fn evaluate_andrews_matches_test_set_index1() {
         assert!(relative(e.multipliers.as_slice(), &lambda) < 1e-9);
     }
 }
+
+/// A run to t = 0.03 from the Test Set's initial values reproduces its reference q to 1e-7
+/// (componentwise relative), and stays on the constraints.
+#[test]
+fn dop853_andrews_reproduces_test_set_reference() {
+    use lagrangian::integrators::{Method, Options, Output, solve};
+    let model = Andrews::default().model();
+    let (q0, qd0) = Andrews::initial_state();
+    let reference = Andrews::reference_at_0_03();
+    let options = Options::adaptive(1e-10, 1e-10).with_output(Output::Final);
+    let sol = solve(&model, &q0, &qd0, (0.0, 0.03), Method::Dop853, &options).unwrap();
+    let (t, q, qd) = sol.last().unwrap();
+    assert_eq!(t, 0.03);
+    let worst = q
+        .iter()
+        .zip(&reference.q)
+        .fold(0.0_f64, |m, (x, r)| m.max((x - r).abs() / r.abs()));
+    assert!(worst <= 1e-7, "q(0.03) = {q:?}: relative error {worst:e}");
+    let rates = relative(qd, &reference.qd);
+    assert!(rates <= 1e-6, "q̇(0.03) = {qd:?}: relative error {rates:e}");
+    let residuals = model.residuals(t, q, qd).unwrap();
+    assert!(
+        residuals.position.amax() < 1e-12,
+        "g(q(0.03)) = {:?}",
+        residuals.position
+    );
+}
