@@ -149,8 +149,11 @@ fn ode_run(tol: f64) -> (Vec<f64>, usize) {
     (y.as_slice()[..7].to_vec(), stats.accepted_steps as usize)
 }
 
+/// A run at rtol = atol = tol: q at 0.03 and the accepted steps.
+type Run<'a> = &'a dyn Fn(f64) -> (Vec<f64>, usize);
+
 /// The loosest tolerance 10^{-k/2} (k = 8..=28) whose run meets [`TARGET`], its error and steps.
-fn loosest(run: &dyn Fn(f64) -> (Vec<f64>, usize)) -> Option<(f64, f64, usize)> {
+fn loosest(run: Run) -> Option<(f64, f64, usize)> {
     (8..=28)
         .map(|k| 10f64.powf(-k as f64 / 2.0))
         .map(|tol| {
@@ -164,7 +167,7 @@ fn andrews(c: &mut Criterion) {
     let squeezer = Andrews::default();
     let hand = HandAndrews(squeezer);
     let model = squeezer.model();
-    let sides: [(&str, &dyn Fn(f64) -> (Vec<f64>, usize)); 3] = [
+    let sides: [(&str, Run); 3] = [
         ("ode_solvers_dop853_hand", &ode_run),
         ("dop853_hand", &|tol| crate_run(&hand, tol)),
         ("dop853_model", &|tol| crate_run(&model, tol)),

@@ -12,6 +12,9 @@
 //!
 //! Not in the scene registry ([`super::registry`]): the registry builds unconstrained systems.
 
+// The Test Set's values keep the digits it prints (more than an f64 holds).
+#![allow(clippy::excessive_precision)]
+
 use crate::{Constrained, Constraints, KineticEnergy, Potential, Scalar, System};
 
 // The Test Set's masses, inertias and geometry (`andrews.f`, `andpar`), SI units.
