@@ -5,11 +5,12 @@ side:
 
 - SciPy's ``solve_ivp(method="DOP853")`` on a hand-written NumPy index-1 right-hand side (the
   Test Set's M, f, G and γ, the 13 × 13 augmented system solved per evaluation);
-- with ``--cargo``: ``cargo bench -p lagrangian-benches --bench constrained`` (about 45 s with
-  the bench built), whose three Rust sides are read from criterion's estimates and
+- with ``--cargo``: ``cargo bench -p lagrangian-benches --bench constrained --features jit``
+  (about 45 s with the bench built), whose four Rust sides are read from criterion's estimates and
   ``andrews_meta.json``: the hand-written index-1 right-hand side with ``ode_solvers``' DOP853
   (the limit) and with this crate's DOP853, and this crate's model from the energies and the
-  constraints (``lagrangian::scenes::Andrews::model``); without it, the last bench run's numbers
+  constraints (``lagrangian::scenes::Andrews::model``), by dual numbers and with M and f from the
+  traced, compiled eq. 55 program; without it, the last bench run's numbers
   if there are any;
 - this project through its Python API (``lg.Model(..., constraints=[...])``), when the module is
   installed and has constraints (``lagrangian_model`` below).
@@ -233,6 +234,7 @@ RUST_SIDES = {
     "ode_solvers_dop853_hand": "hand-written Rust index-1 RHS, ode_solvers DOP853 (limit)",
     "dop853_hand": "hand-written Rust index-1 RHS, lagrangian DOP853",
     "dop853_model": "lagrangian Constrained model from energies, DOP853",
+    "dop853_model_compiled": "the same, M and f from the traced, compiled eq. 55 program, DOP853",
 }
 
 
@@ -240,7 +242,8 @@ def rust_sides(run_cargo: bool):
     target = Path(os.environ.get("CARGO_TARGET_DIR", "target"))
     if run_cargo:
         done = subprocess.run(
-            ["cargo", "bench", "-p", "lagrangian-benches", "--bench", "constrained"],
+            ["cargo", "bench", "-p", "lagrangian-benches", "--bench", "constrained",
+             "--features", "jit"],
             capture_output=True, text=True)
         if done.returncode != 0:
             sys.exit(f"cargo bench failed:\n{done.stderr[-3000:]}")
@@ -267,6 +270,7 @@ EVALUATION = {
     "mass_matrix": "  of which: M by AD (computed again for the Schur complement)",
     "constraint_jacobian": "  of which: G by AD",
     "gamma": "  of which: γ by AD",
+    "model_compiled_evaluate": "model, M and f from the compiled eq. 55 program: Constrained::evaluate",
 }
 
 

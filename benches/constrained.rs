@@ -10,6 +10,10 @@
 //! - `andrews_1e-7/dop853_model`: this crate's model from the energies and the constraints
 //!   ([`Andrews::model`], [`lagrangian::Constrained`]) with its DOP853 (and its projection
 //!   onto the constraints after each step).
+//! - `andrews_1e-7/dop853_model_compiled`: the same model with M and f from the eq. 55 program
+//!   traced from the same energies ([`lagrangian::trace::eom_program`]) and compiled (native
+//!   code with `--features jit`, the tape interpreter without), as a model stated through the
+//!   Python API gets it; G and γ still by dual numbers.
 //!
 //! The bench writes `andrews_meta.json` (tolerance, steps, error of each side) next to
 //! criterion's estimates; `python3 benches/andrews.py --cargo` runs it and prints the table of
@@ -18,7 +22,8 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use lagrangian::integrators::{Method, Options, Output, solve};
 use lagrangian::scenes::Andrews;
-use lagrangian::{Dynamics, Potential, Result, Scalar, Structure};
+use lagrangian::tape::EomFunction;
+use lagrangian::{Constrained, Dynamics, Potential, Result, Scalar, Structure, System};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -115,6 +120,57 @@ impl Dynamics for HandAndrews {
     }
 }
 
+/// The squeezer's system with its traced, compiled eq. 55 program: everything passes through to
+/// the Rust system, and [`Dynamics::derived_program`] hands out the program, from which
+/// [`lagrangian::Constrained`] takes M and f at `f64` states in one run.
+struct Compiled {
+    system: System<Andrews, Andrews>,
+    program: EomFunction,
+}
+
+impl Dynamics for Compiled {
+    fn dof(&self) -> usize {
+        self.system.dof()
+    }
+    fn structure(&self) -> Structure {
+        self.system.structure()
+    }
+    fn kinetic_energy<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
+        self.system.kinetic_energy(t, q, qd)
+    }
+    fn potential_energy<D: Scalar>(&self, t: D, q: &[D]) -> D {
+        self.system.potential_energy(t, q)
+    }
+    fn potential_gradient_into<D: Scalar>(&self, t: D, q: &[D], out: &mut [D]) {
+        self.system.potential_gradient_into(t, q, out)
+    }
+    fn generalized_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
+        self.system.generalized_forces_into(t, q, qd, out)
+    }
+    fn dissipative_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
+        self.system.dissipative_forces_into(t, q, qd, out)
+    }
+    fn momenta_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
+        self.system.momenta_into(t, q, qd, out)
+    }
+    fn mass_matrix_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
+        self.system.mass_matrix_into(t, q, qd, out)
+    }
+    fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
+        self.system.accelerations_into(t, q, qd, out)
+    }
+    fn derived_program(&self) -> Option<&EomFunction> {
+        Some(&self.program)
+    }
+}
+
+/// The squeezer under its constraints with M and f from its traced, compiled eq. 55 program.
+fn compiled_model(squeezer: Andrews) -> Constrained<Compiled, Andrews> {
+    let system = squeezer.system();
+    let program = lagrangian::trace::eom_program(&system, "andrews").unwrap();
+    Constrained::new(Compiled { system, program }, squeezer.constraints())
+}
+
 // ---------------------------------------------------------------------------------------------
 // Runs
 
@@ -167,10 +223,12 @@ fn andrews(c: &mut Criterion) {
     let squeezer = Andrews::default();
     let hand = HandAndrews(squeezer);
     let model = squeezer.model();
-    let sides: [(&str, Run); 3] = [
+    let compiled = compiled_model(squeezer);
+    let sides: [(&str, Run); 4] = [
         ("ode_solvers_dop853_hand", &ode_run),
         ("dop853_hand", &|tol| crate_run(&hand, tol)),
         ("dop853_model", &|tol| crate_run(&model, tol)),
+        ("dop853_model_compiled", &|tol| crate_run(&compiled, tol)),
     ];
     let mut g = c.benchmark_group("andrews_1e-7");
     g.sample_size(10)
@@ -198,7 +256,8 @@ fn andrews(c: &mut Criterion) {
 
 /// One evaluation of the right-hand side and of its parts at the reference state, to show where
 /// the model's time goes: `andrews_evaluation/{hand_index1, model_evaluate,
-/// unconstrained_accelerations, mass_matrix, constraint_jacobian, gamma}`.
+/// model_compiled_evaluate, unconstrained_accelerations, mass_matrix, constraint_jacobian,
+/// gamma}`.
 fn andrews_evaluation(c: &mut Criterion) {
     let squeezer = Andrews::default();
     let model = squeezer.model();
@@ -214,6 +273,10 @@ fn andrews_evaluation(c: &mut Criterion) {
     });
     g.bench_function("model_evaluate", |b| {
         b.iter(|| model.evaluate(0.0, black_box(q), black_box(qd)).unwrap())
+    });
+    let compiled = compiled_model(squeezer);
+    g.bench_function("model_compiled_evaluate", |b| {
+        b.iter(|| compiled.evaluate(0.0, black_box(q), black_box(qd)).unwrap())
     });
     g.bench_function("unconstrained_accelerations", |b| {
         b.iter(|| {
