@@ -271,6 +271,7 @@ EVALUATION = {
     "constraint_jacobian": "  of which: G by AD",
     "gamma": "  of which: γ by AD",
     "model_compiled_evaluate": "model, M and f from the compiled eq. 55 program: Constrained::evaluate",
+    "compiled_mass_and_force": "  of which: M and f from the compiled program (one run)",
 }
 
 

@@ -256,7 +256,7 @@ fn andrews(c: &mut Criterion) {
 
 /// One evaluation of the right-hand side and of its parts at the reference state, to show where
 /// the model's time goes: `andrews_evaluation/{hand_index1, model_evaluate,
-/// model_compiled_evaluate, unconstrained_accelerations, mass_matrix, constraint_jacobian,
+/// model_compiled_evaluate, compiled_mass_and_force, unconstrained_accelerations, mass_matrix, constraint_jacobian,
 /// gamma}`.
 fn andrews_evaluation(c: &mut Criterion) {
     let squeezer = Andrews::default();
@@ -277,6 +277,11 @@ fn andrews_evaluation(c: &mut Criterion) {
     let compiled = compiled_model(squeezer);
     g.bench_function("model_compiled_evaluate", |b| {
         b.iter(|| compiled.evaluate(0.0, black_box(q), black_box(qd)).unwrap())
+    });
+    let program = &compiled.system().program;
+    let (mut m, mut f) = ([0.0; 49], [0.0; 7]);
+    g.bench_function("compiled_mass_and_force", |b| {
+        b.iter(|| program.mass_and_force(0.0, black_box(q), black_box(qd), &mut m, &mut f))
     });
     g.bench_function("unconstrained_accelerations", |b| {
         b.iter(|| {
