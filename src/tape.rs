@@ -72,6 +72,7 @@
 //! # Ok::<(), lagrangian::Error>(())
 //! ```
 
+pub use crate::derived::constraint_program::{ConstraintProgram, ConstraintRows};
 pub use crate::derived::eom_program::{
     Energies, EomFunction, EomGraph, EomProgram, eom_graph, particle_kinetic,
 };
