@@ -6,11 +6,11 @@ side:
 - SciPy's ``solve_ivp(method="DOP853")`` on a hand-written NumPy index-1 right-hand side (the
   Test Set's M, f, G and γ, the 13 × 13 augmented system solved per evaluation);
 - with ``--cargo``: ``cargo bench -p lagrangian-benches --bench constrained --features jit``
-  (about 45 s with the bench built), whose four Rust sides are read from criterion's estimates and
+  (about 45 s with the bench built), whose five Rust sides are read from criterion's estimates and
   ``andrews_meta.json``: the hand-written index-1 right-hand side with ``ode_solvers``' DOP853
   (the limit) and with this crate's DOP853, and this crate's model from the energies and the
   constraints (``lagrangian::scenes::Andrews::model``), by dual numbers and with M and f from the
-  traced, compiled eq. 55 program; without it, the last bench run's numbers
+  traced, compiled eq. 55 program, and with G and γ also from the compiled constraints; without it, the last bench run's numbers
   if there are any;
 - this project through its Python API (``lg.Model(..., constraints=[...])``), when the module is
   installed and has constraints (``lagrangian_model`` below).
@@ -235,6 +235,7 @@ RUST_SIDES = {
     "dop853_hand": "hand-written Rust index-1 RHS, lagrangian DOP853",
     "dop853_model": "lagrangian Constrained model from energies, DOP853",
     "dop853_model_compiled": "the same, M and f from the traced, compiled eq. 55 program, DOP853",
+    "dop853_model_compiled_rows": "the same, and G, γ from the traced, compiled constraints, DOP853",
 }
 
 
@@ -272,6 +273,7 @@ EVALUATION = {
     "gamma": "  of which: γ by AD",
     "model_compiled_evaluate": "model, M and f from the compiled eq. 55 program: Constrained::evaluate",
     "compiled_mass_and_force": "  of which: M and f from the compiled program (one run)",
+    "model_compiled_rows_evaluate": "model, M, f, G and γ all compiled: Constrained::evaluate",
 }
 
 

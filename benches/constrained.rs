@@ -13,7 +13,10 @@
 //! - `andrews_1e-7/dop853_model_compiled`: the same model with M and f from the eq. 55 program
 //!   traced from the same energies ([`lagrangian::trace::eom_program`]) and compiled (native
 //!   code with `--features jit`, the tape interpreter without), as a model stated through the
-//!   Python API gets it; G and γ still by dual numbers.
+//!   Python API gets it; G and γ still by dual numbers;
+//! - `andrews_1e-7/dop853_model_compiled_rows`: and G and γ too from the constraints traced into
+//!   a graph and compiled ([`lagrangian::tape::ConstraintProgram`]), the whole right-hand side
+//!   derived and compiled.
 //!
 //! The bench writes `andrews_meta.json` (tolerance, steps, error of each side) next to
 //! criterion's estimates; `python3 benches/andrews.py --cargo` runs it and prints the table of
@@ -22,8 +25,11 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use lagrangian::integrators::{Method, Options, Output, solve};
 use lagrangian::scenes::Andrews;
-use lagrangian::tape::EomFunction;
-use lagrangian::{Constrained, Dynamics, Potential, Result, Scalar, Structure, System};
+use lagrangian::tape::{ConstraintProgram, ConstraintRows, EomFunction};
+use lagrangian::trace::Traced;
+use lagrangian::{
+    Constrained, Constraints, Dynamics, Potential, Result, Scalar, Structure, System,
+};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -171,6 +177,60 @@ fn compiled_model(squeezer: Andrews) -> Constrained<Compiled, Andrews> {
     Constrained::new(Compiled { system, program }, squeezer.constraints())
 }
 
+/// The squeezer's loop closures with G and γ from their traced, compiled rows
+/// ([`Constraints::compiled_rows`]); the rows themselves pass through.
+struct CompiledRows {
+    squeezer: Andrews,
+    rows: ConstraintRows,
+}
+
+impl CompiledRows {
+    fn new(squeezer: Andrews) -> Self {
+        let (mut graph, nodes) = lagrangian::trace::record(7, |t, q, _qd| {
+            let mut out = vec![Traced::number(0.0); 6];
+            squeezer.holonomic(t, q, &mut out);
+            out
+        })
+        .unwrap();
+        let program = ConstraintProgram::new(&mut graph, 7, 0, &nodes, &[], false).unwrap();
+        let rows = program.bind(&[]).unwrap();
+        Self { squeezer, rows }
+    }
+}
+
+impl Constraints for CompiledRows {
+    fn holonomic_count(&self) -> usize {
+        self.squeezer.holonomic_count()
+    }
+    fn holonomic<D: Scalar>(&self, t: D, q: &[D], out: &mut [D]) {
+        self.squeezer.holonomic(t, q, out)
+    }
+    fn depends_on_time(&self) -> bool {
+        false
+    }
+    fn name(&self, row: usize) -> String {
+        self.squeezer.name(row)
+    }
+    fn compiled_rows(
+        &self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        g: &mut [f64],
+        gamma: &mut [f64],
+    ) -> bool {
+        self.rows.eval(t, q, qd, g, gamma);
+        true
+    }
+}
+
+/// The squeezer with M, f, G and γ all from compiled programs derived on the graph.
+fn compiled_rows_model(squeezer: Andrews) -> Constrained<Compiled, CompiledRows> {
+    let system = squeezer.system();
+    let program = lagrangian::trace::eom_program(&system, "andrews").unwrap();
+    Constrained::new(Compiled { system, program }, CompiledRows::new(squeezer))
+}
+
 // ---------------------------------------------------------------------------------------------
 // Runs
 
@@ -224,11 +284,15 @@ fn andrews(c: &mut Criterion) {
     let hand = HandAndrews(squeezer);
     let model = squeezer.model();
     let compiled = compiled_model(squeezer);
-    let sides: [(&str, Run); 4] = [
+    let compiled_rows = compiled_rows_model(squeezer);
+    let sides: [(&str, Run); 5] = [
         ("ode_solvers_dop853_hand", &ode_run),
         ("dop853_hand", &|tol| crate_run(&hand, tol)),
         ("dop853_model", &|tol| crate_run(&model, tol)),
         ("dop853_model_compiled", &|tol| crate_run(&compiled, tol)),
+        ("dop853_model_compiled_rows", &|tol| {
+            crate_run(&compiled_rows, tol)
+        }),
     ];
     let mut g = c.benchmark_group("andrews_1e-7");
     g.sample_size(10)
@@ -256,7 +320,7 @@ fn andrews(c: &mut Criterion) {
 
 /// One evaluation of the right-hand side and of its parts at the reference state, to show where
 /// the model's time goes: `andrews_evaluation/{hand_index1, model_evaluate,
-/// model_compiled_evaluate, compiled_mass_and_force, unconstrained_accelerations, mass_matrix, constraint_jacobian,
+/// model_compiled_evaluate, model_compiled_rows_evaluate, compiled_mass_and_force, unconstrained_accelerations, mass_matrix, constraint_jacobian,
 /// gamma}`.
 fn andrews_evaluation(c: &mut Criterion) {
     let squeezer = Andrews::default();
@@ -277,6 +341,10 @@ fn andrews_evaluation(c: &mut Criterion) {
     let compiled = compiled_model(squeezer);
     g.bench_function("model_compiled_evaluate", |b| {
         b.iter(|| compiled.evaluate(0.0, black_box(q), black_box(qd)).unwrap())
+    });
+    let all = compiled_rows_model(squeezer);
+    g.bench_function("model_compiled_rows_evaluate", |b| {
+        b.iter(|| all.evaluate(0.0, black_box(q), black_box(qd)).unwrap())
     });
     let program = &compiled.system().program;
     let (mut m, mut f) = ([0.0; 49], [0.0; 7]);
