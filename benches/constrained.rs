@@ -320,7 +320,8 @@ fn andrews(c: &mut Criterion) {
 
 /// One evaluation of the right-hand side and of its parts at the reference state, to show where
 /// the model's time goes: `andrews_evaluation/{hand_index1, model_evaluate,
-/// model_compiled_evaluate, model_compiled_rows_evaluate, compiled_mass_and_force, unconstrained_accelerations, mass_matrix, constraint_jacobian,
+/// model_compiled_evaluate, model_compiled_rows_evaluate, model_compiled_rows_accelerations,
+/// compiled_rows, compiled_mass_and_force, unconstrained_accelerations, mass_matrix, constraint_jacobian,
 /// gamma}`.
 fn andrews_evaluation(c: &mut Criterion) {
     let squeezer = Andrews::default();
@@ -345,6 +346,17 @@ fn andrews_evaluation(c: &mut Criterion) {
     let all = compiled_rows_model(squeezer);
     g.bench_function("model_compiled_rows_evaluate", |b| {
         b.iter(|| all.evaluate(0.0, black_box(q), black_box(qd)).unwrap())
+    });
+    g.bench_function("model_compiled_rows_accelerations", |b| {
+        b.iter(|| all.accelerations(0.0, black_box(q), black_box(qd)).unwrap())
+    });
+    let (mut gm, mut gamma) = ([0.0; 42], [0.0; 6]);
+    g.bench_function("compiled_rows", |b| {
+        b.iter(|| {
+            all.constraints()
+                .rows
+                .eval(0.0, black_box(q), black_box(qd), &mut gm, &mut gamma)
+        })
     });
     let program = &compiled.system().program;
     let (mut m, mut f) = ([0.0; 49], [0.0; 7]);
