@@ -274,7 +274,7 @@ EVALUATION = {
     "model_compiled_evaluate": "model, M and f from the compiled eq. 55 program: Constrained::evaluate",
     "compiled_mass_and_force": "  of which: M and f from the compiled program (one run)",
     "model_compiled_rows_evaluate": "model, M, f, G and γ all compiled: Constrained::evaluate",
-    "model_compiled_rows_accelerations": "  the same through Dynamics::accelerations (the integrators' call)",
+    "model_compiled_rows_accelerations": "  the same through Dynamics::accelerations_into (the integrators' call)",
     "compiled_rows": "  of which: G and γ from the compiled constraints (one run)",
 }
 
