@@ -173,14 +173,9 @@ def scipy_side():
     return {"side": "SciPy DOP853, NumPy index-1 RHS", "tol": tol, "error": err, "seconds": seconds}
 
 
-def lagrangian_model():
-    """The squeezer through this project's Python API: T, U and the six loop closures as
-    expressions, ``lg.Model(..., constraints=[...])``. None when the module or its constraints
-    API (issue 41 item 1) is not installed."""
-    try:
-        import lagrangian as lg
-    except ImportError:
-        return None
+def squeezer_expressions(lg):
+    """The squeezer in this project's expressions: the coordinates, T (the bodies' ½ m v² +
+    ½ I ω²), U (spring and torque) and the six loop closures g(q)."""
     be, th, ga, ph, de, om, ep = lg.coordinates("beta theta gamma phi delta omega epsilon")
     bt, pd, oe = be.d + th.d, ph.d + de.d, om.d + ep.d
     v2 = rr**2 * be.d**2 + da**2 * bt**2 - 2 * rr * da * lg.cos(th) * be.d * bt
@@ -204,9 +199,21 @@ def lagrangian_model():
         cx - zf * lg.cos(om + ep) - u * lg.sin(ep) - xa,
         cy - zf * lg.sin(om + ep) + u * lg.cos(ep) - ya,
     ]
+    return [be, th, ga, ph, de, om, ep], kinetic, potential, constraints
+
+
+def lagrangian_model():
+    """The squeezer through this project's Python API, ``lg.Model(..., constraints=[...])``.
+    None when the module or its constraints API (issue 41 item 1) is not installed: then the
+    table leaves its row out, and it appears by itself once that API is merged."""
     try:
-        return lg.Model(coordinates=[be, th, ga, ph, de, om, ep], kinetic=kinetic,
-                        potential=potential, constraints=constraints)
+        import lagrangian as lg
+    except ImportError:
+        return None
+    coordinates, kinetic, potential, constraints = squeezer_expressions(lg)
+    try:
+        return lg.Model(coordinates=coordinates, kinetic=kinetic, potential=potential,
+                        constraints=constraints)
     except TypeError:
         # lg.Model without a `constraints` keyword: the Python constraints API is not merged.
         return None
