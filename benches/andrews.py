@@ -10,7 +10,8 @@ side:
   ``andrews_meta.json``: the hand-written index-1 right-hand side with ``ode_solvers``' DOP853
   (the limit) and with this crate's DOP853, and this crate's model from the energies and the
   constraints (``lagrangian::scenes::Andrews::model``), by dual numbers and with M and f from the
-  traced, compiled eq. 55 program, and with G and γ also from the compiled constraints; without it, the last bench run's numbers
+  traced, compiled eq. 55 program, and with G and γ also from the compiled constraints; without
+  it, the last bench run's numbers
   if there are any;
 - this project through its Python API (``lg.Model(..., constraints=[...])``), when the module is
   installed and has constraints (``lagrangian_model`` below).
@@ -58,7 +59,7 @@ Q_REF = np.array([0.1581077119629904e2, -0.1575637105984298e2, 0.408222401307310
 
 
 def index1_rhs(_t: float, y: np.ndarray) -> np.ndarray:
-    """y = (q, q̇); q̈ from [M Gᵀ; G 0] (q̈, λ) = (f, −γ), the Test Set's M, f, G and γ."""
+    """y = (q, q̇); q̈ from [M Gᵀ; G 0] (q̈, λ) = (f, −γ): the Test Set's M, f, G, γ."""
     q, v = y[:7], y[7:]
     be, th, ga, ph, de, om, ep = q
     bep, thp, gap, php, dep, omp, epp = v
@@ -242,7 +243,8 @@ RUST_SIDES = {
     "dop853_hand": "hand-written Rust index-1 RHS, lagrangian DOP853",
     "dop853_model": "lagrangian Constrained model from energies, DOP853",
     "dop853_model_compiled": "the same, M and f from the traced, compiled eq. 55 program, DOP853",
-    "dop853_model_compiled_rows": "the same, and G, γ from the traced, compiled constraints, DOP853",
+    "dop853_model_compiled_rows":
+        "the same, and G, γ from the traced, compiled constraints, DOP853",
 }
 
 
@@ -278,10 +280,12 @@ EVALUATION = {
     "mass_matrix": "  of which: M by AD (computed again for the Schur complement)",
     "constraint_jacobian": "  of which: G by AD",
     "gamma": "  of which: γ by AD",
-    "model_compiled_evaluate": "model, M and f from the compiled eq. 55 program: Constrained::evaluate",
+    "model_compiled_evaluate":
+        "model, M and f from the compiled eq. 55 program: Constrained::evaluate",
     "compiled_mass_and_force": "  of which: M and f from the compiled program (one run)",
     "model_compiled_rows_evaluate": "model, M, f, G and γ all compiled: Constrained::evaluate",
-    "model_compiled_rows_accelerations": "  the same through Dynamics::accelerations_into (the integrators' call)",
+    "model_compiled_rows_accelerations":
+        "  the same through Dynamics::accelerations_into (the integrators' call)",
     "compiled_rows": "  of which: G and γ from the compiled constraints (one run)",
 }
 
@@ -301,7 +305,8 @@ def evaluation_table() -> None:
     print("|---|---|---|")
     for key, label in EVALUATION.items():
         if key in times:
-            print(f"| {label} | {times[key] / 1e3:.2f} µs | {times[key] / times['hand_index1']:.2f}× |")
+            ratio = times[key] / times["hand_index1"]
+            print(f"| {label} | {times[key] / 1e3:.2f} µs | {ratio:.2f}× |")
 
 
 def main() -> None:
