@@ -11,6 +11,7 @@
 
 mod ad;
 mod andrews;
+mod cartesian_chain;
 mod common;
 mod compiled;
 mod constrained_motion;
@@ -25,6 +26,7 @@ mod implicit;
 mod integrators;
 mod linearize;
 mod partial;
+mod rattle;
 mod routes;
 mod scenes;
 mod statics;
