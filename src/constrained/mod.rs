@@ -46,7 +46,9 @@ use crate::eom::factor;
 use crate::error::{Error, Result};
 use crate::linalg::{ldlt_in_place, ldlt_solve};
 use crate::program::jet;
-use crate::scalar::{Grad, Hyper, Scalar, grad_const, grad_part, grad_seed, hyper, hyper_mixed};
+use crate::scalar::{
+    Grad, Hyper, Scalar, grad_const, grad_part, grad_seed, hyper, hyper_mixed, with_buf,
+};
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 use num_dual::{Dual, Dual2, Dual64};
 use std::sync::OnceLock;
@@ -467,26 +469,43 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
     ) -> Result<(Vec<D>, Vec<D>)> {
         let n = self.dof();
         let k = g.len() / n;
-        let mut x = g.to_vec();
+        let mut x = vec![D::zero(); k * n];
+        let mut s = vec![D::zero(); k * k];
+        self.schur_into(m, t, q, g, &mut x, &mut s)?;
+        Ok((x, s))
+    }
+
+    /// [`schur_factored`](Self::schur_factored) into caller-owned `x` (k × n) and `s` (k × k).
+    fn schur_into<F: Copy, D: Scalar + std::ops::Mul<F, Output = D>>(
+        &self,
+        m: &[F],
+        t: D,
+        q: &[D],
+        g: &[D],
+        x: &mut [D],
+        s: &mut [D],
+    ) -> Result<()> {
+        let n = self.dof();
+        let k = g.len() / n;
+        x.copy_from_slice(g);
         for row in x.chunks_exact_mut(n) {
             ldlt_solve(m, n, row);
         }
         // S is symmetric: one dot product per pair, factored in place (no copy kept for the
         // error path, which forms S again).
         let entry = |i: usize, j: usize| dot(&g[i * n..(i + 1) * n], &x[j * n..(j + 1) * n]);
-        let mut s = vec![D::zero(); k * k];
         for i in 0..k {
             for j in i..k {
                 s[i * k + j] = entry(i, j);
                 s[j * k + i] = s[i * k + j];
             }
         }
-        if ldlt_in_place(&mut s, k).is_err() {
+        if ldlt_in_place(s, k).is_err() {
             let s: Vec<f64> = (0..k * k).map(|ij| entry(ij / k, ij % k).re()).collect();
             let q: Vec<f64> = q.iter().map(|x| x.re()).collect();
             return Err(self.dependent(&s, k, t.re(), &q));
         }
-        Ok((x, s))
+        Ok(())
     }
 
     /// The LDLᵀ factor of a constant M, made at the first state seen and kept.
@@ -629,32 +648,37 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
             return self.solve_first_kind(t, q, qd, qdd, multipliers, reactions);
         };
         let (n, k) = (self.dof(), self.rows());
-        let mut m = vec![0.0; n * n];
-        program.mass_and_force(t, q, qd, &mut m, qdd);
-        // A constant M's factor is kept from the first evaluation.
-        let m: &[f64] = if self.system.structure().constant_mass {
-            self.constant_mass_factor(t, q, qd)?
-        } else {
-            finite(&m, "mass matrix", t)?;
-            factor(&mut m, n, t, q)?;
-            &m
-        };
-        crate::eom::solve(m, n, t, qdd)?;
-        reactions.fill(0.0);
-        if k == 0 {
-            return Ok(());
-        }
-        let mut g = vec![0.0; k * n];
-        let mut gamma = vec![0.0; k];
-        if !self.constraints.compiled_rows(t, q, qd, &mut g, &mut gamma) {
-            self.jacobian_into(t, q, qd, &mut g);
-            self.gamma_into(t, q, qd, &mut gamma);
-        }
-        finite(&g, "constraint Jacobian", t)?;
-        finite(&gamma, "constraint bias γ", t)?;
-        let (x, sf) = self.schur_factored(m, t, q, &g)?;
-        self.apply_multipliers(&g, &gamma, &x, &sf, qdd, multipliers, reactions);
-        Ok(())
+        let constant = self.system.structure().constant_mass;
+        // One work buffer (on the stack for small systems): M, G, M⁻¹Gᵀ, γ and S.
+        with_buf::<f64, 512, _>(n * n + 2 * k * n + k + k * k, 0.0, |buf| {
+            let (m, rest) = buf.split_at_mut(n * n);
+            let (g, rest) = rest.split_at_mut(k * n);
+            let (x, rest) = rest.split_at_mut(k * n);
+            let (gamma, s) = rest.split_at_mut(k);
+            program.mass_and_force(t, q, qd, m, qdd);
+            // A constant M's factor is kept from the first evaluation.
+            let m: &[f64] = if constant {
+                self.constant_mass_factor(t, q, qd)?
+            } else {
+                finite(m, "mass matrix", t)?;
+                factor(m, n, t, q)?;
+                m
+            };
+            crate::eom::solve(m, n, t, qdd)?;
+            reactions.fill(0.0);
+            if k == 0 {
+                return Ok(());
+            }
+            if !self.constraints.compiled_rows(t, q, qd, g, gamma) {
+                self.jacobian_into(t, q, qd, g);
+                self.gamma_into(t, q, qd, gamma);
+            }
+            finite(g, "constraint Jacobian", t)?;
+            finite(gamma, "constraint bias γ", t)?;
+            self.schur_into(m, t, q, g, x, s)?;
+            self.apply_multipliers(g, gamma, x, s, qdd, multipliers, reactions);
+            Ok(())
+        })
     }
 
     /// Lagrange's equations of the first kind at (t, q, q̇) over any scalar, unchecked: q̈₀ from
@@ -935,22 +959,23 @@ impl<S: Dynamics, C: Constraints> Dynamics for Constrained<S, C> {
     }
     fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
         let (n, k) = (self.dof(), self.rows());
-        let mut multipliers = vec![D::zero(); k];
-        let mut reactions = vec![D::zero(); n];
         if jet::is::<D, f64>() {
             // SAFETY: D is f64 (same TypeId), so these are identity casts.
-            let (tf, qf, qdf, outf, lf, rf) = unsafe {
+            let (tf, qf, qdf, outf) = unsafe {
                 (
                     *jet::cast::<D, f64>(&t),
                     jet::cast_slice::<D, f64>(q),
                     jet::cast_slice::<D, f64>(qd),
                     &mut *(out as *mut [D] as *mut [f64]),
-                    &mut *(multipliers.as_mut_slice() as *mut [D] as *mut [f64]),
-                    &mut *(reactions.as_mut_slice() as *mut [D] as *mut [f64]),
                 )
             };
-            self.solve_first_kind_f64(tf, qf, qdf, outf, lf, rf)?;
+            with_buf::<f64, 64, _>(k + n, 0.0, |buf| {
+                let (lf, rf) = buf.split_at_mut(k);
+                self.solve_first_kind_f64(tf, qf, qdf, outf, lf, rf)
+            })?;
         } else {
+            let mut multipliers = vec![D::zero(); k];
+            let mut reactions = vec![D::zero(); n];
             self.solve_first_kind(t, q, qd, out, &mut multipliers, &mut reactions)?;
         }
         if out.iter().all(|a| a.re().is_finite()) {

@@ -15,6 +15,7 @@ use crate::expr::graph::Graph;
 use crate::program::compile::Tape;
 use crate::program::eval::Function;
 use crate::program::inputs::Inputs;
+use crate::scalar::with_buf;
 use std::sync::Arc;
 
 /// G (row-major, rows × n) and γ (rows) of a set of constraint rows, as one program over
@@ -152,16 +153,17 @@ impl ConstraintRows {
         let (n, k) = (self.program.dof, self.program.rows);
         assert!(q.len() == n && qd.len() == n, "wrong state lengths");
         assert!(g.len() == k * n && gamma.len() == k, "wrong output lengths");
-        let mut out = vec![0.0; k * n + k];
-        #[cfg(feature = "jit")]
-        if let Some(native) = &self.program.native {
-            native.eval(self.function.constants(), t, q, qd, &mut out);
+        with_buf::<f64, 256, _>(k * n + k, 0.0, |out| {
+            #[cfg(feature = "jit")]
+            if let Some(native) = &self.program.native {
+                native.eval(self.function.constants(), t, q, qd, out);
+            } else {
+                self.function.eval_into(t, q, qd, out);
+            }
+            #[cfg(not(feature = "jit"))]
+            self.function.eval_into(t, q, qd, out);
             g.copy_from_slice(&out[..k * n]);
             gamma.copy_from_slice(&out[k * n..]);
-            return;
-        }
-        self.function.eval_into(t, q, qd, &mut out);
-        g.copy_from_slice(&out[..k * n]);
-        gamma.copy_from_slice(&out[k * n..]);
+        });
     }
 }
