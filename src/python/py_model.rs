@@ -661,6 +661,9 @@ impl PyModel {
             }
             let conserved = self.conserved(events.iter().any(|e| e.reset.is_some()));
             options.events = events;
+            if let Some(c) = self.model.constrained() {
+                c.check_consistent(t0, &q0, &qd0, None)?;
+            }
             integrator::PyIntegrator::new(
                 self.model.clone(),
                 (t0, q0, qd0),
