@@ -322,6 +322,7 @@ def simulate_many(
     base = model.with_parameters(**fixed) if fixed else model
     t_end, options = _options(t0, t_end, method, dt, rtol, atol, t_eval, max_steps, final_only)
     event_specs(events or (), base._coordinates, base._parameters)  # checked before any run
+    _check_consistent(base, q, qd, float(options["t0"]), sweep)
     events = list(events or ())
     if workers is not None:
         workers = at_least_one("workers", workers, "thread")
@@ -333,6 +334,21 @@ def simulate_many(
             executor, base, q, qd, t_end, sweep, options, events, workers, chunks, timeout
         )
     return Ensemble(raw, base, mode, sweep, events)
+
+
+def _check_consistent(
+    base: "Model", q: FloatArray, qd: FloatArray, t0: float, sweep: Mapping[str, FloatArray]
+) -> None:
+    """Refuse, before any run, an initial state off a constrained model's constraints (with
+    each run's parameters), naming the run: as :meth:`Model.simulate` refuses it."""
+    if not base.constraint_names:
+        return
+    for i in range(q.shape[0]):
+        model = base._rebound({k: float(v[i]) for k, v in sweep.items()}) if sweep else base
+        try:
+            model._native.check_consistent(t0, q[i].tolist(), qd[i].tolist())
+        except ValueError as e:
+            raise ValueError(f"run {i}: {e} (Model.project repairs a state)") from None
 
 
 def _options(
