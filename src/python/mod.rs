@@ -36,7 +36,6 @@ mod py_model;
 mod scenes;
 mod solution;
 mod states;
-mod stopgap;
 
 /// The compiled core of the `lagrangian` package.
 #[pyo3::pymodule(name = "_lagrangian")]
