@@ -98,7 +98,8 @@ class Ensemble:
         (the method that ran; ``""`` where a run failed before starting), ``choice`` (why
         ``"auto"`` chose it, else ``None``), ``accepted_steps``, ``rejected_steps``,
         ``rhs_evaluations``, ``jacobian_evaluations``, ``factorizations``,
-        ``newton_failures``. :meth:`run_stats` gives one run's as ``Solution.stats`` does.
+        ``newton_failures``, ``projections`` (steps a constrained model projected back onto its
+        constraints). :meth:`run_stats` gives one run's as ``Solution.stats`` does.
     t_events : list of list of numpy.ndarray
         With ``events``: ``t_events[j][i]`` the times of event j's occurrences in run i
         (:attr:`Solution.t_events` of run i is ``[t_events[j][i] for j ...]``).

@@ -35,7 +35,8 @@
 //! takes a state onto the constraints (positions by Gauss–Newton in the M metric, velocities by
 //! the M-orthogonal projection), the routine a drift-free integration calls after each step;
 //! [`Constrained::check_consistent`] refuses an inconsistent one
-//! ([`Error::InconsistentState`]). Integration without drift comes later.
+//! ([`Error::InconsistentState`]). As a [`Dynamics`] of its own it integrates with the
+//! Runge–Kutta methods and radau5, each accepted step projected back onto the constraints.
 
 use crate::checks::{check_state, finite};
 use crate::dynamics::Dynamics;
@@ -43,9 +44,9 @@ use crate::energies::Constraints;
 use crate::eom::factor;
 use crate::error::{Error, Result};
 use crate::linalg::{ldlt_in_place, ldlt_solve};
-use crate::scalar::{Grad, Hyper, grad_const, grad_part, grad_seed, hyper, hyper_mixed};
+use crate::scalar::{Grad, Hyper, Scalar, grad_const, grad_part, grad_seed, hyper, hyper_mixed};
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
-use num_dual::{Dual2, Dual64};
+use num_dual::{Dual, Dual2, Dual64};
 
 /// Directions seeded per pass of the Jacobian G and of the linearity check.
 const CHUNK: usize = 4;
@@ -430,23 +431,29 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
 
     /// X = M⁻¹Gᵀ (row i = M⁻¹ Gᵢᵀ) and the LDLᵀ factor of S = G M⁻¹ Gᵀ, for the k = `g.len()` / n
     /// rows of G in `g` (row-major), with M at (t, q, q̇): the one factorization behind the
-    /// multipliers and the projections.
+    /// multipliers and the projections, over any scalar (dual numbers for the integrators'
+    /// Jacobians).
     ///
     /// # Errors
     /// [`Error::SingularMassMatrix`] when M cannot be factored, [`Error::DependentConstraints`]
     /// when S cannot (G rank-deficient).
-    fn schur(&self, t: f64, q: &[f64], qd: &[f64], g: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
+    fn schur<D: Scalar>(&self, t: D, q: &[D], qd: &[D], g: &[D]) -> Result<(Vec<D>, Vec<D>)> {
         let n = self.dof();
         let k = g.len() / n;
-        let mut m = vec![0.0; n * n];
+        let mut m = vec![D::zero(); n * n];
         self.system.mass_matrix_into(t, q, qd, &mut m);
-        finite(&m, "mass matrix", t)?;
+        if !m.iter().all(|x| x.re().is_finite()) {
+            return Err(Error::NonFinite {
+                what: "mass matrix",
+                t: t.re(),
+            });
+        }
         factor(&mut m, n, t, q)?;
         let mut x = g.to_vec();
         for row in x.chunks_exact_mut(n) {
             ldlt_solve(&m, n, row);
         }
-        let mut s = vec![0.0; k * k];
+        let mut s = vec![D::zero(); k * k];
         for i in 0..k {
             for j in 0..k {
                 s[i * k + j] = dot(&g[i * n..(i + 1) * n], &x[j * n..(j + 1) * n]);
@@ -454,7 +461,9 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         }
         let mut sf = s.clone();
         if ldlt_in_place(&mut sf, k).is_err() {
-            return Err(self.dependent(&s, k, t, q));
+            let s: Vec<f64> = s.iter().map(|x| x.re()).collect();
+            let q: Vec<f64> = q.iter().map(|x| x.re()).collect();
+            return Err(self.dependent(&s, k, t.re(), &q));
         }
         Ok((x, sf))
     }
@@ -540,44 +549,71 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
                 });
             }
         }
+        if k > 0 {
+            let mut g = vec![0.0; k * n];
+            self.jacobian_into(t, q, qd, &mut g);
+            finite(&g, "constraint Jacobian", t)?;
+            self.check_linear(t, q, qd, &g)?;
+        }
+        self.solve_first_kind(t, q, qd, qdd, multipliers, reactions)?;
+        finite(multipliers, "constraint multipliers", t)?;
+        finite(reactions, "reaction forces", t)?;
+        finite(qdd, "accelerations", t)
+    }
+
+    /// Lagrange's equations of the first kind at (t, q, q̇) over any scalar, unchecked: q̈₀ from
+    /// the wrapped system (M q̈₀ = f), S λ = −γ − G q̈₀, q̈ = q̈₀ + M⁻¹Gᵀλ, reactions Gᵀλ.
+    ///
+    /// # Errors
+    /// Those of the wrapped system's accelerations, [`Error::NonFinite`] for G or γ,
+    /// [`Error::SingularMassMatrix`], [`Error::DependentConstraints`].
+    fn solve_first_kind<D: Scalar>(
+        &self,
+        t: D,
+        q: &[D],
+        qd: &[D],
+        qdd: &mut [D],
+        multipliers: &mut [D],
+        reactions: &mut [D],
+    ) -> Result<()> {
+        let (n, k) = (self.dof(), self.rows());
         // The unconstrained accelerations q̈₀ (M q̈₀ = f, eq. 55).
         self.system.accelerations_into(t, q, qd, qdd)?;
-        reactions.fill(0.0);
+        reactions.fill(D::zero());
         if k == 0 {
             return Ok(());
         }
-        let mut g = vec![0.0; k * n];
+        let mut g = vec![D::zero(); k * n];
         self.jacobian_into(t, q, qd, &mut g);
-        finite(&g, "constraint Jacobian", t)?;
-        self.check_linear(t, q, qd, &g)?;
-        let mut gamma = vec![0.0; k];
+        let mut gamma = vec![D::zero(); k];
         self.gamma_into(t, q, qd, &mut gamma);
-        finite(&gamma, "constraint bias γ", t)?;
-
+        for (what, x) in [("constraint Jacobian", &g), ("constraint bias γ", &gamma)] {
+            if !x.iter().all(|v| v.re().is_finite()) {
+                return Err(Error::NonFinite { what, t: t.re() });
+            }
+        }
         let (x, sf) = self.schur(t, q, qd, &g)?;
         // S λ = −γ − G q̈₀.
         for i in 0..k {
             multipliers[i] = -gamma[i] - dot(&g[i * n..(i + 1) * n], qdd);
         }
         ldlt_solve(&sf, k, multipliers);
-        finite(multipliers, "constraint multipliers", t)?;
         for (i, &l) in multipliers.iter().enumerate() {
             for j in 0..n {
                 reactions[j] += g[i * n + j] * l;
                 qdd[j] += x[i * n + j] * l;
             }
         }
-        finite(reactions, "reaction forces", t)?;
-        finite(qdd, "accelerations", t)
+        Ok(())
     }
 
     /// G into `g` (row-major k × n), unchecked: forward-mode duals over chunks of q (holonomic
-    /// rows) and of q̇ (velocity rows).
-    fn jacobian_into(&self, t: f64, q: &[f64], qd: &[f64], g: &mut [f64]) {
+    /// rows) and of q̇ (velocity rows), over any scalar.
+    fn jacobian_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], g: &mut [D]) {
         let (kh, kv, n) = (self.holonomic_rows(), self.velocity_rows(), self.dof());
-        let tc = grad_const::<f64, CHUNK>(t);
+        let tc = grad_const::<D, CHUNK>(t);
         for start in (0..n).step_by(CHUNK) {
-            let seeded = |x: &[f64]| -> Vec<Grad<f64, CHUNK>> {
+            let seeded = |x: &[D]| -> Vec<Grad<D, CHUNK>> {
                 x.iter()
                     .enumerate()
                     .map(|(j, &v)| {
@@ -614,29 +650,29 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         }
     }
 
-    /// γ into `gamma` (length k), unchecked: one second-order pass along (t + s, q + s q̇) for
-    /// the holonomic rows, one first-order pass for the velocity rows.
-    fn gamma_into(&self, t: f64, q: &[f64], qd: &[f64], gamma: &mut [f64]) {
+    /// γ into `gamma` (length k), unchecked, over any scalar: one second-order pass along
+    /// (t + s, q + s q̇) for the holonomic rows, one first-order pass for the velocity rows.
+    fn gamma_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], gamma: &mut [D]) {
         let (kh, kv) = (self.holonomic_rows(), self.velocity_rows());
-        let rate = self.time_rate();
+        let rate = D::from(self.time_rate());
         if kh > 0 {
-            let td = Dual2::new(t, rate, 0.0);
-            let qq: Vec<Dual2<f64>> = q
+            let td = Dual2::new(t, rate, D::zero());
+            let qq: Vec<Dual2<D>> = q
                 .iter()
                 .zip(qd)
-                .map(|(&x, &v)| Dual2::new(x, v, 0.0))
+                .map(|(&x, &v)| Dual2::new(x, v, D::zero()))
                 .collect();
-            let mut out = vec![Dual2::from(0.0); kh];
+            let mut out = vec![Dual2::from_re(D::zero()); kh];
             self.constraints.holonomic(td, &qq, &mut out);
             for (y, o) in gamma.iter_mut().zip(&out) {
                 *y = o.v2;
             }
         }
         if kv > 0 {
-            let td = Dual64::new(t, rate);
-            let qq: Vec<Dual64> = q.iter().zip(qd).map(|(&x, &v)| Dual64::new(x, v)).collect();
-            let vv: Vec<Dual64> = qd.iter().map(|&v| Dual64::from(v)).collect();
-            let mut out = vec![Dual64::from(0.0); kv];
+            let td = Dual::new(t, rate);
+            let qq: Vec<Dual<D>> = q.iter().zip(qd).map(|(&x, &v)| Dual::new(x, v)).collect();
+            let vv: Vec<Dual<D>> = qd.iter().map(|&v| Dual::from_re(v)).collect();
+            let mut out = vec![Dual::from_re(D::zero()); kv];
             self.constraints.velocity(td, &qq, &vv, &mut out);
             for (y, o) in gamma[kh..].iter_mut().zip(&out) {
                 *y = o.eps;
@@ -745,6 +781,123 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
     }
 }
 
+/// The constrained system as a system of its own: its accelerations are the constrained q̈
+/// (index 1: M q̈ = f + Gᵀλ with G q̈ = −γ), over any scalar, so the integrators and their AD
+/// Jacobians take it as they take any [`Dynamics`]; [`Dynamics::constraints`] tells them to
+/// bring each accepted step back onto the constraints. The energies, M and the momenta are the
+/// wrapped system's. It has no eq. 55 program (the Taylor method refuses it, naming the methods
+/// that serve it), and a constraint that moves makes it time-dependent.
+impl<S: Dynamics, C: Constraints> Dynamics for Constrained<S, C> {
+    fn dof(&self) -> usize {
+        self.system.dof()
+    }
+    fn structure(&self) -> crate::Structure {
+        let s = self.system.structure();
+        crate::Structure {
+            time_dependent: s.time_dependent
+                || (self.rows() > 0 && self.constraints.depends_on_time()),
+            ..s
+        }
+    }
+    fn kinetic_energy<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
+        self.system.kinetic_energy(t, q, qd)
+    }
+    fn potential_energy<D: Scalar>(&self, t: D, q: &[D]) -> D {
+        self.system.potential_energy(t, q)
+    }
+    fn potential_gradient_into<D: Scalar>(&self, t: D, q: &[D], out: &mut [D]) {
+        self.system.potential_gradient_into(t, q, out)
+    }
+    fn generalized_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
+        self.system.generalized_forces_into(t, q, qd, out)
+    }
+    fn dissipative_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
+        self.system.dissipative_forces_into(t, q, qd, out)
+    }
+    fn momenta_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
+        self.system.momenta_into(t, q, qd, out)
+    }
+    fn mass_matrix_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
+        self.system.mass_matrix_into(t, q, qd, out)
+    }
+    fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
+        let (n, k) = (self.dof(), self.rows());
+        let mut multipliers = vec![D::zero(); k];
+        let mut reactions = vec![D::zero(); n];
+        self.solve_first_kind(t, q, qd, out, &mut multipliers, &mut reactions)?;
+        if out.iter().all(|a| a.re().is_finite()) {
+            Ok(())
+        } else {
+            Err(Error::NonFinite {
+                what: "accelerations",
+                t: t.re(),
+            })
+        }
+    }
+    fn taylor_program(
+        &self,
+    ) -> std::result::Result<&crate::derived::eom_program::EomFunction, String> {
+        Err(
+            "the Taylor method expands the unconstrained eq. 55 program, which has no \
+             multipliers: a constrained model takes a Runge–Kutta method or radau5, each step \
+             projected back onto the constraints"
+                .into(),
+        )
+    }
+    fn constraints(&self) -> Option<&dyn crate::dynamics::ConstraintAccess> {
+        (self.rows() > 0).then_some(self as &dyn crate::dynamics::ConstraintAccess)
+    }
+    fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
+        self.system.energy(t, q, qd)
+    }
+}
+
+impl<S: Dynamics, C: Constraints> crate::dynamics::ConstraintAccess for Constrained<S, C> {
+    fn holonomic_rows(&self) -> usize {
+        Constrained::holonomic_rows(self)
+    }
+    fn velocity_rows(&self) -> usize {
+        Constrained::velocity_rows(self)
+    }
+    fn row_name(&self, row: usize) -> String {
+        self.constraints.name(row)
+    }
+    fn moving(&self) -> bool {
+        self.constraints.depends_on_time()
+    }
+    fn check_state(&self, t: f64, q: &[f64], qd: &[f64], tol: f64) -> Result<()> {
+        self.check_consistent(t, q, qd, Some(tol))
+    }
+    fn project_in_place(&self, t: f64, q: &mut [f64], qd: &mut [f64], tol: f64) -> Result<bool> {
+        let (pq, pqd) = self.project(t, q, qd, Some(tol))?;
+        let moved = pq != q || pqd != qd;
+        q.copy_from_slice(&pq);
+        qd.copy_from_slice(&pqd);
+        Ok(moved)
+    }
+    fn worst_residual(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
+        self.residuals(t, q, qd).map(|r| r.max_abs())
+    }
+    fn holonomic_into(&self, t: f64, q: &[f64], out: &mut [f64]) {
+        self.constraints.holonomic(t, q, out)
+    }
+    fn jacobian_into(&self, t: f64, q: &[f64], qd: &[f64], out: &mut [f64]) -> Result<()> {
+        Constrained::jacobian_into(self, t, q, qd, out);
+        finite(out, "constraint Jacobian", t)
+    }
+    fn multipliers_into(
+        &self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        multipliers: &mut [f64],
+        reactions: &mut [f64],
+    ) -> Result<()> {
+        let mut qdd = vec![0.0; self.dof()];
+        self.evaluate_into(t, q, qd, &mut qdd, multipliers, reactions)
+    }
+}
+
 /// The tolerance of [`Constrained::project`] and [`Constrained::check_consistent`].
 fn tolerance(tol: Option<f64>) -> Result<f64> {
     let tol = tol.unwrap_or(PROJECTION_TOLERANCE);
@@ -780,6 +933,6 @@ fn worst_row(r: &[f64], g: &[f64], n: usize, scale: &[f64]) -> (usize, f64) {
     worst
 }
 
-fn dot(x: &[f64], y: &[f64]) -> f64 {
-    x.iter().zip(y).map(|(a, b)| a * b).sum()
+fn dot<D: Scalar>(x: &[D], y: &[D]) -> D {
+    x.iter().zip(y).fold(D::zero(), |s, (&a, &b)| s + a * b)
 }

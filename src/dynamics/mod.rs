@@ -106,6 +106,14 @@ pub trait Dynamics {
         })
     }
 
+    /// The constraints the motion is held to, when there are any (a
+    /// [`Constrained`](crate::Constrained) system): the integrators bring each accepted step back
+    /// onto them and refuse the methods that cannot. A wrapper that keeps the equations passes
+    /// it on.
+    fn constraints(&self) -> Option<&dyn ConstraintAccess> {
+        None
+    }
+
     /// The Lagrangian L = T − U.
     fn lagrangian<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
         self.kinetic_energy(t, q, qd) - self.potential_energy(t, q)
@@ -160,6 +168,66 @@ pub trait Dynamics {
     fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
         energy_from_parts(self, t, q, qd)
     }
+}
+
+/// The `f64` view of a constrained system's constraints that the integrators need
+/// ([`Dynamics::constraints`]); [`Constrained`](crate::Constrained) implements it, and its
+/// documentation says what each part means.
+pub trait ConstraintAccess {
+    /// Number of holonomic rows g(t, q) = 0.
+    fn holonomic_rows(&self) -> usize;
+
+    /// Number of velocity rows a(t, q)·q̇ + b(t, q) = 0.
+    fn velocity_rows(&self) -> usize;
+
+    /// The name of row `row` (holonomic rows first), for messages.
+    fn row_name(&self, row: usize) -> String;
+
+    /// Whether any row reads t explicitly (a moving constraint).
+    fn moving(&self) -> bool;
+
+    /// Refuse a state off the constraints (or with a velocity row not linear in q̇), judged
+    /// with the relative tolerance `tol`.
+    ///
+    /// # Errors
+    /// [`Error::InconsistentState`](crate::Error::InconsistentState) naming the row, and the
+    /// errors of evaluating the constraints.
+    fn check_state(&self, t: f64, q: &[f64], qd: &[f64], tol: f64) -> Result<()>;
+
+    /// Move (q, q̇) onto the constraints in place when a row's relative residual exceeds
+    /// `tol`; whether it moved.
+    ///
+    /// # Errors
+    /// Those of [`Constrained::project`](crate::Constrained::project).
+    fn project_in_place(&self, t: f64, q: &mut [f64], qd: &mut [f64], tol: f64) -> Result<bool>;
+
+    /// The largest absolute residual of the rows, positions and velocities.
+    ///
+    /// # Errors
+    /// As [`Constrained::residuals`](crate::Constrained::residuals).
+    fn worst_residual(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64>;
+
+    /// g(t, q) into `out` (length [`holonomic_rows`](Self::holonomic_rows)).
+    fn holonomic_into(&self, t: f64, q: &[f64], out: &mut [f64]);
+
+    /// G (row-major, rows × n: holonomic rows ∂g/∂q, then velocity rows) into `out`.
+    ///
+    /// # Errors
+    /// [`Error::NonFinite`](crate::Error::NonFinite) when G is not finite.
+    fn jacobian_into(&self, t: f64, q: &[f64], qd: &[f64], out: &mut [f64]) -> Result<()>;
+
+    /// λ (length rows) and the generalized reactions Gᵀλ (length n) at a state.
+    ///
+    /// # Errors
+    /// As [`Constrained::evaluate_into`](crate::Constrained::evaluate_into).
+    fn multipliers_into(
+        &self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        multipliers: &mut [f64],
+        reactions: &mut [f64],
+    ) -> Result<()>;
 }
 
 /// h = q̇·p − L from the momenta and the Lagrangian: [`Dynamics::energy`] of a system with no

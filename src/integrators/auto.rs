@@ -16,8 +16,32 @@ pub(super) fn choose<S: Dynamics + ?Sized>(
     t_end: f64,
     options: &Options,
 ) -> (Method, String) {
+    if let Some(c) = system.constraints() {
+        let rows = c.holonomic_rows() + c.velocity_rows();
+        let (method, why) = choose_for(system, t0, q0, qd0, t_end, options, false);
+        return (
+            method,
+            format!(
+                "constrained ({rows} rows): a method whose steps are projected back onto the \
+                 constraints (the symplectic and Taylor methods do not take them); {why}"
+            ),
+        );
+    }
+    choose_for(system, t0, q0, qd0, t_end, options, true)
+}
+
+/// [`choose`] among every method (`symplectic`), or among the projected ones.
+fn choose_for<S: Dynamics + ?Sized>(
+    system: &S,
+    t0: f64,
+    q0: &[f64],
+    qd0: &[f64],
+    t_end: f64,
+    options: &Options,
+    symplectic: bool,
+) -> (Method, String) {
     let s = system.structure();
-    if options.dt.is_some() && s.conservative() {
+    if symplectic && options.dt.is_some() && s.conservative() {
         return if s.separable {
             (
                 Method::BlanesMoan4,
@@ -91,7 +115,7 @@ pub(super) fn choose<S: Dynamics + ?Sized>(
             "fixed dt on a system that is forced, dissipative or time-dependent, {not_stiff}: \
              DOP853 (order 8) at that step"
         ),
-        None if s.conservative() => format!(
+        None if s.conservative() && symplectic => format!(
             "no fixed dt (adaptive steps to rtol and atol), {not_stiff}: DOP853 with error \
              control, dense output and stiffness detection (the symplectic methods, {}, need a \
              fixed dt)",

@@ -25,7 +25,7 @@
 //! come from the previous step's collocation polynomial.
 
 use super::implicit::{FixedSteps, ImplicitStep, Legendre};
-use super::run::{Integrator, Run, SegmentStepper};
+use super::run::{Integrator, Run, SegmentStepper, unconstrained_only};
 use crate::dynamics::Dynamics;
 use crate::dynamics::ForceParts;
 use crate::dynamics::jacobian;
@@ -475,6 +475,19 @@ impl Integrator for Gauss {
 
     fn explicit(&self) -> bool {
         false
+    }
+
+    fn fits<S: Dynamics + ?Sized>(
+        &self,
+        system: &S,
+        _t0: f64,
+        _q0: &[f64],
+        _qd0: &[f64],
+    ) -> std::result::Result<(), String> {
+        unconstrained_only(
+            system,
+            "its collocation on (q, p) has no multipliers (a SHAKE-type constrained Gauss–Legendre step is not built)",
+        )
     }
 
     fn start<S: Dynamics + ?Sized>(

@@ -38,6 +38,16 @@
 //! With the `parallel` feature, `solve_many` runs an ensemble of them on a rayon thread pool
 //! (`ensemble.rs`), bit for bit as a serial loop would.
 //!
+//! A constrained system ([`Constrained`](crate::Constrained), whose
+//! [`Dynamics::constraints`](crate::Dynamics::constraints) is set) integrates its index-1
+//! accelerations with the Runge–Kutta methods and radau5, each accepted step projected back onto
+//! the constraints (positions, then velocities, to the run's `rtol`, or 10⁻¹² at a fixed `dt`):
+//! no drift over any run length; [`Statistics::projections`] and
+//! [`Statistics::constraint_residual`] say what it took. The initial state must satisfy the
+//! constraints ([`Error::InconsistentState`](crate::Error::InconsistentState); see
+//! [`Constrained::project`](crate::Constrained::project)); the other methods refuse a constrained
+//! system with [`Error::UnsupportedMethod`].
+//!
 //! Events ([`Event`], in [`Options::events`]) are sign changes of conditions g(t, q, q̇), found
 //! with every method on each step's interpolant and refined to round-off; a terminal event ends
 //! the run, a reset changes the state and the run goes on ([`Solution::events`],

@@ -659,6 +659,9 @@ impl Stepper {
                             run.stats.rejected_steps += 1;
                             continue;
                         }
+                        // No drift: the end back onto a constrained system's constraints,
+                        // before its derivative is taken.
+                        run.project(t_new, &mut self.y_new)?;
                         match run.rhs(t_new, &self.y_new, &mut self.f_new) {
                             Ok(()) => {}
                             Err(e @ Error::NonFinite { .. }) => {

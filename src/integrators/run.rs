@@ -43,6 +43,33 @@ pub(crate) trait Integrator {
     ) -> Result<Box<dyn SegmentStepper<S>>>;
 }
 
+/// The relative tolerance a constrained run holds its initial state and its steps' ends to: the
+/// run's `rtol` when the step size is controlled (the constraints hold to the accuracy asked
+/// for), at least [`PROJECTION_TOLERANCE`](crate::PROJECTION_TOLERANCE); that tolerance itself
+/// for fixed steps.
+pub(crate) fn projection_tolerance(options: &Options) -> f64 {
+    let floor = crate::PROJECTION_TOLERANCE;
+    match options.dt {
+        Some(_) => floor,
+        None => options.rtol.max(floor),
+    }
+}
+
+/// `Err(why)` for a constrained system ([`Dynamics::constraints`]) when the method's step does
+/// not hold constraints: `how` says what the step would need.
+pub(crate) fn unconstrained_only<S: Dynamics + ?Sized>(
+    system: &S,
+    how: &str,
+) -> std::result::Result<(), String> {
+    match system.constraints() {
+        Some(_) => Err(format!(
+            "the model is constrained, and {how}; the Runge–Kutta methods and radau5 project \
+             each step back onto the constraints"
+        )),
+        None => Ok(()),
+    }
+}
+
 /// One method integrating one segment, a step at a time: what [`Solver::step`](super::Solver::step)
 /// drives.
 pub(crate) trait SegmentStepper<S: Dynamics + ?Sized> {
@@ -250,6 +277,22 @@ impl<'a, S: Dynamics + ?Sized> Run<'a, S> {
             Some(stop) if stop(t) => Err(Error::Interrupted { t }),
             _ => Ok(()),
         }
+    }
+
+    /// Bring an accepted step's end state y (at `t`) back onto the system's constraints, if it
+    /// has any (no drift: Hairer, Lubich & Wanner §IV.4's projection method), and record the
+    /// residual left; whether y moved, so that a method keeping f(t, y) evaluates it anew.
+    pub(crate) fn project(&mut self, t: f64, y: &mut [f64]) -> Result<bool> {
+        let Some(constraints) = self.system.constraints() else {
+            return Ok(false);
+        };
+        let tol = projection_tolerance(self.options);
+        let (q, qd) = y.split_at_mut(self.n);
+        let moved = constraints.project_in_place(t, q, qd, tol)?;
+        self.stats.projections += usize::from(moved);
+        let residual = constraints.worst_residual(t, q, qd)?;
+        self.stats.constraint_residual = self.stats.constraint_residual.max(residual);
+        Ok(moved)
     }
 
     /// ẏ = (q̇, q̈) at (t, y), counted.

@@ -187,6 +187,11 @@ impl ExplicitRk {
         let h = t_new - t;
         let s = self.tableau.stages();
         let n = run.n;
+        if run.project(t_new, &mut c.y_new)? {
+            // The end moved onto the constraints: its derivative anew (the interpolant's end
+            // and, first same as last, the next step's first stage).
+            run.rhs(t_new, &c.y_new, &mut c.k[s])?;
+        }
         let hermite = Interpolant::Hermite {
             t,
             h,

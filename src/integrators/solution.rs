@@ -30,6 +30,12 @@ pub struct Statistics {
     pub factorizations: usize,
     /// Newton iterations that failed to converge.
     pub newton_failures: usize,
+    /// Accepted steps whose end state a constrained system's projection moved back onto the
+    /// constraints ([`Dynamics::constraints`](crate::Dynamics::constraints)).
+    pub projections: usize,
+    /// The largest absolute constraint residual (g, ġ and the velocity rows) at the end of an
+    /// accepted step, after its projection; 0 for a system without constraints.
+    pub constraint_residual: f64,
 }
 
 /// A counter of [`Statistics`]: its name and how to read it.
@@ -38,13 +44,14 @@ type Counter = (&'static str, fn(&Statistics) -> usize);
 impl Statistics {
     /// The counters by name, in one order: the Python statistics dict and an ensemble's
     /// counter columns are both made from this table.
-    pub const COUNTERS: [Counter; 6] = [
+    pub const COUNTERS: [Counter; 7] = [
         ("accepted_steps", |s| s.accepted_steps),
         ("rejected_steps", |s| s.rejected_steps),
         ("rhs_evaluations", |s| s.rhs_evaluations),
         ("jacobian_evaluations", |s| s.jacobian_evaluations),
         ("factorizations", |s| s.factorizations),
         ("newton_failures", |s| s.newton_failures),
+        ("projections", |s| s.projections),
     ];
 
     pub(crate) fn new(method: Method, choice: Option<String>) -> Self {
@@ -57,6 +64,8 @@ impl Statistics {
             jacobian_evaluations: 0,
             factorizations: 0,
             newton_failures: 0,
+            projections: 0,
+            constraint_residual: 0.0,
         }
     }
 }

@@ -6,7 +6,7 @@ use super::auto;
 use super::events::{Status, Stop};
 use super::method::Method;
 use super::options::Options;
-use super::run::{Flow, Run, SegmentStepper};
+use super::run::{Flow, Run, SegmentStepper, projection_tolerance};
 use super::solution::{Failed, Solution, Statistics};
 use super::step_limit;
 use crate::checks::check_state;
@@ -232,6 +232,9 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
         };
         method.check_fits(system, t0, q0, qd0)?;
         options.check_method(method)?;
+        if let Some(constraints) = system.constraints() {
+            constraints.check_state(t0, q0, qd0, projection_tolerance(options))?;
+        }
         if let (Some(dt), Some(true)) = (options.dt, method.is_explicit()) {
             step_limit::check(system, t0, q0, qd0, dt, method)?;
         }
@@ -294,6 +297,8 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
                 self.stepper = None;
                 let mut after = y.clone();
                 run.events.reset(event, t, &mut after)?;
+                // A reset that leaves the constraints is brought back onto them.
+                run.project(t, &mut after)?;
                 run.out.jump(t, &y, &after);
                 let dir = run.dir();
                 // A reset within round-off of the end ends the run: no step fits after it.

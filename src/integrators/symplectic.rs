@@ -8,7 +8,7 @@
 //! step. M is factored once (LDLᵀ).
 
 use super::dense::{Ends, Interpolant};
-use super::run::{Flow, Integrator, Run, SegmentStepper};
+use super::run::{Flow, Integrator, Run, SegmentStepper, unconstrained_only};
 use crate::dynamics::Dynamics;
 use crate::eom;
 use crate::error::{Error, Result};
@@ -250,6 +250,10 @@ impl Integrator for Splitting {
         q0: &[f64],
         qd0: &[f64],
     ) -> std::result::Result<(), String> {
+        unconstrained_only(
+            system,
+            "the explicit splittings' kick and drift have no multipliers (RATTLE is not built)",
+        )?;
         let s = system.structure();
         if !s.separable {
             return Err(

@@ -20,7 +20,7 @@
 //! drift. (It coincides with the one-stage Gauss method on (q, p).)
 
 use super::implicit::{FixedSteps, ImplicitStep, Legendre};
-use super::run::{Integrator, Run, SegmentStepper};
+use super::run::{Integrator, Run, SegmentStepper, unconstrained_only};
 use crate::Scalar;
 use crate::dynamics::Dynamics;
 use crate::dynamics::ForceParts;
@@ -299,6 +299,19 @@ impl Integrator for Variational {
 
     fn explicit(&self) -> bool {
         false
+    }
+
+    fn fits<S: Dynamics + ?Sized>(
+        &self,
+        system: &S,
+        _t0: f64,
+        _q0: &[f64],
+        _qd0: &[f64],
+    ) -> std::result::Result<(), String> {
+        unconstrained_only(
+            system,
+            "its discrete Euler–Lagrange step has no multipliers (a constrained variational step is not built)",
+        )
     }
 
     fn start<S: Dynamics + ?Sized>(

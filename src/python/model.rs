@@ -187,6 +187,9 @@ impl Dynamics for AnyModel {
     fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
         each!(self, s => s.energy(t, q, qd))
     }
+    fn constraints(&self) -> Option<&dyn crate::ConstraintAccess> {
+        each!(self, s => s.constraints())
+    }
 }
 
 impl AnyModel {

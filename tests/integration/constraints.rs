@@ -10,7 +10,7 @@ use lagrangian::{
 const G: f64 = 9.81;
 
 /// ½ Σ mᵢ q̇ᵢ².
-struct Diagonal(Vec<f64>);
+pub(crate) struct Diagonal(pub(crate) Vec<f64>);
 impl KineticEnergy for Diagonal {
     fn kinetic<D: Scalar>(&self, _t: D, _q: &[D], qd: &[D]) -> D {
         qd.iter()
@@ -29,7 +29,7 @@ impl KineticEnergy for Diagonal {
 }
 
 /// A linear potential Σ cᵢ qᵢ (uniform gravity, a slope).
-struct Linear(Vec<f64>);
+pub(crate) struct Linear(pub(crate) Vec<f64>);
 impl Potential for Linear {
     fn potential<D: Scalar>(&self, _t: D, q: &[D]) -> D {
         q.iter()
@@ -43,7 +43,7 @@ impl Potential for Linear {
 
 /// Holonomic rows from a closure-free list of shapes (enough for the tests).
 #[derive(Clone, Copy)]
-enum Row {
+pub(crate) enum Row {
     /// x² + y² − l².
     Circle(f64),
     /// x − r θ.
@@ -76,7 +76,7 @@ impl Row {
 
 /// Velocity rows.
 #[derive(Clone, Copy)]
-enum VRow {
+pub(crate) enum VRow {
     /// sin φ ẋ − cos φ ẏ (knife edge, q = (x, y, φ)).
     Knife,
     /// ẋ² + ẏ² − 1 (not linear in q̇).
@@ -95,9 +95,9 @@ impl VRow {
     }
 }
 
-struct Rows {
-    holonomic: Vec<Row>,
-    velocity: Vec<VRow>,
+pub(crate) struct Rows {
+    pub(crate) holonomic: Vec<Row>,
+    pub(crate) velocity: Vec<VRow>,
 }
 
 impl Constraints for Rows {
@@ -122,7 +122,7 @@ impl Constraints for Rows {
     }
 }
 
-fn holonomic(rows: &[Row]) -> Rows {
+pub(crate) fn holonomic(rows: &[Row]) -> Rows {
     Rows {
         holonomic: rows.to_vec(),
         velocity: Vec::new(),
@@ -133,7 +133,7 @@ fn close(a: f64, b: f64, tol: f64) -> bool {
     (a - b).abs() <= tol * (1.0 + b.abs())
 }
 
-fn point(m: f64, gravity: bool) -> System<Diagonal, Linear> {
+pub(crate) fn point(m: f64, gravity: bool) -> System<Diagonal, Linear> {
     System::new(2, Diagonal(vec![m, m]))
         .with_potential(Linear(vec![0.0, if gravity { m * G } else { 0.0 }]))
 }
@@ -198,7 +198,7 @@ fn rolling_cylinder_acceleration_and_friction() {
 }
 
 /// A force F along x.
-struct PushX(f64);
+pub(crate) struct PushX(pub(crate) f64);
 impl GeneralizedForces for PushX {
     fn forces<D: Scalar>(&self, _t: D, _q: &[D], _qd: &[D], out: &mut [D]) {
         out[0] += self.0;

@@ -12,6 +12,7 @@
 mod ad;
 mod common;
 mod compiled;
+mod constrained_motion;
 mod constrained_statics;
 mod constraints;
 mod energy_model;
