@@ -41,7 +41,10 @@ macro_rules! any_model {
                 match $model {
                     AnyModel::Energy($s) => $body,
                     AnyModel::Particles($s, _) => $body,
-                    AnyModel::Constrained($s) => $body,
+                    AnyModel::Constrained(c) => {
+                        let $s: &Constrained<AnyModel, ExprConstraints> = c;
+                        $body
+                    }
                     $(AnyModel::$scene($s) => $body,)*
                 }
             };
@@ -188,7 +191,8 @@ impl Dynamics for AnyModel {
         each!(self, s => s.energy(t, q, qd))
     }
     fn constraints(&self) -> Option<&dyn crate::ConstraintAccess> {
-        each!(self, s => s.constraints())
+        // By the trait: `Constrained` has an inherent `constraints` (its rows) as well.
+        each!(self, s => Dynamics::constraints(s))
     }
 }
 

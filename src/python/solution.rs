@@ -400,6 +400,7 @@ pub(super) fn stats_dict<'py>(
         for key in &counters {
             d.set_item(key.bind(py), py.None())?;
         }
+        d.set_item(intern!(py, "constraint_residual"), py.None())?;
         d.set_item(intern!(py, "conserved"), py.None())?;
         Ok((d.unbind(), counters))
     })?;
@@ -409,6 +410,7 @@ pub(super) fn stats_dict<'py>(
     for (key, (_, count)) in counters.iter().zip(Statistics::COUNTERS) {
         stats.set_item(key.bind(py), count(s))?;
     }
+    stats.set_item(intern!(py, "constraint_residual"), s.constraint_residual)?;
     stats.set_item(intern!(py, "conserved"), conserved)?;
     Ok(stats)
 }
