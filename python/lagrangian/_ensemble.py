@@ -323,7 +323,7 @@ def simulate_many(
     base = model.with_parameters(**fixed) if fixed else model
     t_end, options = _options(t0, t_end, method, dt, rtol, atol, t_eval, max_steps, final_only)
     event_specs(events or (), base._coordinates, base._parameters)  # checked before any run
-    _check_consistent(base, q, qd, float(options["t0"]), sweep)
+    _check_consistent(base, q, qd, options, sweep)
     events = list(events or ())
     if workers is not None:
         workers = at_least_one("workers", workers, "thread")
@@ -338,16 +338,22 @@ def simulate_many(
 
 
 def _check_consistent(
-    base: "Model", q: FloatArray, qd: FloatArray, t0: float, sweep: Mapping[str, FloatArray]
+    base: "Model",
+    q: FloatArray,
+    qd: FloatArray,
+    options: Mapping[str, Any],
+    sweep: Mapping[str, FloatArray],
 ) -> None:
     """Refuse, before any run, an initial state off a constrained model's constraints (with
-    each run's parameters), naming the run: as :meth:`Model.simulate` refuses it."""
+    each run's parameters), naming the run: as :meth:`Model.simulate` refuses it, to the
+    tolerance a run holds its steps to (``rtol``, at least 1e-12; 1e-12 for fixed steps)."""
     if not base.constraint_names:
         return
+    tol = 1e-12 if "dt" in options else max(float(options["rtol"]), 1e-12)
     for i in range(q.shape[0]):
         model = base._rebound({k: float(v[i]) for k, v in sweep.items()}) if sweep else base
         try:
-            model._native.check_consistent(t0, q[i].tolist(), qd[i].tolist())
+            model._native.check_consistent(float(options["t0"]), q[i].tolist(), qd[i].tolist(), tol)
         except ValueError as e:
             raise ValueError(f"run {i}: {e} (Model.project repairs a state)") from None
 

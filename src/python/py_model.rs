@@ -540,9 +540,6 @@ impl PyModel {
         options.events = events;
         options.dense = dense;
         options.validate(t0, t_end)?;
-        if let Some(c) = self.model.constrained() {
-            guard(|| Ok(c.check_consistent(t0, &q0, &qd0, None)?))?;
-        }
         let model = self.model.clone();
         let pending: Mutex<Option<PyErr>> = Mutex::new(None);
         let outcome = py.detach(|| {
@@ -661,8 +658,12 @@ impl PyModel {
             }
             let conserved = self.conserved(events.iter().any(|e| e.reset.is_some()));
             options.events = events;
+            // Refused here, as a run refuses it (the tolerance a run holds its steps to: rtol,
+            // at least PROJECTION_TOLERANCE; that for fixed steps).
             if let Some(c) = self.model.constrained() {
-                c.check_consistent(t0, &q0, &qd0, None)?;
+                let floor = crate::PROJECTION_TOLERANCE;
+                let tol = options.dt.map_or(options.rtol.max(floor), |_| floor);
+                c.check_consistent(t0, &q0, &qd0, Some(tol))?;
             }
             integrator::PyIntegrator::new(
                 self.model.clone(),

@@ -144,7 +144,8 @@ fields! {
 enum Taken {
     Floats(Vec<f64>),
     Rows(Vec<f64>, usize),
-    Stats(Box<Statistics>, bool),
+    /// The statistics, whether h is conserved, whether the model is constrained.
+    Stats(Box<Statistics>, bool, bool),
     Status(i8),
     Message(String),
     Events(Vec<crate::integrators::Occurrences>, usize),
@@ -316,7 +317,11 @@ impl PySolution {
             SolutionField::Q => Taken::Rows(std::mem::take(&mut sol.q), sol.dof),
             SolutionField::Qd => Taken::Rows(std::mem::take(&mut sol.qd), sol.dof),
             SolutionField::Energy => Taken::Floats(std::mem::take(energy)),
-            SolutionField::Stats => Taken::Stats(Box::new(sol.stats.clone()), *conserved),
+            SolutionField::Stats => Taken::Stats(
+                Box::new(sol.stats.clone()),
+                *conserved,
+                reactions.is_some(),
+            ),
             SolutionField::TEvents | SolutionField::QEvents | SolutionField::QdEvents => {
                 Taken::Events(std::mem::take(&mut sol.events), sol.dof)
             }
@@ -352,7 +357,9 @@ impl PySolution {
                     .into_pyarray(py)
                     .into_any()
             }
-            Taken::Stats(stats, conserved) => stats_dict(py, &stats, conserved)?.into_any(),
+            Taken::Stats(stats, conserved, constrained) => {
+                stats_dict(py, &stats, conserved, constrained)?.into_any()
+            }
             Taken::Events(found, n) => {
                 let (mut t, mut q, mut qd) = (Vec::new(), Vec::new(), Vec::new());
                 for o in events::occurrences(py, found, n)? {
@@ -382,10 +389,13 @@ impl PySolution {
 /// The statistics dict: a copy of a template that has every key (no key made, hashed or
 /// inserted on a call, no growing of the table); the counters' keys are interned once, from
 /// [`Statistics::COUNTERS`].
+/// A constrained model's run adds the worst constraint residual after an accepted step
+/// (`constraint_residual`).
 pub(super) fn stats_dict<'py>(
     py: Python<'py>,
     s: &Statistics,
     conserved: bool,
+    constrained: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     type Template = (Py<PyDict>, Vec<Py<PyString>>);
     static STATS: PyOnceLock<Template> = PyOnceLock::new();
@@ -400,7 +410,6 @@ pub(super) fn stats_dict<'py>(
         for key in &counters {
             d.set_item(key.bind(py), py.None())?;
         }
-        d.set_item(intern!(py, "constraint_residual"), py.None())?;
         d.set_item(intern!(py, "conserved"), py.None())?;
         Ok((d.unbind(), counters))
     })?;
@@ -410,7 +419,9 @@ pub(super) fn stats_dict<'py>(
     for (key, (_, count)) in counters.iter().zip(Statistics::COUNTERS) {
         stats.set_item(key.bind(py), count(s))?;
     }
-    stats.set_item(intern!(py, "constraint_residual"), s.constraint_residual)?;
     stats.set_item(intern!(py, "conserved"), conserved)?;
+    if constrained {
+        stats.set_item(intern!(py, "constraint_residual"), s.constraint_residual)?;
+    }
     Ok(stats)
 }
