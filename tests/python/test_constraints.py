@@ -404,3 +404,51 @@ def test_plots_of_a_constrained_run(tmp_path):
     path = tmp_path / "pendulum.png"
     fig.savefig(path)
     assert path.read_bytes().startswith(b"\x89PNG")
+
+
+def test_every_method_runs_or_says_which_can():
+    l = 0.8
+    model = cartesian_pendulum(l=l)
+    q0, qd0 = pendulum_state(1.0, 0.0, l)
+    fixed = {"rk4", "stormer_verlet", "yoshida4", "yoshida6", "yoshida8", "blanes_moan4",
+             "midpoint", "gauss4", "gauss6"}
+    projected = {"auto", "rk4", "dopri5", "dop853", "radau5"}
+    exact = model.simulate(q0, qd0, 1.0, method="dop853", rtol=1e-12, atol=1e-14).q[-1]
+    assert set(lg.methods()) >= projected | fixed | {"taylor"}
+    for method in lg.methods():
+        dt = 1e-3 if method in fixed else None
+        if method in projected:
+            sol = model.simulate(q0, qd0, 1.0, method=method, dt=dt, rtol=1e-10, atol=1e-12)
+            assert np.max(np.abs(np.hypot(sol.q[:, 0], sol.q[:, 1]) - l)) < 1e-9, method
+            assert sol.stats["constraint_residual"] < 1e-9, method
+            assert_allclose(sol.q[-1], exact, atol=1e-7, err_msg=method)
+        else:
+            fitting = r'\["rk4", "dopri5", "dop853", "radau5"\]'
+            with pytest.raises(ValueError, match=r"constrained.*" + fitting):
+                model.simulate(q0, qd0, 1.0, method=method, dt=dt)
+    assert "constrained" in model.simulate(q0, qd0, 0.1).stats["choice"]
+    with pytest.raises(ValueError, match="constrained model has no single program"):
+        model.taylor_series(q0, qd0)
+
+
+def test_evaluations_and_linearization_of_a_constrained_model():
+    l = 0.8
+    model = cartesian_pendulum(m=1.3, l=l)
+    q, qd = pendulum_state(0.7, 1.1, l)
+    qdd = model.accelerations(0.0, q, qd)
+    # On the circle to second order: x ẍ + y ÿ + |q̇|² = 0, and θ̈ = −(g/l) sin θ.
+    assert abs(np.dot(q, qdd) + np.dot(qd, qd)) < 1e-13
+    theta_dd = (q[0] * qdd[1] - q[1] * qdd[0]) / l**2
+    assert_allclose(theta_dd, -G / l * math.sin(0.7), rtol=1e-13)
+    assert_allclose(model.rhs(0.0, np.array(q + qd))[2:], qdd, rtol=1e-14)
+    assert model.jacobian(0.0, np.array(q + qd)).shape == (4, 4)
+    # Linearized about the bottom: ±i√(g/l), and a double zero (a Jordan block: off the
+    # circle the linearized flow drifts, which rounding splits into ±√ε) from the direction
+    # the rod holds.
+    lin = model.linearize([0.0, -l])
+    eig = np.sort_complex(lin.eigenvalues)
+    assert_allclose(np.abs(eig.imag).max(), math.sqrt(G / l), rtol=1e-12)
+    assert np.sum(np.abs(eig) < 1e-6) == 2
+    # The n − k = 1 mode.
+    modes = model.modes([0.0, -l])
+    assert_allclose(modes.frequencies, [math.sqrt(G / l)], rtol=1e-12)
