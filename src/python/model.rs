@@ -3,9 +3,9 @@
 //! per evaluation).
 
 use crate::derived::eom_program::{Energies, EomFunction, EomProgram, particle_kinetic};
+use crate::expr::derive::{Wrt, gradient, reads};
 use crate::expr::graph::{Binary, Graph, Node, Unary};
 use crate::program::{compile::Tape, eval::Function, inputs::Inputs};
-use crate::expr::derive::{Wrt, gradient, reads};
 use crate::routes::{EnergyModel, ExprConstraints, TapeParticles};
 use crate::scenes::registry::{Arguments, Drawn, Positions, Scene, positions_of, scenes};
 use crate::scenes::*;
@@ -700,7 +700,10 @@ fn constraint_tapes(
     };
     let (hn, vn) = (nodes(holonomic)?, nodes(velocity)?);
     let read = reads(g);
-    if let Some(i) = hn.iter().position(|&r| read[r] & crate::expr::derive::VELOCITY != 0) {
+    if let Some(i) = hn
+        .iter()
+        .position(|&r| read[r] & crate::expr::derive::VELOCITY != 0)
+    {
         return Err(bad(format!(
             "the holonomic constraint {:?} reads a velocity: g(t, q) = 0 is stated in t, the \
              coordinates and parameters; give a constraint on the velocities as a \

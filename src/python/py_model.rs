@@ -279,10 +279,18 @@ impl PyModel {
             ));
         };
         let (count, dim) = (crate::Particles::count(p), crate::Particles::dim(p));
-        self.each_state(py, "particle reactions", t, q, qd, &[count, dim], |t, q, qd, out| {
-            particle_reactions(c, p, t, q, qd, out)?;
-            Ok(())
-        })
+        self.each_state(
+            py,
+            "particle reactions",
+            t,
+            q,
+            qd,
+            &[count, dim],
+            |t, q, qd, out| {
+                particle_reactions(c, p, t, q, qd, out)?;
+                Ok(())
+            },
+        )
     }
 
     /// The consistent state nearest (q, q̇) at t ([`Constrained::project`]): positions by
@@ -302,7 +310,13 @@ impl PyModel {
     /// Refuse a state off the constraints ([`Constrained::check_consistent`]); nothing without
     /// constraints.
     #[pyo3(signature = (t, q, qd, tol=None))]
-    fn check_consistent(&self, t: f64, q: Vec<f64>, qd: Vec<f64>, tol: Option<f64>) -> PyResult<()> {
+    fn check_consistent(
+        &self,
+        t: f64,
+        q: Vec<f64>,
+        qd: Vec<f64>,
+        tol: Option<f64>,
+    ) -> PyResult<()> {
         match self.model.constrained() {
             Some(c) => guard(|| Ok(c.check_consistent(t, &q, &qd, tol)?)),
             None => Ok(()),
@@ -543,54 +557,50 @@ impl PyModel {
         let model = self.model.clone();
         let pending: Mutex<Option<PyErr>> = Mutex::new(None);
         let outcome = py.detach(|| {
-            catch_unwind(AssertUnwindSafe(
-                || -> Result<_, Box<(Failed, Along)>> {
-                    let interrupt = ctrl_c(&pending);
-                    match solve_partial(
-                        &*model,
-                        &q0,
-                        &qd0,
-                        (t0, t_end),
-                        method,
-                        &options,
-                        Some(&interrupt),
-                    ) {
-                        Ok(sol) => match with_energy(&model, sol) {
-                            (sol, h, None) => Ok((sol, h)),
-                            (sol, h, Some(error)) => {
-                                let last =
-                                    sol.last().map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
-                                let failed = Failed {
-                                    error,
-                                    partial: Some(Solution {
-                                        status: Status::Failed,
-                                        ..sol
-                                    }),
-                                    last,
-                                };
-                                Err(Box::new((failed, h)))
-                            }
-                        },
-                        Err(mut failed) => {
-                            let h = match failed.partial.take() {
-                                Some(sol) => {
-                                    let (sol, h, cut) = with_energy(&model, sol);
-                                    if cut.is_some() {
-                                        // The last state kept is the one the error names.
-                                        failed.last = sol
-                                            .last()
-                                            .map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
-                                    }
-                                    failed.partial = Some(sol);
-                                    h
-                                }
-                                None => (Vec::new(), None),
+            catch_unwind(AssertUnwindSafe(|| -> Result<_, Box<(Failed, Along)>> {
+                let interrupt = ctrl_c(&pending);
+                match solve_partial(
+                    &*model,
+                    &q0,
+                    &qd0,
+                    (t0, t_end),
+                    method,
+                    &options,
+                    Some(&interrupt),
+                ) {
+                    Ok(sol) => match with_energy(&model, sol) {
+                        (sol, h, None) => Ok((sol, h)),
+                        (sol, h, Some(error)) => {
+                            let last = sol.last().map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
+                            let failed = Failed {
+                                error,
+                                partial: Some(Solution {
+                                    status: Status::Failed,
+                                    ..sol
+                                }),
+                                last,
                             };
                             Err(Box::new((failed, h)))
                         }
+                    },
+                    Err(mut failed) => {
+                        let h = match failed.partial.take() {
+                            Some(sol) => {
+                                let (sol, h, cut) = with_energy(&model, sol);
+                                if cut.is_some() {
+                                    // The last state kept is the one the error names.
+                                    failed.last =
+                                        sol.last().map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
+                                }
+                                failed.partial = Some(sol);
+                                h
+                            }
+                            None => (Vec::new(), None),
+                        };
+                        Err(Box::new((failed, h)))
                     }
-                },
-            ))
+                }
+            }))
         });
         let wrap = solution::Wrap {
             kind: solution_type,
@@ -891,7 +901,11 @@ fn particle_reactions(
             reason: "not positive definite",
         })?;
     // J (M⁻¹ Gᵀλ) in one directional pass.
-    let qq: Vec<Dual64> = q.iter().zip(dq.iter()).map(|(&x, &v)| Dual64::new(x, v)).collect();
+    let qq: Vec<Dual64> = q
+        .iter()
+        .zip(dq.iter())
+        .map(|(&x, &v)| Dual64::new(x, v))
+        .collect();
     let mut r = vec![Dual64::from(0.0); out.len()];
     crate::Particles::positions(p, Dual64::from(t), &qq, &mut r);
     let dim = crate::Particles::dim(p);

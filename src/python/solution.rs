@@ -317,11 +317,9 @@ impl PySolution {
             SolutionField::Q => Taken::Rows(std::mem::take(&mut sol.q), sol.dof),
             SolutionField::Qd => Taken::Rows(std::mem::take(&mut sol.qd), sol.dof),
             SolutionField::Energy => Taken::Floats(std::mem::take(energy)),
-            SolutionField::Stats => Taken::Stats(
-                Box::new(sol.stats.clone()),
-                *conserved,
-                reactions.is_some(),
-            ),
+            SolutionField::Stats => {
+                Taken::Stats(Box::new(sol.stats.clone()), *conserved, reactions.is_some())
+            }
             SolutionField::TEvents | SolutionField::QEvents | SolutionField::QdEvents => {
                 Taken::Events(std::mem::take(&mut sol.events), sol.dof)
             }
