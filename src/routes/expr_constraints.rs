@@ -37,14 +37,15 @@ impl ExprConstraints {
             what: "constraints",
             why,
         };
-        if let Some(h) = &holonomic {
-            if h.tape().depends_on_velocity() {
-                return Err(bad(
-                    "a holonomic constraint g(t, q) = 0 may not read the velocities: state it \
-                     as a velocity constraint instead"
-                        .into(),
-                ));
-            }
+        if holonomic
+            .as_ref()
+            .is_some_and(|h| h.tape().depends_on_velocity())
+        {
+            return Err(bad(
+                "a holonomic constraint g(t, q) = 0 may not read the velocities: state it as a \
+                 velocity constraint instead"
+                    .into(),
+            ));
         }
         for f in holonomic.iter().chain(&velocity) {
             if f.tape().inputs().dof != dof {
