@@ -452,3 +452,50 @@ def test_evaluations_and_linearization_of_a_constrained_model():
     # The n − k = 1 mode.
     modes = model.modes([0.0, -l])
     assert_allclose(modes.frequencies, [math.sqrt(G / l)], rtol=1e-12)
+
+
+def test_moving_constraint_bead_on_a_spinning_wire():
+    # A bead on a straight wire spinning at ω in the horizontal plane: −sin ωt x + cos ωt y = 0.
+    # Radially r̈ = ω² r, so r = r₀ cosh ωt; the wire pushes it on with the Coriolis force
+    # 2 m ω ṙ = 2 m ω² r₀ sinh ωt (λ along ∂g/∂q, the direction of rotation).
+    x, y = lg.coordinates("x y")
+    m, w, r0 = 0.5, 1.3, 0.4
+    bead = lg.Model([x, y], kinetic=0.5 * m * (x.d**2 + y.d**2),
+                    constraints={"wire": -lg.sin(w * lg.t) * x + lg.cos(w * lg.t) * y})
+    assert bead.structure["driven"] and not bead.structure["conservative"]
+    t = np.linspace(0.0, 2.0, 9)
+    sol = bead.simulate([r0, 0.0], [0.0, w * r0], 2.0, t_eval=t, rtol=1e-11, atol=1e-13)
+    r = r0 * np.cosh(w * t)
+    assert_allclose(sol.q, np.column_stack([r * np.cos(w * t), r * np.sin(w * t)]),
+                    rtol=1e-10, atol=1e-11)
+    assert_allclose(sol.multipliers[:, 0], 2 * m * w**2 * r0 * np.sinh(w * t),
+                    rtol=1e-9, atol=1e-11)
+    # At rest on the wire at t = 0 is not consistent: the wire moves.
+    with pytest.raises(ValueError, match="wire.*velocity"):
+        bead.simulate([r0, 0.0], [0.0, 0.0], 1.0)
+
+
+def test_events_with_resets_stay_on_the_circle():
+    # A wall at x = 0.3 that reverses the bob: the reset velocity is consistent again.
+    l = 1.0
+    model = cartesian_pendulum(l=l)
+    x, y = model.coordinates
+    wall = lg.Event(x - 0.3, direction=1, reset={x.d: -x.d, y.d: -y.d}, name="wall")
+    sol = model.simulate(*pendulum_state(-0.5, 0.0, l), 5.0, events=[wall], rtol=1e-10,
+                         atol=1e-12)
+    assert len(sol.t_events[0]) >= 3
+    assert_allclose(sol.q_events[0][:, 0], 0.3, atol=1e-10)
+    assert np.max(np.abs(np.hypot(sol.q[:, 0], sol.q[:, 1]) - l)) < 1e-9
+    # Elastic bounces: the energy is kept.
+    assert np.max(np.abs(sol.energy - sol.energy[0])) < 1e-7
+
+
+def test_integrator_refuses_an_assigned_state_off_the_constraints():
+    model = cartesian_pendulum(l=1.0)
+    ig = model.integrator(*pendulum_state(1.0, 0.0, 1.0))
+    ig.q = [0.5, -0.5]
+    with pytest.raises(ValueError, match="rod.*position"):
+        ig.propagate_until(1.0)
+    ig.q = pendulum_state(0.7, 0.0, 1.0)[0]
+    assert ig.propagate_until(1.0) == "finished"
+    assert "constraint_residual" in ig.stats
