@@ -98,3 +98,8 @@ pub struct AutoFixedStepExample;
 #[doc = concat!("```\n", include_str!("../examples/two_mass_modes.rs"), "\n```")]
 #[cfg(doctest)]
 pub struct TwoMassModesExample;
+
+/// See [`AutoFixedStepExample`].
+#[doc = concat!("```\n", include_str!("../examples/constrained_pendulum.rs"), "\n```")]
+#[cfg(doctest)]
+pub struct ConstrainedPendulumExample;

@@ -44,6 +44,7 @@ use crate::energies::Constraints;
 use crate::eom::factor;
 use crate::error::{Error, Result};
 use crate::linalg::{ldlt_in_place, ldlt_solve};
+use crate::program::jet;
 use crate::scalar::{Grad, Hyper, Scalar, grad_const, grad_part, grad_seed, hyper, hyper_mixed};
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 use num_dual::{Dual, Dual2, Dual64};
@@ -439,7 +440,6 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
     /// when S cannot (G rank-deficient).
     fn schur<D: Scalar>(&self, t: D, q: &[D], qd: &[D], g: &[D]) -> Result<(Vec<D>, Vec<D>)> {
         let n = self.dof();
-        let k = g.len() / n;
         let mut m = vec![D::zero(); n * n];
         self.system.mass_matrix_into(t, q, qd, &mut m);
         if !m.iter().all(|x| x.re().is_finite()) {
@@ -449,9 +449,22 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
             });
         }
         factor(&mut m, n, t, q)?;
+        self.schur_factored(&m, t, q, g)
+    }
+
+    /// [`schur`](Self::schur) with M's LDLᵀ factor `m` given.
+    fn schur_factored<D: Scalar>(
+        &self,
+        m: &[D],
+        t: D,
+        q: &[D],
+        g: &[D],
+    ) -> Result<(Vec<D>, Vec<D>)> {
+        let n = self.dof();
+        let k = g.len() / n;
         let mut x = g.to_vec();
         for row in x.chunks_exact_mut(n) {
-            ldlt_solve(&m, n, row);
+            ldlt_solve(m, n, row);
         }
         let mut s = vec![D::zero(); k * k];
         for i in 0..k {
@@ -509,6 +522,19 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         })
     }
 
+    /// The power of the reactions, Gᵀλ·q̇: zero for constraints that do not move (the seed's R
+    /// does no work), otherwise the rate at which a moving constraint (a driven wire, a moving
+    /// support) or a velocity row's b(t, q) feeds energy in, −λ·∂g/∂t − λ·b. Along a run the
+    /// energy function h = q̇·p − L then changes as dh/dt = Gᵀλ·q̇ + Q″·q̇ − q̇·∂Φ/∂q̇ − ∂L/∂t,
+    /// so that h − ∫ Gᵀλ·q̇ dt balances as in an unconstrained system.
+    ///
+    /// # Errors
+    /// As [`evaluate_into`](Self::evaluate_into).
+    pub fn constraint_power(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
+        let e = self.evaluate(t, q, qd)?;
+        Ok(e.reaction_forces.iter().zip(qd).map(|(r, v)| r * v).sum())
+    }
+
     /// The constrained accelerations q̈ alone.
     ///
     /// # Errors
@@ -555,10 +581,52 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
             finite(&g, "constraint Jacobian", t)?;
             self.check_linear(t, q, qd, &g)?;
         }
-        self.solve_first_kind(t, q, qd, qdd, multipliers, reactions)?;
+        self.solve_first_kind_f64(t, q, qd, qdd, multipliers, reactions)?;
         finite(multipliers, "constraint multipliers", t)?;
         finite(reactions, "reaction forces", t)?;
         finite(qdd, "accelerations", t)
+    }
+
+    /// [`solve_first_kind`](Self::solve_first_kind) at an `f64` state from the pieces compiled
+    /// ahead of time where the parts have them: M and f from one run of the wrapped system's
+    /// eq. 55 program ([`Dynamics::derived_program`]), so M is factored once, and G with γ from
+    /// [`Constraints::compiled_rows`]; each from the generic passes otherwise.
+    ///
+    /// # Errors
+    /// As [`solve_first_kind`](Self::solve_first_kind).
+    fn solve_first_kind_f64(
+        &self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        qdd: &mut [f64],
+        multipliers: &mut [f64],
+        reactions: &mut [f64],
+    ) -> Result<()> {
+        let Some(program) = self.system.derived_program() else {
+            return self.solve_first_kind(t, q, qd, qdd, multipliers, reactions);
+        };
+        let (n, k) = (self.dof(), self.rows());
+        let mut m = vec![0.0; n * n];
+        program.mass_and_force(t, q, qd, &mut m, qdd);
+        finite(&m, "mass matrix", t)?;
+        factor(&mut m, n, t, q)?;
+        crate::eom::solve(&m, n, t, qdd)?;
+        reactions.fill(0.0);
+        if k == 0 {
+            return Ok(());
+        }
+        let mut g = vec![0.0; k * n];
+        let mut gamma = vec![0.0; k];
+        if !self.constraints.compiled_rows(t, q, qd, &mut g, &mut gamma) {
+            self.jacobian_into(t, q, qd, &mut g);
+            self.gamma_into(t, q, qd, &mut gamma);
+        }
+        finite(&g, "constraint Jacobian", t)?;
+        finite(&gamma, "constraint bias γ", t)?;
+        let (x, sf) = self.schur_factored(&m, t, q, &g)?;
+        self.apply_multipliers(&g, &gamma, &x, &sf, qdd, multipliers, reactions);
+        Ok(())
     }
 
     /// Lagrange's equations of the first kind at (t, q, q̇) over any scalar, unchecked: q̈₀ from
@@ -593,18 +661,34 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
             }
         }
         let (x, sf) = self.schur(t, q, qd, &g)?;
-        // S λ = −γ − G q̈₀.
+        self.apply_multipliers(&g, &gamma, &x, &sf, qdd, multipliers, reactions);
+        Ok(())
+    }
+
+    /// From q̈₀ in `qdd`: λ from S λ = −γ − G q̈₀ (`sf` S's factor), then q̈ = q̈₀ + M⁻¹Gᵀλ
+    /// (`x` = M⁻¹Gᵀ by rows) and the reactions Gᵀλ added to `reactions` (zeroed).
+    #[allow(clippy::too_many_arguments)]
+    fn apply_multipliers<D: Scalar>(
+        &self,
+        g: &[D],
+        gamma: &[D],
+        x: &[D],
+        sf: &[D],
+        qdd: &mut [D],
+        multipliers: &mut [D],
+        reactions: &mut [D],
+    ) {
+        let (n, k) = (self.dof(), self.rows());
         for i in 0..k {
             multipliers[i] = -gamma[i] - dot(&g[i * n..(i + 1) * n], qdd);
         }
-        ldlt_solve(&sf, k, multipliers);
+        ldlt_solve(sf, k, multipliers);
         for (i, &l) in multipliers.iter().enumerate() {
             for j in 0..n {
                 reactions[j] += g[i * n + j] * l;
                 qdd[j] += x[i * n + j] * l;
             }
         }
-        Ok(())
     }
 
     /// G into `g` (row-major k × n), unchecked: forward-mode duals over chunks of q (holonomic
@@ -824,7 +908,22 @@ impl<S: Dynamics, C: Constraints> Dynamics for Constrained<S, C> {
         let (n, k) = (self.dof(), self.rows());
         let mut multipliers = vec![D::zero(); k];
         let mut reactions = vec![D::zero(); n];
-        self.solve_first_kind(t, q, qd, out, &mut multipliers, &mut reactions)?;
+        if jet::is::<D, f64>() {
+            // SAFETY: D is f64 (same TypeId), so these are identity casts.
+            let (tf, qf, qdf, outf, lf, rf) = unsafe {
+                (
+                    *jet::cast::<D, f64>(&t),
+                    jet::cast_slice::<D, f64>(q),
+                    jet::cast_slice::<D, f64>(qd),
+                    &mut *(out as *mut [D] as *mut [f64]),
+                    &mut *(multipliers.as_mut_slice() as *mut [D] as *mut [f64]),
+                    &mut *(reactions.as_mut_slice() as *mut [D] as *mut [f64]),
+                )
+            };
+            self.solve_first_kind_f64(tf, qf, qdf, outf, lf, rf)?;
+        } else {
+            self.solve_first_kind(t, q, qd, out, &mut multipliers, &mut reactions)?;
+        }
         if out.iter().all(|a| a.re().is_finite()) {
             Ok(())
         } else {

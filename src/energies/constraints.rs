@@ -78,6 +78,21 @@ pub trait Constraints {
     fn name(&self, row: usize) -> String {
         format!("constraint {row}")
     }
+
+    /// G (row-major, rows × n: ∂g/∂q, then the velocity rows' ∂/∂q̇) into `g` and γ into `gamma`
+    /// at an `f64` state from derivatives taken ahead of time (the expression route derives them
+    /// on its graph and compiles them), returning `true`; the default `false` lets
+    /// [`crate::Constrained`] take them by dual numbers at each evaluation.
+    fn compiled_rows(
+        &self,
+        _t: f64,
+        _q: &[f64],
+        _qd: &[f64],
+        _g: &mut [f64],
+        _gamma: &mut [f64],
+    ) -> bool {
+        false
+    }
 }
 
 impl Constraints for () {
@@ -112,5 +127,16 @@ impl<C: Constraints + ?Sized> Constraints for &C {
     }
     fn name(&self, row: usize) -> String {
         (**self).name(row)
+    }
+    #[inline]
+    fn compiled_rows(
+        &self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        g: &mut [f64],
+        gamma: &mut [f64],
+    ) -> bool {
+        (**self).compiled_rows(t, q, qd, g, gamma)
     }
 }
