@@ -6,7 +6,7 @@ use crate::derived::eom_program::{Energies, EomFunction, EomProgram, particle_ki
 use crate::expr::derive::{Wrt, gradient, reads};
 use crate::expr::graph::{Binary, Graph, Node, Unary};
 use crate::program::{compile::Tape, eval::Function, inputs::Inputs};
-use crate::routes::{EnergyModel, ExprConstraints, TapeParticles};
+use crate::routes::{CompiledRows, EnergyModel, ExprConstraints, TapeParticles};
 use crate::scenes::registry::{Arguments, Drawn, Positions, Scene, positions_of, scenes};
 use crate::scenes::*;
 use crate::trace::WithProgram;
@@ -330,6 +330,8 @@ pub(crate) struct ConstraintTapes {
     holonomic: Option<Arc<Tape>>,
     velocity: Option<Arc<Tape>>,
     names: Vec<String>,
+    /// G and γ derived on the graph, for `f64` states.
+    rows: CompiledRows,
 }
 
 /// What runs a model's derived eq. 55 program at `f64` states, as Python names it
@@ -653,7 +655,8 @@ impl CompiledModel {
                     bind(&c.holonomic)?,
                     bind(&c.velocity)?,
                     c.names.clone(),
-                )?;
+                )?
+                .with_compiled_rows(c.rows.bind(params)?);
                 AnyModel::Constrained(Box::new(Constrained::new(model, rows)))
             }
         })
@@ -736,10 +739,14 @@ fn constraint_tapes(
         }
         Ok(Some(Arc::new(Tape::new(g, roots, inputs, what)?)))
     };
+    let holonomic = tape(&hn, Inputs::potential(dof, params), "constraints")?;
+    let velocity = tape(&vn, Inputs::kinetic(dof, params), "velocity constraints")?;
+    let native = spec.backend == Backend::Native;
     Ok(Some(ConstraintTapes {
-        holonomic: tape(&hn, Inputs::potential(dof, params), "constraints")?,
-        velocity: tape(&vn, Inputs::kinetic(dof, params), "velocity constraints")?,
+        holonomic,
+        velocity,
         names: (0..kh + kv).map(name).collect(),
+        rows: CompiledRows::derive(g, dof, params, &hn, &vn, native)?,
     }))
 }
 

@@ -6,7 +6,7 @@ use crate::energies::Constraints;
 use crate::expr::graph::{Binary, Graph};
 use crate::program::eval::Function;
 use crate::program::{compile::Tape, inputs::Inputs};
-use crate::routes::ExprConstraints;
+use crate::routes::{CompiledRows, ExprConstraints};
 use crate::{Constrained, KineticEnergy, System};
 use std::sync::Arc;
 
@@ -32,10 +32,13 @@ fn rows(l: f64) -> ExprConstraints {
     let b = g.binary(Binary::Mul, y, xd).unwrap();
     let c = g.binary(Binary::Sub, a, b).unwrap();
     let turning = g.binary(Binary::Sub, c, t).unwrap();
+    let compiled = CompiledRows::derive(&mut g, 2, 1, &[circle], &[turning], true).unwrap();
     let h = Tape::new(&g, &[circle], Inputs::potential(2, 1), "constraints").unwrap();
     let v = Tape::new(&g, &[turning], Inputs::kinetic(2, 1), "velocity").unwrap();
     let bind = |tape: Tape| Some(Function::new(Arc::new(tape), &[l]).unwrap());
-    ExprConstraints::new(2, bind(h), bind(v), vec!["rod".into(), "turn".into()]).unwrap()
+    ExprConstraints::new(2, bind(h), bind(v), vec!["rod".into(), "turn".into()])
+        .unwrap()
+        .with_compiled_rows(compiled.bind(&[l]).unwrap())
 }
 
 #[test]
@@ -59,6 +62,15 @@ fn jacobian_and_bias_are_exact() {
     let gamma = system.gamma(0.5, &q, &qd).unwrap();
     // γ₀ = 2|q̇|²; γ₁ = d/ds (x ẏ − y ẋ − t) along (t + s, q + s q̇) = ẋẏ − ẏẋ − 1.
     assert!((gamma[0] - 2.0).abs() < 1e-15 && (gamma[1] + 1.0).abs() < 1e-15);
+    // The same from the rows derived on the graph and compiled.
+    let (mut gc, mut gammac) = ([0.0; 4], [0.0; 2]);
+    assert!(
+        system
+            .constraints()
+            .compiled_rows(0.5, &q, &qd, &mut gc, &mut gammac)
+    );
+    assert_eq!(gc, [2.4, -3.2, 1.6, 1.2]);
+    assert!((gammac[0] - 2.0).abs() < 1e-15 && (gammac[1] + 1.0).abs() < 1e-15);
     // Rebinding l moves the circle.
     let longer = system.constraints().with_parameters(&[3.0]).unwrap();
     let mut out = [0.0];

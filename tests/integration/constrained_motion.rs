@@ -384,5 +384,8 @@ fn a_model_with_a_derived_program_takes_m_and_f_from_one_compiled_run() {
     )
     .unwrap();
     let (_, q, _) = sol.last().unwrap();
-    assert!((q[0] - th0).abs() < 1e-9 && (q[1] - th0).abs() < 1e-9, "{q:?}");
+    assert!(
+        (q[0] - th0).abs() < 1e-9 && (q[1] - th0).abs() < 1e-9,
+        "{q:?}"
+    );
 }
