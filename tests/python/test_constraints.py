@@ -375,6 +375,9 @@ def test_simulate_many_matches_simulate():
     for i in range(3):
         one = model.simulate(q0[i], qd0[i], 1.0, t_eval=[0.5, 1.0], rtol=1e-10, atol=1e-12)
         assert_allclose(ens.q[i], one.q, rtol=0, atol=0)
+        assert ens.run_stats(i) == one.stats
+    assert ens.stats["constraint_residual"].shape == (3,)
+    assert np.all(ens.stats["constraint_residual"] < 1e-9)
 
 
 def test_simulate_many_on_dask():
@@ -390,6 +393,7 @@ def test_simulate_many_on_dask():
                                   rtol=1e-10, atol=1e-12)
     local = model.simulate_many(q0, [0.0, 0.0], 0.5, t_eval=[0.5], rtol=1e-10, atol=1e-12)
     assert_allclose(ens.q, local.q, rtol=0, atol=0)
+    assert_allclose(ens.stats["constraint_residual"], local.stats["constraint_residual"], rtol=0)
 
 
 def test_plots_of_a_constrained_run(tmp_path):
