@@ -408,6 +408,10 @@ def test_plots_of_a_constrained_run(tmp_path):
     path = tmp_path / "pendulum.png"
     fig.savefig(path)
     assert path.read_bytes().startswith(b"\x89PNG")
+    pytest.importorskip("PIL")
+    movie = tmp_path / "pendulum.gif"
+    model.animate(sol, str(movie))
+    assert movie.read_bytes().startswith(b"GIF89a")
 
 
 def test_every_method_runs_or_says_which_can():
