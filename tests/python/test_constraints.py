@@ -534,3 +534,15 @@ def test_compiled_rows_agree_with_the_interpreter(kind):
     b = interpreted.simulate(q, qd, 1.3, t0=0.3, t_eval=[0.8, 1.3], rtol=1e-10, atol=1e-12)
     assert_allclose(a.q, b.q, rtol=1e-12, atol=1e-13)
     assert_allclose(a.multipliers, b.multipliers, rtol=1e-10)
+
+
+def test_dead_point_is_refused_naming_the_rows_and_the_time():
+    # A point on the unit circle and on the line y = −1 touch at (0, −1), where the two rows'
+    # gradients are parallel: G loses rank.
+    x, y = lg.coordinates("x y")
+    model = lg.Model([x, y], kinetic=0.5 * (x.d**2 + y.d**2),
+                     constraints={"circle": x**2 + y**2 - 1, "floor": y + 1})
+    with pytest.raises(ValueError, match=r"floor.*circle.*t = 0\.25|t = 0\.25.*floor"):
+        model.multipliers(0.25, [0.0, -1.0], [0.0, 0.0])
+    with pytest.raises(ValueError, match="floor"):
+        model.simulate([0.0, -1.0], [0.0, 0.0], 1.0)
