@@ -546,3 +546,19 @@ def test_dead_point_is_refused_naming_the_rows_and_the_time():
         model.multipliers(0.25, [0.0, -1.0], [0.0, 0.0])
     with pytest.raises(ValueError, match="floor"):
         model.simulate([0.0, -1.0], [0.0, 0.0], 1.0)
+
+
+def test_spring_rhombus_of_example_4():
+    # Half-diagonals x = a sin θ (the spring BD = 2x) and y = a cos θ on x² + y² = a²;
+    # U = 2k(L₀ − x)² − 2Mg y. Balance: Mg sin θ = 2k(L₀ − a sin θ) cos θ, λ = −Mg / (a cos θ).
+    x, y = lg.coordinates("x y")
+    a, l0, k, mass = 1.0, 0.8, 50.0, 2.0
+    model = lg.Model([x, y], kinetic=0.5 * (x.d**2 + y.d**2),
+                     potential=2 * k * (l0 - x) ** 2 - 2 * mass * G * y,
+                     constraints={"rhombus": x**2 + y**2 - a**2})
+    eq = model.equilibrium([0.5, 0.8])
+    theta = math.atan2(eq.q[0], eq.q[1])
+    assert_allclose(mass * G * math.sin(theta),
+                    2 * k * (l0 - a * math.sin(theta)) * math.cos(theta), rtol=1e-12)
+    assert_allclose(eq.multipliers, [-mass * G / (a * math.cos(theta))], rtol=1e-12)
+    assert eq.stable
