@@ -72,6 +72,7 @@
 //! # Ok::<(), lagrangian::Error>(())
 //! ```
 
+pub use crate::derived::constraint_program::{ConstraintProgram, ConstraintRows};
 pub use crate::derived::eom_program::{
     Energies, EomFunction, EomGraph, EomProgram, eom_graph, particle_kinetic,
 };
@@ -83,8 +84,6 @@ pub use crate::native::tape::{NativeFunction, NativeTape};
 pub use crate::program::compile::Tape;
 pub use crate::program::eval::Function;
 pub use crate::program::inputs::Inputs;
-pub use crate::routes::{
-    BoundRows, CompiledRows, EnergyModel, ExprConstraints, TapeParticles, TapeSystem,
-};
+pub use crate::routes::{EnergyModel, ExprConstraints, TapeParticles, TapeSystem};
 pub use crate::statics::input_matrix;
 pub use crate::taylor::{Expansion, MAX_TAYLOR_ORDER, StepRule, TaylorProgram};

@@ -2,10 +2,13 @@
 //! entries and one force vector as nodes — [`EomProgram`] and its bound [`EomFunction`], which
 //! owns the Taylor program of the same M and f), and `models.rs` (ready-made graphs of a few
 //! systems). It sits above the Taylor lowering, which it hands M's and f's nodes.
+//! `constraint_program.rs` derives a constrained model's G and γ the same way
+//! ([`ConstraintProgram`](constraint_program::ConstraintProgram)).
 //!
 //! [`EomGraph`]: eom_program::EomGraph
 //! [`EomProgram`]: eom_program::EomProgram
 //! [`EomFunction`]: eom_program::EomFunction
 
+pub(crate) mod constraint_program;
 pub(crate) mod eom_program;
 pub mod models;

@@ -2,11 +2,12 @@
 //! that each integrator is compiled once for all of them (the variant is one predictable branch
 //! per evaluation).
 
+use crate::derived::constraint_program::ConstraintProgram;
 use crate::derived::eom_program::{Energies, EomFunction, EomProgram, particle_kinetic};
 use crate::expr::derive::{Wrt, gradient, reads};
 use crate::expr::graph::{Binary, Graph, Node, Unary};
 use crate::program::{compile::Tape, eval::Function, inputs::Inputs};
-use crate::routes::{CompiledRows, EnergyModel, ExprConstraints, TapeParticles};
+use crate::routes::{EnergyModel, ExprConstraints, TapeParticles};
 use crate::scenes::registry::{Arguments, Drawn, Positions, Scene, positions_of, scenes};
 use crate::scenes::*;
 use crate::trace::WithProgram;
@@ -330,8 +331,9 @@ pub(crate) struct ConstraintTapes {
     holonomic: Option<Arc<Tape>>,
     velocity: Option<Arc<Tape>>,
     names: Vec<String>,
-    /// G and γ derived on the graph, for `f64` states.
-    rows: CompiledRows,
+    /// G and γ derived on the graph and compiled, for `f64` states; `None` with the
+    /// interpreter backend (G and γ then come from dual numbers, the reference).
+    rows: Option<ConstraintProgram>,
 }
 
 /// What runs a model's derived eq. 55 program at `f64` states, as Python names it
@@ -655,8 +657,11 @@ impl CompiledModel {
                     bind(&c.holonomic)?,
                     bind(&c.velocity)?,
                     c.names.clone(),
-                )?
-                .with_compiled_rows(c.rows.bind(params)?);
+                )?;
+                let rows = match &c.rows {
+                    Some(program) => rows.with_compiled_rows(program.bind(params)?),
+                    None => rows,
+                };
                 AnyModel::Constrained(Box::new(Constrained::new(model, rows)))
             }
         })
@@ -741,12 +746,19 @@ fn constraint_tapes(
     };
     let holonomic = tape(&hn, Inputs::potential(dof, params), "constraints")?;
     let velocity = tape(&vn, Inputs::kinetic(dof, params), "velocity constraints")?;
-    let native = spec.backend == Backend::Native;
+    let moving = [&holonomic, &velocity]
+        .into_iter()
+        .flatten()
+        .any(|t| t.depends_on_time());
+    let rows = match spec.backend {
+        Backend::Native => Some(ConstraintProgram::new(g, dof, params, &hn, &vn, moving)?),
+        Backend::Interpreter => None,
+    };
     Ok(Some(ConstraintTapes {
         holonomic,
         velocity,
         names: (0..kh + kv).map(name).collect(),
-        rows: CompiledRows::derive(g, dof, params, &hn, &vn, native)?,
+        rows,
     }))
 }
 

@@ -10,7 +10,7 @@ mod system;
 mod tape_particles;
 
 pub use energy_model::{EnergyModel, TapeSystem};
-pub use expr_constraints::{BoundRows, CompiledRows, ExprConstraints};
+pub use expr_constraints::ExprConstraints;
 pub use particles::{
     CartesianForces, EnergyRoute, MappedForces, ParticleGravity, ParticleKinetic, ParticleSystem,
     Particles,

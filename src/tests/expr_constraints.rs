@@ -2,11 +2,12 @@
 //! (tested here, the last room: `routes` comes before `constrained`).
 
 use crate::Scalar;
+use crate::derived::constraint_program::ConstraintProgram;
 use crate::energies::Constraints;
 use crate::expr::graph::{Binary, Graph};
 use crate::program::eval::Function;
 use crate::program::{compile::Tape, inputs::Inputs};
-use crate::routes::{CompiledRows, ExprConstraints};
+use crate::routes::ExprConstraints;
 use crate::{Constrained, KineticEnergy, System};
 use std::sync::Arc;
 
@@ -32,7 +33,7 @@ fn rows(l: f64) -> ExprConstraints {
     let b = g.binary(Binary::Mul, y, xd).unwrap();
     let c = g.binary(Binary::Sub, a, b).unwrap();
     let turning = g.binary(Binary::Sub, c, t).unwrap();
-    let compiled = CompiledRows::derive(&mut g, 2, 1, &[circle], &[turning], true).unwrap();
+    let compiled = ConstraintProgram::new(&mut g, 2, 1, &[circle], &[turning], true).unwrap();
     let h = Tape::new(&g, &[circle], Inputs::potential(2, 1), "constraints").unwrap();
     let v = Tape::new(&g, &[turning], Inputs::kinetic(2, 1), "velocity").unwrap();
     let bind = |tape: Tape| Some(Function::new(Arc::new(tape), &[l]).unwrap());

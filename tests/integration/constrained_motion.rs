@@ -389,3 +389,60 @@ fn a_model_with_a_derived_program_takes_m_and_f_from_one_compiled_run() {
         "{q:?}"
     );
 }
+
+#[test]
+fn the_compiled_constraint_rows_equal_the_dual_number_passes() {
+    // The rows of the AD checks in constraints.rs, stated on a graph: G and γ derived there and
+    // compiled (ConstraintProgram) against Constrained's dual-number passes on the Rust rows.
+    use lagrangian::tape::{Binary, ConstraintProgram, Graph, Unary};
+    let mut g = Graph::new();
+    let (t, x, y, vx, vy) = (
+        g.time(),
+        g.coord(0),
+        g.coord(1),
+        g.velocity(0),
+        g.velocity(1),
+    );
+    let bin = |g: &mut Graph, f, a, b| g.binary(f, a, b).unwrap();
+    // q₀² q₁ + sin(q₀ q₁ t)
+    let xx = bin(&mut g, Binary::Mul, x, x);
+    let xxy = bin(&mut g, Binary::Mul, xx, y);
+    let xy = bin(&mut g, Binary::Mul, x, y);
+    let xyt = bin(&mut g, Binary::Mul, xy, t);
+    let s = g.unary(Unary::Sin, xyt).unwrap();
+    let mixed = bin(&mut g, Binary::Add, xxy, s);
+    // cos(t) ẋ + x ẏ + t x
+    let c = g.unary(Unary::Cos, t).unwrap();
+    let a = bin(&mut g, Binary::Mul, c, vx);
+    let b = bin(&mut g, Binary::Mul, x, vy);
+    let d = bin(&mut g, Binary::Mul, t, x);
+    let ab = bin(&mut g, Binary::Add, a, b);
+    let vmixed = bin(&mut g, Binary::Add, ab, d);
+    let program = ConstraintProgram::new(&mut g, 2, 0, &[mixed], &[vmixed], true).unwrap();
+    let rows = program.bind(&[]).unwrap();
+    let rust = Constrained::new(
+        point(1.0, false),
+        Rows {
+            holonomic: vec![Row::Mixed],
+            velocity: vec![VRow::Mixed],
+        },
+    );
+    for (t, q, qd) in [
+        (0.3, [0.7, -1.1], [0.4, 0.9]),
+        (1.7, [-0.2, 0.5], [-1.3, 0.2]),
+    ] {
+        let (mut gc, mut gammac) = ([0.0; 4], [0.0; 2]);
+        rows.eval(t, &q, &qd, &mut gc, &mut gammac);
+        let gd = rust.constraint_jacobian(t, &q, &qd).unwrap();
+        let gammad = rust.gamma(t, &q, &qd).unwrap();
+        for i in 0..2 {
+            for j in 0..2 {
+                assert!((gc[i * 2 + j] - gd[(i, j)]).abs() < 1e-14, "{gc:?} {gd}");
+            }
+            assert!((gammac[i] - gammad[i]).abs() < 1e-13, "{gammac:?} {gammad}");
+        }
+    }
+    assert_eq!(program.rows(), 2);
+    #[cfg(feature = "jit")]
+    assert_eq!(program.backend(), "native");
+}

@@ -511,8 +511,9 @@ def test_integrator_refuses_an_assigned_state_off_the_constraints():
 
 @pytest.mark.parametrize("kind", ["holonomic", "velocity"])
 def test_compiled_rows_agree_with_the_interpreter(kind):
-    # G and γ derived on the graph run as machine code (backend="native") or interpreted: the
-    # same multipliers and the same run, to rounding.
+    # G and γ derived on the graph and compiled (backend="native") against the dual-number
+    # passes over the row tapes (backend="interpreter"): the same multipliers and the same run,
+    # to rounding.
     x1, y1, x2, y2 = lg.coordinates("x1 y1 x2 y2")
     w, = lg.parameters("w")
     rows = {"upper": x1**2 + y1**2 - 1, "lower": (x2 - x1) ** 2 + (y2 - y1) ** 2 - 1}
