@@ -483,7 +483,10 @@ class Model:
         - ``backend``: what computes the accelerations: ``"native"`` (eq. 55 derived on the
           expression graph and compiled to machine code), ``"interpreter"`` (the same,
           interpreted: ``backend="interpreter"``, or where no native code could be made) or
-          ``"rust"`` (a ready-made scene).
+          ``"rust"`` (a ready-made scene);
+        - ``constraints``: the number of constraint rows (holonomic and velocity; 0 without
+          constraints). A constrained model runs with the projected Runge–Kutta methods and
+          ``radau5`` whatever ``separable`` says (see :doc:`constraints`).
 
         A model stated by particles gets its T derived from the positions and runs the same
         way."""

@@ -85,6 +85,7 @@ def test_pendulum_rod_tension_from_the_state(route):
     assert_allclose(model.constraint_forces(sol.t[3], sol.q[3], sol.qd[3]),
                     sol.constraint_forces[3], rtol=1e-13)
     assert model.constraint_names == ("rod",)
+    assert model.structure["constraints"] == 1
 
 
 def test_particle_reactions_are_the_cartesian_rod_force():
@@ -471,6 +472,7 @@ def test_moving_constraint_bead_on_a_spinning_wire():
     bead = lg.Model([x, y], kinetic=0.5 * m * (x.d**2 + y.d**2),
                     constraints={"wire": -lg.sin(w * lg.t) * x + lg.cos(w * lg.t) * y})
     assert bead.structure["driven"] and not bead.structure["conservative"]
+    assert lg.Model([x, y], kinetic=0.5 * (x.d**2 + y.d**2)).structure["constraints"] == 0
     t = np.linspace(0.0, 2.0, 9)
     sol = bead.simulate([r0, 0.0], [0.0, w * r0], 2.0, t_eval=t, rtol=1e-11, atol=1e-13)
     r = r0 * np.cosh(w * t)
