@@ -303,6 +303,14 @@ impl PySolution {
             reactions,
         }) = run.as_mut()
         else {
+            // A solution built from its fields (or unpickled from a version before
+            // constraints) has no reactions: `None`, as a run without constraints.
+            if matches!(
+                field,
+                SolutionField::Multipliers | SolutionField::ConstraintForces
+            ) {
+                return Ok(Taken::Absent);
+            }
             return Err(missing(name));
         };
         let bit = 1 << field as usize;

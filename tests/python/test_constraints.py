@@ -565,3 +565,14 @@ def test_spring_rhombus_of_example_4():
                     2 * k * (l0 - a * math.sin(theta)) * math.cos(theta), rtol=1e-12)
     assert_allclose(eq.multipliers, [-mass * G / (a * math.cos(theta))], rtol=1e-12)
     assert eq.stable
+
+
+def test_a_solution_from_before_constraints_has_no_reactions():
+    # A pickle of an earlier version keeps only the fields it knew.
+    free = cartesian_pendulum().simulate(*pendulum_state(0.3, 0.0, 0.8), 0.2)
+    state = free.__getstate__()
+    del state["multipliers"], state["constraint_forces"]
+    old = lg.Solution.__new__(lg.Solution)
+    old.__setstate__(state)
+    assert old.multipliers is None and old.constraint_forces is None
+    assert_allclose(old.q, free.q, rtol=0)
