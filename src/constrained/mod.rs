@@ -36,7 +36,8 @@
 //! the M-orthogonal projection), the routine a drift-free integration calls after each step;
 //! [`Constrained::check_consistent`] refuses an inconsistent one
 //! ([`Error::InconsistentState`]). As a [`Dynamics`] of its own it integrates with the
-//! Runge–Kutta methods and radau5, each accepted step projected back onto the constraints.
+//! Runge–Kutta methods and radau5, each accepted step projected back onto the constraints, and
+//! with holonomic rows only with RATTLE and the constrained midpoint step (`integrators/`).
 
 use crate::checks::{check_state, finite};
 use crate::dynamics::Dynamics;
@@ -967,7 +968,8 @@ impl<S: Dynamics, C: Constraints> Dynamics for Constrained<S, C> {
         Err(
             "the Taylor method expands the unconstrained eq. 55 program, which has no \
              multipliers: a constrained model takes a Runge–Kutta method or radau5, each step \
-             projected back onto the constraints"
+             projected back onto the constraints, or with holonomic rows only RATTLE \
+             (stormer_verlet, yoshida4/6/8) or midpoint"
                 .into(),
         )
     }
