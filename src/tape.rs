@@ -84,6 +84,6 @@ pub use crate::native::tape::{NativeFunction, NativeTape};
 pub use crate::program::compile::Tape;
 pub use crate::program::eval::Function;
 pub use crate::program::inputs::Inputs;
-pub use crate::routes::{EnergyModel, TapeParticles, TapeSystem};
+pub use crate::routes::{EnergyModel, ExprConstraints, TapeParticles, TapeSystem};
 pub use crate::statics::input_matrix;
 pub use crate::taylor::{Expansion, MAX_TAYLOR_ORDER, StepRule, TaylorProgram};

@@ -52,9 +52,10 @@ StatesLike = Union[Sequence[float], Sequence[Sequence[float]], FloatArray]
 TimesLike = Union[Sequence[float], FloatArray]
 
 # What the native `simulate_many` returns: (t, q, qd, reached, counters, method, choice,
-# choices, failures, status, events); see src/python/ensemble.rs.
+# choices, failures, status, events, constraint residuals); see src/python/ensemble.rs.
 Raw = Tuple[
-    Any, Any, Any, IntArray, IntArray, IntArray, IntArray, List[str], List[Any], Any, List[Any]
+    Any, Any, Any, IntArray, IntArray, IntArray, IntArray, List[str], List[Any], Any, List[Any],
+    FloatArray,
 ]
 
 # The statistics' counters, as the columns of the native `simulate_many` (the one list is
@@ -99,7 +100,7 @@ class Ensemble:
         ``"auto"`` chose it, else ``None``), ``accepted_steps``, ``rejected_steps``,
         ``rhs_evaluations``, ``jacobian_evaluations``, ``factorizations``,
         ``newton_failures``, ``projections`` (steps a constrained model projected back onto its
-        constraints). :meth:`run_stats` gives one run's as ``Solution.stats`` does.
+        constraints) and, for a constrained model, ``constraint_residual`` (floats). :meth:`run_stats` gives one run's as ``Solution.stats`` does.
     t_events : list of list of numpy.ndarray
         With ``events``: ``t_events[j][i]`` the times of event j's occurrences in run i
         (:attr:`Solution.t_events` of run i is ``[t_events[j][i] for j ...]``).
@@ -168,7 +169,7 @@ class Ensemble:
         parameters: Optional[Mapping[str, FloatArray]] = None,
         events: Sequence[Event] = (),
     ) -> None:
-        t, q, qd, reached, counters, method, choice, choices, failures, status, found = raw
+        t, q, qd, reached, counters, method, choice, choices, failures, status, found = raw[:11]
         k = len(reached)
         self.reached = np.asarray(reached, dtype=np.int64)
         self.failures = {
@@ -196,6 +197,8 @@ class Ensemble:
         counters = np.asarray(counters, dtype=np.int64).reshape(k, len(COUNTERS))
         for j, key in enumerate(COUNTERS):
             self.stats[key] = counters[:, j].copy()
+        if model is not None and model.constraint_names:
+            self.stats["constraint_residual"] = np.asarray(raw[11], dtype=np.float64)
         if mode == "t_eval" and (self.reached < len(t)).any():  # failed or stopped early
             rows = np.arange(len(t))[None, :] >= self.reached[:, None]
             mask = np.broadcast_to(rows[:, :, None], q.shape).copy()
@@ -231,6 +234,8 @@ class Ensemble:
             out[key] = int(self.stats[key][i])
         if self._model is not None:
             out["conserved"] = self._model._conserved(self._events)
+        if "constraint_residual" in self.stats:
+            out["constraint_residual"] = float(self.stats["constraint_residual"][i])
         return out
 
     def error(self, i: int) -> Optional[Exception]:
@@ -323,6 +328,7 @@ def simulate_many(
     base = model.with_parameters(**fixed) if fixed else model
     t_end, options = _options(t0, t_end, method, dt, rtol, atol, t_eval, max_steps, final_only)
     event_specs(events or (), base._coordinates, base._parameters)  # checked before any run
+    _check_consistent(base, q, qd, options, sweep)
     events = list(events or ())
     if workers is not None:
         workers = at_least_one("workers", workers, "thread")
@@ -334,6 +340,27 @@ def simulate_many(
             executor, base, q, qd, t_end, sweep, options, events, workers, chunks, timeout
         )
     return Ensemble(raw, base, mode, sweep, events)
+
+
+def _check_consistent(
+    base: "Model",
+    q: FloatArray,
+    qd: FloatArray,
+    options: Mapping[str, Any],
+    sweep: Mapping[str, FloatArray],
+) -> None:
+    """Refuse, before any run, an initial state off a constrained model's constraints (with
+    each run's parameters), naming the run: as :meth:`Model.simulate` refuses it, to the
+    tolerance a run holds its steps to (``rtol``, at least 1e-12; 1e-12 for fixed steps)."""
+    if not base.constraint_names:
+        return
+    tol = 1e-12 if "dt" in options else max(float(options["rtol"]), 1e-12)
+    for i in range(q.shape[0]):
+        model = base._rebound({k: float(v[i]) for k, v in sweep.items()}) if sweep else base
+        try:
+            model._native.check_consistent(float(options["t0"]), q[i].tolist(), qd[i].tolist(), tol)
+        except ValueError as e:
+            raise ValueError(f"run {i}: {e} (Model.project repairs a state)") from None
 
 
 def _options(
@@ -506,11 +533,13 @@ def _concat(parts: List[Raw], shared_t: bool) -> Raw:
     failures: List[Any] = []
     status: List[Any] = []
     found: List[Any] = []
+    residuals: List[FloatArray] = []
     offset = 0
     for part in parts:
         pt, pq, pqd, preached, pcounters, pmethod, pchoice, pchoices, pfailures = part[:9]
         status.append(part[9])
         found.extend(part[10])
+        residuals.append(part[11])
         index = {c: j for j, c in enumerate(choices)}
         remap = np.array([index.setdefault(c, len(index)) for c in pchoices] + [-1])
         choices = list(index)
@@ -531,7 +560,7 @@ def _concat(parts: List[Raw], shared_t: bool) -> Raw:
     if isinstance(parts[0][0], list):
         return (
             t, q, qd, *_stack(reached, counters, method, choice), choices, failures,
-            np.concatenate(status), found,
+            np.concatenate(status), found, np.concatenate(residuals),
         )
     return (
         parts[0][0] if shared_t else np.concatenate(t),
@@ -542,6 +571,7 @@ def _concat(parts: List[Raw], shared_t: bool) -> Raw:
         failures,
         np.concatenate(status),
         found,
+        np.concatenate(residuals),
     )
 
 

@@ -76,6 +76,8 @@ class NativeSolution:
     event_names: Any
     _dense: Any
     _y: Any
+    multipliers: Any
+    constraint_forces: Any
     def __new__(cls, *_args: Any, **_kwargs: Any) -> Self: ...
 
 _S = TypeVar("_S", bound=NativeSolution)
@@ -210,6 +212,9 @@ class NativeModel:
         dim: int = 0,
         masses: Optional[Sequence[int]] = None,
         backend: str = "native",
+        constraints: Optional[Sequence[int]] = None,
+        velocity_constraints: Optional[Sequence[int]] = None,
+        constraint_names: Sequence[str] = ...,
     ) -> "NativeModel": ...
     def with_parameters(self, params: Sequence[float]) -> "NativeModel": ...
     @property
@@ -217,6 +222,19 @@ class NativeModel:
     def conserved(self, resets: bool) -> bool: ...
     def structure(self) -> Dict[str, Any]: ...
     def accelerations(self, t: object, q: object, qd: object) -> Any: ...
+    @property
+    def constraint_names(self) -> List[str]: ...
+    @property
+    def holonomic_count(self) -> int: ...
+    def multipliers(self, t: object, q: object, qd: object) -> Any: ...
+    def constraint_forces(self, t: object, q: object, qd: object) -> Any: ...
+    def particle_reactions(self, t: object, q: object, qd: object) -> Any: ...
+    def project(
+        self, t: float, q: List[float], qd: List[float], tol: Optional[float] = None
+    ) -> Tuple[List[float], List[float]]: ...
+    def check_consistent(
+        self, t: float, q: List[float], qd: List[float], tol: Optional[float] = None
+    ) -> None: ...
     def mass_matrix(self, t: object, q: object, qd: object) -> Any: ...
     def taylor_series(
         self, t: float, q: List[float], qd: List[float], order: int
@@ -285,9 +303,12 @@ class NativeModel:
         str,
         Optional[_FloatArray],
         Optional[_FloatArray],
+        Optional[_FloatArray],
+        Optional[_FloatArray],
     ]:
         """(q, residual, iterations, stability, eigenvalues of K's symmetric part, K, reason,
-        spectrum re, spectrum im); the spectrum is None where M is singular."""
+        spectrum re, spectrum im, multipliers, constraint forces); the spectrum is None where M
+        is singular and for a constrained model, the last two None without constraints."""
     def linearize(
         self,
         t: float,

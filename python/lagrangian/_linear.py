@@ -49,7 +49,15 @@ class Equilibrium:
         Newton iterations taken.
     spectrum : numpy.ndarray or None
         Eigenvalues (complex) of the state matrix A of the linearization at (q, 0); ``None``
-        where the mass matrix is singular.
+        where the mass matrix is singular, and for a constrained model (whose verdict is the
+        energy criterion on the constraint manifold: ``eigenvalues`` are then those of the
+        reduced Hessian Zᵀ H Z over the virtual displacements Z).
+    multipliers : numpy.ndarray or None
+        For a constrained model, the Lagrange multipliers λ of the holonomic rows, such that
+        r = Gᵀλ (the reactions balance the loads; sign convention of
+        :meth:`Model.multipliers`); ``None`` without constraints.
+    constraint_forces : numpy.ndarray or None
+        The generalized reaction forces Gᵀλ (one per coordinate), or ``None``.
     """
 
     q: FloatArray
@@ -61,6 +69,8 @@ class Equilibrium:
     iterations: int
     reason: str = ""
     spectrum: Optional[ComplexArray] = None
+    multipliers: Optional[FloatArray] = None
+    constraint_forces: Optional[FloatArray] = None
 
 
 @dataclass(frozen=True)

@@ -128,13 +128,24 @@ class Model:
         Points to draw in :meth:`animate`, as expressions in t, the coordinates and parameters
         — for pictures only: they take no part in the dynamics (an energy-route model, say a
         double pendulum stated by T and U, gets its bobs this way).
+    constraints : sequence or mapping of expressions, optional
+        Holonomic constraints g(t, q) = 0, one expression g per row (no velocities); a mapping
+        ``{name: g}`` names the rows (default names ``"constraint 0"``, …). The model then
+        obeys Lagrange's equations of the first kind, M q̈ = f + Gᵀλ with G = ∂g/∂q, and
+        reports the multipliers λ and the reactions Gᵀλ (:meth:`multipliers`,
+        :meth:`constraint_forces`, ``Solution.multipliers``); see :doc:`constraints`.
+    velocity_constraints : sequence or mapping of expressions, optional
+        Velocity (nonholonomic) constraints a(t, q)·q̇ + b(t, q) = 0, linear in the velocities
+        (rolling without slipping, a knife edge); named as ``constraints`` (default names
+        ``"velocity constraint 0"``, …). Their rows follow the holonomic ones.
 
     Raises
     ------
     ValueError
         For a symbol that is not a coordinate of the model, a velocity or parameter, a parameter
         without a value or a value for no parameter, a velocity in the potential or positions,
-        wrong lengths, an unknown ``backend``.
+        wrong lengths, an unknown ``backend``; a holonomic constraint that reads a velocity, a
+        velocity constraint not linear in the velocities, two constraints with one name.
     TypeError
         For something that is not an expression or a number.
     """
@@ -153,6 +164,8 @@ class Model:
         "_backend",
         "_native",
         "_drawing_points",
+        "_constraints",
+        "_velocity_constraints",
     )
 
     _coordinates: Tuple[Coordinate, ...]
@@ -167,6 +180,8 @@ class Model:
     _backend: str
     _native: Any
     _drawing_points: Optional[Tuple[Tuple[Expr, ...], ...]]
+    _constraints: Tuple[Tuple[str, Expr], ...]
+    _velocity_constraints: Tuple[Tuple[str, Expr], ...]
 
     def __init__(
         self,
@@ -181,11 +196,15 @@ class Model:
         masses: Optional[Sequence[ExprLike]] = None,
         backend: str = "native",
         drawing: Optional[Sequence[Sequence[ExprLike]]] = None,
+        constraints: Optional[Union[Sequence[ExprLike], Mapping[str, ExprLike]]] = None,
+        velocity_constraints: Optional[Union[Sequence[ExprLike], Mapping[str, ExprLike]]] = None,
     ) -> None:
         parts = model_parts(
             coordinates, kinetic, potential, dissipation, forces, parameters, positions, masses,
-            backend, drawing,
+            backend, drawing, constraints, velocity_constraints,
         )
+        self._constraints = parts.constraints
+        self._velocity_constraints = parts.velocity_constraints
         self._coordinates = coords = parts.coordinates
         # The coordinates' names, as every solution carries them.
         self._names = tuple(c.name for c in coords)
@@ -218,6 +237,15 @@ class Model:
             roots.extend(flat)
             slots["masses"] = list(range(len(roots), len(roots) + len(self._masses)))
             roots.extend(self._masses)
+        names: List[str] = []
+        for key, rows in (
+            ("constraints", self._constraints),
+            ("velocity_constraints", self._velocity_constraints),
+        ):
+            if rows:
+                slots[key] = list(range(len(roots), len(roots) + len(rows)))
+                roots.extend(e for _, e in rows)
+                names.extend(name for name, _ in rows)
         nodes, ids = serialize(roots)
         raw = to_raw(nodes, self._coordinates, list(self._parameters))
 
@@ -230,6 +258,7 @@ class Model:
             [float(v) for v in self._parameters.values()],
             dim=dim,
             backend=self._backend,
+            constraint_names=names,
             **{k: at(v) for k, v in slots.items()},
         )
 
@@ -421,6 +450,22 @@ class Model:
         return self._masses
 
     @property
+    def constraints(self) -> Dict[str, Expr]:
+        """The holonomic constraints g(t, q) = 0 by row name (empty without constraints)."""
+        return dict(self._constraints)
+
+    @property
+    def velocity_constraints(self) -> Dict[str, Expr]:
+        """The velocity constraints a(t, q)·q̇ + b(t, q) = 0 by row name."""
+        return dict(self._velocity_constraints)
+
+    @property
+    def constraint_names(self) -> Tuple[str, ...]:
+        """The names of the constraint rows in the order of the multipliers: holonomic rows
+        first, then velocity rows."""
+        return tuple(name for name, _ in self._constraints + self._velocity_constraints)
+
+    @property
     def structure(self) -> Dict[str, Any]:
         """What the engine found the system to be, as a dict:
 
@@ -438,7 +483,9 @@ class Model:
         - ``backend``: what computes the accelerations: ``"native"`` (eq. 55 derived on the
           expression graph and compiled to machine code), ``"interpreter"`` (the same,
           interpreted: ``backend="interpreter"``, or where no native code could be made) or
-          ``"rust"`` (a ready-made scene).
+          ``"rust"`` (a ready-made scene);
+        - ``constraints``: the number of constraint rows (holonomic and velocity; 0 without
+          constraints); :doc:`constraints` says which methods take them.
 
         A model stated by particles gets its T derived from the positions and runs the same
         way."""
@@ -561,6 +608,90 @@ class Model:
     def lagrangian(self, t: float, q: ArrayLike, qd: ArrayLike) -> Any:
         """The Lagrangian L = T − U at (t, q, q̇): a float, or shape (k,) for ``k`` states."""
         return self._evaluate("lagrangian", t, q, qd)
+
+    # -- constraints -------------------------------------------------------------------
+    def _constrained(self, what: str) -> None:
+        """Refuse ``what`` on a model without constraints, saying how to state them."""
+        if not (self._constraints or self._velocity_constraints):
+            raise ValueError(
+                f"{what} needs a constrained model: state constraints=[g(t, q), ...] or "
+                "velocity_constraints=[a(t, q)·q̇ + b(t, q), ...] in lg.Model"
+            )
+
+    def multipliers(self, t: float, q: ArrayLike, qd: ArrayLike) -> FloatArray:
+        """The Lagrange multipliers λ at (t, q, q̇): one per constraint row, in the order of
+        :attr:`constraint_names` (holonomic rows first).
+
+        They come with the accelerations from one factorization of the augmented system
+        M q̈ = f + Gᵀλ, G q̈ = −γ (G = ∂g/∂q for the holonomic rows, the coefficients a of the
+        velocity rows; γ the rest of the constraints' derivative along the motion, by automatic
+        differentiation). Sign convention: the reaction is +Gᵀλ, so λ has the sign of the
+        force along ∂g/∂q — a pendulum's rod x² + y² − l² = 0 in tension pulls towards the
+        pivot, against ∂g/∂q = 2(x, y): λ < 0, and the tension is −2 l λ.
+
+        ``q`` and ``qd`` of shape ``(dof,)`` give shape ``(k,)``; of shape ``(s, dof)`` (s
+        states), shape ``(s, k)``.
+
+        Raises
+        ------
+        ValueError
+            For bad input, a model without constraints, dependent constraint rows (a row stated
+            twice, a mechanism at a dead point: the message names the rows and the time).
+        """
+        self._constrained("multipliers")
+        return self._evaluate("multipliers", t, q, qd)  # type: ignore[no-any-return]
+
+    def constraint_forces(self, t: float, q: ArrayLike, qd: ArrayLike) -> FloatArray:
+        """The generalized reaction forces Gᵀλ at (t, q, q̇), one per coordinate: the forces
+        the constraints exert, in the coordinates' own units (a force for a length, a torque
+        for an angle). They do no work in any virtual displacement (G δq = 0), which is why
+        minimal coordinates never see them (seed §3.1).
+
+        Shapes as :meth:`accelerations`. Raises as :meth:`multipliers`.
+        """
+        self._constrained("constraint_forces")
+        return self._evaluate("constraint_forces", t, q, qd)  # type: ignore[no-any-return]
+
+    def particle_reactions(self, t: float, q: ArrayLike, qd: ArrayLike) -> FloatArray:
+        """The Cartesian reaction force on each particle at (t, q, q̇) (particle route):
+        Rᵢ = mᵢ (J M⁻¹ Gᵀλ)ᵢ with J = ∂r/∂q — the particle's mass times the part of its
+        acceleration the reactions cause. When the coordinates are the particles' Cartesian
+        coordinates this is Gᵀλ itself, particle by particle.
+
+        Shape ``(count, dim)`` for one state, ``(s, count, dim)`` for s states.
+
+        Raises
+        ------
+        ValueError
+            For bad input, a model without constraints or without particles.
+        """
+        self._constrained("particle_reactions")
+        return self._evaluate("particle_reactions", t, q, qd)  # type: ignore[no-any-return]
+
+    def project(
+        self, q: ArrayLike, qd: ArrayLike, t: float = 0.0, *, tol: Optional[float] = None
+    ) -> Tuple[FloatArray, FloatArray]:
+        """The consistent state nearest (q, q̇) at time ``t``: positions onto g(t, q) = 0 by
+        Gauss–Newton in the metric of the mass matrix, then velocities onto the velocity-level
+        constraints (ġ = 0 and a·q̇ + b = 0) by the M-orthogonal projection. A state already
+        consistent (to ``tol``, default 1e-12 relative) comes back unchanged.
+
+        :meth:`simulate` refuses an inconsistent initial state; this repairs it.
+
+        Raises
+        ------
+        ValueError
+            For bad input, a model without constraints, dependent rows, or when the
+            iterations do not reach the constraints (a start far from them, constraints
+            without a real solution): the message names the worst row and its residual.
+        """
+        self._constrained("project")
+        n = self.dof
+        qv, qdv = vector("q", q, n), vector("qd", qd, n)
+        at = real("t", t)
+        eps = None if tol is None else positive("tol", tol)
+        pq, pqd = self._native.project(at, list(qv), list(qdv), eps)
+        return np.asarray(pq), np.asarray(pqd)
 
     def rhs(self, t: float, y: ArrayLike) -> FloatArray:
         """The first-order right-hand side dy/dt = (q̇, q̈) at y = (q, q̇), in SciPy's
@@ -1007,7 +1138,7 @@ class Model:
             )
         except _lagrangian.ConvergenceError as e:
             raise _lagrangian.ConvergenceError(f"{e} (forces at t = {at})") from None
-        q, residual, iterations, stability, eigenvalues, stiffness, reason, re, im = found
+        q, residual, iterations, stability, eigenvalues, stiffness, reason, re, im, lam, gl = found
         spectrum = None if re is None else np.asarray(re) + 1j * np.asarray(im)
         return Equilibrium(
             q=np.asarray(q),
@@ -1019,6 +1150,8 @@ class Model:
             iterations=int(iterations),
             reason=str(reason),
             spectrum=spectrum,
+            multipliers=None if lam is None else np.asarray(lam),
+            constraint_forces=None if gl is None else np.asarray(gl),
         )
 
     def linearize(
@@ -1167,6 +1300,14 @@ class Model:
             parts.append(f"parameters={self._parameters!r}")
         if self._backend != "native":
             parts.append(f"backend={self._backend!r}")
+        for key, rows in (
+            ("constraints", self._constraints),
+            ("velocity_constraints", self._velocity_constraints),
+        ):
+            if rows:
+                parts.append(
+                    f"{key}={{" + ", ".join(f"{n!r}: {e!r}" for n, e in rows) + "}"
+                )
         if self.drawing is not None:
             parts.append(
                 "drawing=["
@@ -1199,6 +1340,14 @@ class Model:
         if self.drawing is not None:
             layout["drawing_dim"] = len(self.drawing[0])
             add("drawing", [x for r in self.drawing for x in r])
+        names: Dict[str, List[str]] = {}
+        for key, rows in (
+            ("constraints", self._constraints),
+            ("velocity_constraints", self._velocity_constraints),
+        ):
+            if rows:
+                add(key, [e for _, e in rows])
+                names[key] = [n for n, _ in rows]
         nodes, ids = serialize(roots)
         state = {
             "coordinates": [c.name for c in self._coordinates],
@@ -1208,6 +1357,8 @@ class Model:
             "parameters": dict(self._parameters),
             "backend": self._backend,
         }
+        if names:
+            state["constraint_names"] = names
         return (_model_from_state, (state,))
 
 
@@ -1232,6 +1383,12 @@ def _model_from_state(state: Dict[str, Any]) -> Model:
     if flat is not None:
         dim = layout["drawing_dim"]
         drawing = [tuple(flat[i : i + dim]) for i in range(0, len(flat), dim)]
+    named = state.get("constraint_names", {})
+
+    def rows(key: str) -> Optional[Dict[str, Expr]]:
+        exprs = get(key)
+        return None if exprs is None else dict(zip(named[key], exprs))
+
     return Model(
         coordinates=[Coordinate(n) for n in state["coordinates"]],
         kinetic=one["kinetic"],
@@ -1243,4 +1400,6 @@ def _model_from_state(state: Dict[str, Any]) -> Model:
         masses=get("masses"),
         backend=state.get("backend", "native"),
         drawing=drawing,
+        constraints=rows("constraints"),
+        velocity_constraints=rows("velocity_constraints"),
     )

@@ -40,6 +40,7 @@ class SceneModel(Model):
         self._names = tuple(c.name for c in self._coordinates)
         self._kinetic = self._potential = self._dissipation = None
         self._forces = self._positions = self._masses = None
+        self._constraints = self._velocity_constraints = ()
         self._parameters = dict(values)
         self._backend = "native"  # of the conditions of events; the scene itself is Rust
         self._native = native

@@ -43,7 +43,15 @@ class Solution(_lagrangian.NativeSolution):
     stats : dict
         The method that ran (and why, for ``"auto"``) and the work it took: accepted and
         rejected steps, right-hand-side and Jacobian evaluations, factorizations, Newton
-        failures.
+        failures; for a constrained model the steps projected back onto the constraints
+        (``projections``) and the worst constraint residual after an accepted step
+        (``constraint_residual``, 0 without constraints).
+    multipliers : numpy.ndarray, shape (n, k), or None
+        For a constrained model (``Model(..., constraints=...)``), the Lagrange multipliers
+        at each output, one column per row in the order of :attr:`Model.constraint_names`
+        (see :meth:`Model.multipliers`); ``None`` without constraints.
+    constraint_forces : numpy.ndarray, shape (n, dof), or None
+        The generalized reaction forces Gᵀλ at each output, or ``None``.
     names : tuple of str, optional
         The coordinate names (from the model), used to label plots.
     y : numpy.ndarray, shape (2 dof, n)
@@ -80,6 +88,8 @@ class Solution(_lagrangian.NativeSolution):
     message: str
     _dense: Any
     _y: Optional[FloatArray]
+    multipliers: Optional[FloatArray]
+    constraint_forces: Optional[FloatArray]
 
     def __init__(
         self,
@@ -107,6 +117,7 @@ class Solution(_lagrangian.NativeSolution):
         self.status, self.message = status, message
         self._dense = dense
         self._y = None
+        self.multipliers = self.constraint_forces = None
 
     def __reduce__(self) -> Tuple[Any, ...]:
         # Every protocol rebuilds a solution from its fields (``Solution.__new__``, then

@@ -30,6 +30,7 @@ __all__ = [
     "check_coordinates",
     "check_parameters",
     "check_symbols",
+    "constraint_rows",
     "drawing_points",
     "event_direction",
     "event_expression",
@@ -411,6 +412,10 @@ class ModelParts(NamedTuple):
     parameters: Dict[str, float]
     backend: str
     drawing: Optional[Tuple[Tuple[Expr, ...], ...]]
+    #: Holonomic rows g(t, q) = 0 and velocity rows a(t, q)·q̇ + b(t, q) = 0, each as
+    #: (name, expression); empty without constraints.
+    constraints: Tuple[Tuple[str, Expr], ...] = ()
+    velocity_constraints: Tuple[Tuple[str, Expr], ...] = ()
 
 
 def expressions(what: str, value: Any, n: int) -> Tuple[Expr, ...]:
@@ -421,6 +426,32 @@ def expressions(what: str, value: Any, n: int) -> Tuple[Expr, ...]:
     if len(out) != n:
         raise ValueError(f"{what} has {len(out)} entries but the model has {n} coordinates")
     return out
+
+
+def constraint_rows(what: str, value: Any, default: str) -> Tuple[Tuple[str, Expr], ...]:
+    """``constraints=`` or ``velocity_constraints=`` as (name, expression) rows: a sequence of
+    expressions (named ``default`` + index) or a mapping of names to expressions."""
+    if value is None:
+        return ()
+    if isinstance(value, (Expr, numbers.Real, str, bytes)):
+        raise TypeError(
+            f"{what} must be a list of expressions or a dict of names to expressions, "
+            f"got {value!r}"
+        )
+    if isinstance(value, Mapping):
+        items = list(value.items())
+        for name, _ in items:
+            if not isinstance(name, str) or not name:
+                raise TypeError(f"the names of {what} must be non-empty strings, got {name!r}")
+    else:
+        try:
+            items = [(f"{default} {i}", e) for i, e in enumerate(value)]
+        except TypeError:
+            raise TypeError(
+                f"{what} must be a list of expressions or a dict of names to expressions, "
+                f"got {value!r}"
+            ) from None
+    return tuple((name, Expr.lift(e)) for name, e in items)
 
 
 def model_parts(
@@ -434,10 +465,13 @@ def model_parts(
     masses: Any,
     backend: object,
     drawing: Any,
+    constraints: Any = None,
+    velocity_constraints: Any = None,
 ) -> ModelParts:
     """The arguments of :class:`Model` checked: the coordinates, the route (energies, or
     particle positions and masses), the symbols of every expression (coordinates of the model,
-    velocities where they may appear, parameters with values, each value used) and the backend."""
+    velocities where they may appear, parameters with values, each value used), the backend and
+    the constraints (a holonomic row may not read a velocity; names distinct)."""
     if not isinstance(backend, str):
         raise TypeError(
             f"backend must be a string, 'native' or 'interpreter', got {backend!r}"
@@ -494,6 +528,24 @@ def model_parts(
     for j, r in enumerate(points or ()):
         for x in r:
             checks.append((f"drawing point {j}", x, False))
+    held = constraint_rows("constraints", constraints, "constraint")
+    moving = constraint_rows("velocity_constraints", velocity_constraints, "velocity constraint")
+    row_names = [name for name, _ in held + moving]
+    if len(set(row_names)) != len(row_names):
+        repeated = next(n for n in row_names if row_names.count(n) > 1)
+        raise ValueError(f"two constraints are named {repeated!r}: give each row its own name")
+    for name, e in held:
+        read = [s for s in e.free_symbols() if s.op == "qd"]
+        if read:
+            raise ValueError(
+                f"the constraint {name!r} reads the velocity {read[0]!r}: a holonomic "
+                "constraint g(t, q) = 0 is stated in t, the coordinates and parameters; give a "
+                "constraint on the velocities in velocity_constraints=[a(t, q)·q̇ + b(t, q)] "
+                "instead"
+            )
+        checks.append((f"constraint {name!r}", e, False))
+    for name, e in moving:
+        checks.append((f"velocity constraint {name!r}", e, True))
     for what, e, velocities in checks:
         check_symbols(what, e, names, values, velocities, used)
     for j, m in enumerate(mass or ()):
@@ -511,7 +563,9 @@ def model_parts(
             f"(parameters used: {', '.join(used) or 'none'})"
         )
 
-    return ModelParts(coords, (t_, u_, r_), f_, pos, mass, values, backend, points)
+    return ModelParts(
+        coords, (t_, u_, r_), f_, pos, mass, values, backend, points, held, moving
+    )
 
 
 def input_names(

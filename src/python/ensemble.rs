@@ -36,7 +36,8 @@ use std::time::Duration;
 /// run's parameter values; `scenes` gives a scene's arguments for each run. `events` are
 /// compiled once (with `backend`); an event whose `event_params` entry is an array (shape
 /// (k, its parameters)) is bound to row i in run i, the others to their spec's values. Returns
-/// `(t, q, qd, reached, counters, method, choice, choices, failures, status, events)`, where
+/// `(t, q, qd, reached, counters, method, choice, choices, failures, status, events,
+/// residuals)`, where
 /// by output mode:
 ///
 /// - `t_eval`: `t` the times, `q` and `qd` of shape (k, len(t), n);
@@ -50,7 +51,9 @@ use std::time::Duration;
 /// with `t` the last accepted time (`None` when the run failed before its first step);
 /// `status` (k,) is as `simulate`'s (0 reached t_end, 1 a terminal event, −1 failed) and
 /// `events` per run a pair: one (t, q, qd) per event, as `simulate`'s, and the message of the
-/// terminal event that stopped it (else `None`) — an empty list when there are no events.
+/// terminal event that stopped it (else `None`) — an empty list when there are no events;
+/// `residuals` (k,) the worst constraint residual after an accepted step of each run (0 without
+/// constraints).
 #[pyfunction]
 #[pyo3(signature = (model, q0, qd0, t_end, t0=0.0, params=None, scenes=None, method="auto",
                     dt=None, rtol=1e-6, atol=1e-9, t_eval=None, max_steps=None,
@@ -286,6 +289,7 @@ fn ensemble_tuple<'py>(
     let found = PyList::empty(py);
     let mut reached = Array1::<i64>::zeros(k);
     let mut counters = Array2::<i64>::zeros((k, Statistics::COUNTERS.len()));
+    let mut residuals = Array1::<f64>::zeros(k);
     let mut method = Array1::<i64>::from_elem(k, -1);
     let mut choice = Array1::<i64>::from_elem(k, -1);
     let mut choices: HashMap<String, usize> = HashMap::new();
@@ -327,6 +331,7 @@ fn ensemble_tuple<'py>(
             for (j, (_, count)) in Statistics::COUNTERS.iter().enumerate() {
                 counters[(i, j)] = count(s) as i64;
             }
+            residuals[i] = s.constraint_residual;
             method[i] = 1 + Method::ALL.iter().position(|m| *m == s.method).unwrap_or(0) as i64;
             if let Some(why) = &s.choice {
                 let next = choices.len();
@@ -409,6 +414,7 @@ fn ensemble_tuple<'py>(
         failures,
         status.into_pyarray(py),
         found,
+        residuals.into_pyarray(py),
     )
         .into_pyobject(py)
 }

@@ -105,6 +105,7 @@ pub(crate) fn with_partial(
     py: Python<'_>,
     failed: Failed,
     energy: Vec<f64>,
+    reactions: Option<super::solution::Reactions>,
     conserved: bool,
     wrap: &super::solution::Wrap<'_, '_>,
 ) -> PyErr {
@@ -121,6 +122,7 @@ pub(crate) fn with_partial(
                 sol,
                 energy,
                 conserved,
+                reactions,
             };
             let message = value.str()?.to_string();
             value.setattr("solution", wrap.wrap(run, Some(message))?)?;

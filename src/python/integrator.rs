@@ -254,7 +254,10 @@ impl PyIntegrator {
         guard(|| {
             self.stats
                 .as_ref()
-                .map(|s| solution::stats_dict(py, s, self.conserved))
+                .map(|s| {
+                    let constrained = self.model.constrained().is_some();
+                    solution::stats_dict(py, s, self.conserved, constrained)
+                })
                 .transpose()
         })
     }

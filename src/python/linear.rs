@@ -91,6 +91,11 @@ pub(super) fn modes_py<'py, S: Dynamics + ?Sized>(
     q: &[f64],
 ) -> PyResult<Bound<'py, PyTuple>> {
     let found: Modes = modes(system, t, q)?;
+    modes_tuple(py, &found)
+}
+
+/// A [`Modes`] as the tuple of [`modes_py`].
+pub(super) fn modes_tuple<'py>(py: Python<'py>, found: &Modes) -> PyResult<Bound<'py, PyTuple>> {
     let problem = match found.problem {
         ModeProblem::Undamped => "undamped",
         ModeProblem::StateSpace => "state_space",

@@ -2,15 +2,17 @@
 //! that each integrator is compiled once for all of them (the variant is one predictable branch
 //! per evaluation).
 
+use crate::derived::constraint_program::ConstraintProgram;
 use crate::derived::eom_program::{Energies, EomFunction, EomProgram, particle_kinetic};
+use crate::expr::derive::{Wrt, gradient, reads};
 use crate::expr::graph::{Binary, Graph, Node, Unary};
 use crate::program::{compile::Tape, eval::Function, inputs::Inputs};
-use crate::routes::{EnergyModel, TapeParticles};
+use crate::routes::{EnergyModel, ExprConstraints, TapeParticles};
 use crate::scenes::registry::{Arguments, Drawn, Positions, Scene, positions_of, scenes};
 use crate::scenes::*;
 use crate::trace::WithProgram;
 use crate::{
-    CartesianForces, Dissipation, Dynamics, Error, GeneralizedForces, KineticEnergy,
+    CartesianForces, Constrained, Dissipation, Dynamics, Error, GeneralizedForces, KineticEnergy,
     ParticleSystem, Particles, Potential, Result, Scalar, Structure, System,
 };
 use std::sync::Arc;
@@ -27,6 +29,10 @@ macro_rules! any_model {
             /// Stated by particles: the energy model of T = ½ Σ m |ṙ|² derived from the
             /// positions, and the particles for drawing.
             Particles(EnergyModel, TapeParticles),
+            /// A model stated in Python under constraints (`constraints=`,
+            /// `velocity_constraints=`): Lagrange's equations of the first kind over the
+            /// unconstrained model inside. A model without constraints is never wrapped.
+            Constrained(Box<Constrained<AnyModel, ExprConstraints>>),
             $($scene(WithProgram<<$scene as Scene>::System>),)*
         }
 
@@ -36,6 +42,10 @@ macro_rules! any_model {
                 match $model {
                     AnyModel::Energy($s) => $body,
                     AnyModel::Particles($s, _) => $body,
+                    AnyModel::Constrained(c) => {
+                        let $s: &Constrained<AnyModel, ExprConstraints> = c;
+                        $body
+                    }
                     $(AnyModel::$scene($s) => $body,)*
                 }
             };
@@ -59,6 +69,7 @@ macro_rules! any_model {
             pub(crate) fn scene_driven(&self) -> Option<bool> {
                 match self {
                     AnyModel::Energy(_) | AnyModel::Particles(..) => None,
+                    AnyModel::Constrained(c) => c.system().scene_driven(),
                     $(AnyModel::$scene(s) => Some(s.system().driven()),)*
                 }
             }
@@ -70,6 +81,11 @@ macro_rules! any_model {
                     AnyModel::Energy(m) | AnyModel::Particles(m, _) => m
                         .program()
                         .ok_or_else(|| bad("the model has no equations of motion".into())),
+                    AnyModel::Constrained(_) => Err(bad(
+                        "a constrained model has no single program of eq. 55 to expand (its \
+                         accelerations come from the multipliers at each state)"
+                            .into(),
+                    )),
                     $(AnyModel::$scene(s) => s.program(),)*
                 }
             }
@@ -80,6 +96,7 @@ macro_rules! any_model {
                 match self {
                     AnyModel::Energy(_) => None,
                     AnyModel::Particles(_, p) => Some(positions_of(p, t, q)),
+                    AnyModel::Constrained(c) => c.system().positions(t, q),
                     $(AnyModel::$scene(s) => s.system().positions(t, q),)*
                 }
             }
@@ -175,7 +192,8 @@ impl Dynamics for AnyModel {
         each!(self, s => s.energy(t, q, qd))
     }
     fn constraints(&self) -> Option<&dyn crate::ConstraintAccess> {
-        each!(self, s => s.constraints())
+        // By the trait: `Constrained` has an inherent `constraints` (its rows) as well.
+        each!(self, s => Dynamics::constraints(s))
     }
 }
 
@@ -193,7 +211,32 @@ impl AnyModel {
             AnyModel::Energy(m) | AnyModel::Particles(m, _) => {
                 m.program().map_or("interpreter", |p| p.program().backend())
             }
+            AnyModel::Constrained(c) => c.system().backend(),
             _ => "rust",
+        }
+    }
+
+    /// The constrained system, when the model has constraints.
+    pub(crate) fn constrained(&self) -> Option<&Constrained<AnyModel, ExprConstraints>> {
+        match self {
+            AnyModel::Constrained(c) => Some(c),
+            _ => None,
+        }
+    }
+
+    /// The model without its constraints (itself when it has none).
+    pub(crate) fn unconstrained(&self) -> &AnyModel {
+        match self {
+            AnyModel::Constrained(c) => c.system(),
+            other => other,
+        }
+    }
+
+    /// The particle map of the particle route (inside the constraints, if any).
+    pub(crate) fn tape_particles(&self) -> Option<&TapeParticles> {
+        match self.unconstrained() {
+            AnyModel::Particles(_, p) => Some(p),
+            _ => None,
         }
     }
 }
@@ -278,6 +321,19 @@ pub(crate) struct CompiledModel {
     /// The expression graph and the energies' nodes in it, kept for what is derived on request:
     /// the input matrix B of a linearization ([`crate::tape::input_matrix`]).
     pub(crate) energies: Option<(Arc<Graph>, Energies)>,
+    /// The constraints' tapes (holonomic over (t, q), velocity over (t, q, q̇)) and row names.
+    pub(crate) constraints: Option<ConstraintTapes>,
+}
+
+/// The compiled rows of a constrained model, bound to parameters in [`CompiledModel::bind`].
+#[derive(Debug, Clone)]
+pub(crate) struct ConstraintTapes {
+    holonomic: Option<Arc<Tape>>,
+    velocity: Option<Arc<Tape>>,
+    names: Vec<String>,
+    /// G and γ derived on the graph and compiled, for `f64` states; `None` with the
+    /// interpreter backend (G and γ then come from dual numbers, the reference).
+    rows: Option<ConstraintProgram>,
 }
 
 /// What runs a model's derived eq. 55 program at `f64` states, as Python names it
@@ -322,6 +378,11 @@ pub(crate) struct Spec<'a> {
     pub(crate) positions: Option<Vec<usize>>,
     pub(crate) dim: usize,
     pub(crate) masses: Option<Vec<usize>>,
+    /// Holonomic rows g(t, q) and velocity rows a·q̇ + b (node indices) with the rows' names
+    /// (holonomic first; empty for the default names).
+    pub(crate) constraints: Option<Vec<usize>>,
+    pub(crate) velocity_constraints: Option<Vec<usize>>,
+    pub(crate) constraint_names: Vec<String>,
     pub(crate) backend: Backend,
 }
 
@@ -403,6 +464,7 @@ impl CompiledModel {
         };
         let all = Inputs::kinetic(dof, params);
         let no_velocity = Inputs::potential(dof, params);
+        let constraints = constraint_tapes(&mut g, spec, &ids)?;
         let kinetic = spec
             .kinetic
             .map(|k| tape(&g, &[k], all, "kinetic energy"))
@@ -503,6 +565,7 @@ impl CompiledModel {
             particles,
             eom,
             energies: energies.map(|parts| (Arc::new(g), parts)),
+            constraints,
         })
     }
 
@@ -517,6 +580,11 @@ impl CompiledModel {
         .into_iter()
         .flatten()
         .chain(self.particles.as_ref().map(|(r, _, _)| r))
+        .chain(
+            self.constraints
+                .iter()
+                .flat_map(|c| c.holonomic.iter().chain(&c.velocity)),
+        )
         .any(|tape| tape.depends_on_time())
     }
 
@@ -563,7 +631,7 @@ impl CompiledModel {
             Some(eom) => model.with_program(eom.bind(params)?)?,
             None => model,
         };
-        Ok(match &self.particles {
+        let model = match &self.particles {
             None => AnyModel::Energy(model),
             Some((positions, dim, masses)) => {
                 let m = Function::new(masses.clone(), params)?.constant_values();
@@ -575,8 +643,123 @@ impl CompiledModel {
                 )?;
                 AnyModel::Particles(model, p)
             }
+        };
+        Ok(match &self.constraints {
+            None => model,
+            Some(c) => {
+                let bind = |t: &Option<Arc<Tape>>| {
+                    t.as_ref()
+                        .map(|t| Function::new(t.clone(), params))
+                        .transpose()
+                };
+                let rows = ExprConstraints::new(
+                    self.dof,
+                    bind(&c.holonomic)?,
+                    bind(&c.velocity)?,
+                    c.names.clone(),
+                )?;
+                let rows = match &c.rows {
+                    Some(program) => rows.with_compiled_rows(program.bind(params)?),
+                    None => rows,
+                };
+                AnyModel::Constrained(Box::new(Constrained::new(model, rows)))
+            }
         })
     }
+}
+
+/// The constraints' tapes of `spec`, or `None` without rows: holonomic rows may not read q̇, and
+/// each velocity row must be linear in q̇, which the graph says exactly: its gradient in q̇
+/// (derived on the graph, simplified as built) reads no velocity.
+fn constraint_tapes(
+    g: &mut Graph,
+    spec: &Spec<'_>,
+    ids: &[usize],
+) -> Result<Option<ConstraintTapes>> {
+    let holonomic = spec.constraints.as_deref().unwrap_or(&[]);
+    let velocity = spec.velocity_constraints.as_deref().unwrap_or(&[]);
+    let (kh, kv) = (holonomic.len(), velocity.len());
+    if kh + kv == 0 {
+        return Ok(None);
+    }
+    let names = &spec.constraint_names;
+    if !names.is_empty() && names.len() != kh + kv {
+        return Err(bad(format!(
+            "{} constraint names for {} rows",
+            names.len(),
+            kh + kv
+        )));
+    }
+    let name = |row: usize| {
+        names
+            .get(row)
+            .cloned()
+            .unwrap_or_else(|| format!("constraint {row}"))
+    };
+    let nodes = |outputs: &[usize]| -> Result<Vec<usize>> {
+        outputs
+            .iter()
+            .map(|&o| {
+                ids.get(o)
+                    .copied()
+                    .ok_or_else(|| bad(format!("constraints: output {o} is not a node")))
+            })
+            .collect()
+    };
+    let (hn, vn) = (nodes(holonomic)?, nodes(velocity)?);
+    let read = reads(g);
+    if let Some(i) = hn
+        .iter()
+        .position(|&r| read[r] & crate::expr::derive::VELOCITY != 0)
+    {
+        return Err(bad(format!(
+            "the holonomic constraint {:?} reads a velocity: g(t, q) = 0 is stated in t, the \
+             coordinates and parameters; give a constraint on the velocities as a \
+             velocity_constraint a(t, q)·q̇ + b(t, q) instead",
+            name(i)
+        )));
+    }
+    for (i, &row) in vn.iter().enumerate() {
+        let grad = gradient(g, row, Wrt::Velocity, spec.dof)?;
+        let read = reads(g);
+        if let Some(j) = grad
+            .iter()
+            .position(|d| d.is_some_and(|d| read[d] & crate::expr::derive::VELOCITY != 0))
+        {
+            return Err(Error::InvalidInput {
+                what: "velocity constraints",
+                why: format!(
+                    "the velocity constraint {:?} is not linear in the velocities: its \
+                     derivative in velocity {j} still reads a velocity. A velocity constraint \
+                     is a(t, q)·q̇ + b(t, q) = 0 (rolling without slipping, a knife edge)",
+                    name(kh + i)
+                ),
+            });
+        }
+    }
+    let (params, dof) = (spec.params, spec.dof);
+    let tape = |roots: &[usize], inputs: Inputs, what: &str| -> Result<Option<Arc<Tape>>> {
+        if roots.is_empty() {
+            return Ok(None);
+        }
+        Ok(Some(Arc::new(Tape::new(g, roots, inputs, what)?)))
+    };
+    let holonomic = tape(&hn, Inputs::potential(dof, params), "constraints")?;
+    let velocity = tape(&vn, Inputs::kinetic(dof, params), "velocity constraints")?;
+    let moving = [&holonomic, &velocity]
+        .into_iter()
+        .flatten()
+        .any(|t| t.depends_on_time());
+    let rows = match spec.backend {
+        Backend::Native => Some(ConstraintProgram::new(g, dof, params, &hn, &vn, moving)?),
+        Backend::Interpreter => None,
+    };
+    Ok(Some(ConstraintTapes {
+        holonomic,
+        velocity,
+        names: (0..kh + kv).map(name).collect(),
+        rows,
+    }))
 }
 
 /// Extra generalized loads for statics, compiled from serialized nodes with one output per

@@ -10,10 +10,14 @@ use super::args::{StepOptions, check_finite, check_vector, count, run_options};
 use super::error::{self, guard, panic_error};
 use super::interrupt::{ctrl_c, interrupted};
 use super::model::{self, AnyModel, Backend, CompiledModel, RawNode, Spec, WithLoads};
+use super::solution::Reactions;
 use super::states::{self, States};
 use super::{events, first_order, integrator, linear, solution};
 use crate::integrators::{Failed, Method, Options, Solution, Status, solve_partial};
-use crate::{Dynamics, Error, StaticsOptions, equilibrium};
+use crate::{
+    Constrained, Dynamics, Error, StaticsOptions, constrained_equilibrium, constrained_modes,
+    equilibrium,
+};
 use numpy::ndarray::{Array2, Array3};
 use numpy::{
     IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayDyn, PyArrayMethods, PyReadonlyArray1,
@@ -37,6 +41,19 @@ pub struct PyModel {
 }
 
 impl PyModel {
+    /// The constrained system, or a `ValueError` saying that `what` needs constraints.
+    fn constrained(
+        &self,
+        what: &str,
+    ) -> PyResult<&Constrained<AnyModel, crate::routes::ExprConstraints>> {
+        self.model.constrained().ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "{what} needs a constrained model: state constraints=[g(t, q), ...] or \
+                 velocity_constraints=[a(t, q)·q̇ + b(t, q), ...] in lg.Model"
+            ))
+        })
+    }
+
     /// `eval` at each state of (t, q, q̇) in the fast form ([`States`]), each writing a value of
     /// shape `shape` (`[]`: a float); the values as an array of shape `shape`, or (k, *shape)
     /// for k states. `None` when the arguments are not in the fast form.
@@ -85,7 +102,9 @@ impl PyModel {
     /// the derived eq. 55 program (`"native"` or `"interpreter"`).
     #[staticmethod]
     #[pyo3(signature = (nodes, dof, params, kinetic=None, potential=None, dissipation=None,
-                        forces=None, positions=None, dim=0, masses=None, backend="native"))]
+                        forces=None, positions=None, dim=0, masses=None, backend="native",
+                        constraints=None, velocity_constraints=None,
+                        constraint_names=Vec::new()))]
     #[allow(clippy::too_many_arguments)]
     fn compile(
         nodes: Vec<RawNode>,
@@ -99,6 +118,9 @@ impl PyModel {
         dim: usize,
         masses: Option<Vec<usize>>,
         backend: &str,
+        constraints: Option<Vec<usize>>,
+        velocity_constraints: Option<Vec<usize>>,
+        constraint_names: Vec<String>,
     ) -> PyResult<Self> {
         guard(|| {
             let spec = Spec {
@@ -113,6 +135,9 @@ impl PyModel {
                 positions,
                 dim,
                 masses,
+                constraints,
+                velocity_constraints,
+                constraint_names,
             };
             let compiled = CompiledModel::new(&spec)?;
             let model = compiled.bind(&params)?;
@@ -167,6 +192,10 @@ impl PyModel {
         d.set_item("forced", s.forced)?;
         d.set_item("conservative", s.conservative())?;
         d.set_item("backend", self.model.backend())?;
+        d.set_item(
+            "constraints",
+            self.model.constrained().map_or(0, |c| c.rows()),
+        )?;
         Ok(d)
     }
 
@@ -185,6 +214,117 @@ impl PyModel {
             self.model.accelerations_into(t, q, qd, out)?;
             Ok(())
         })
+    }
+
+    /// The names of the constraint rows, holonomic first (empty without constraints).
+    #[getter]
+    fn constraint_names(&self) -> Vec<String> {
+        use crate::Constraints;
+        self.model.constrained().map_or_else(Vec::new, |c| {
+            (0..c.rows()).map(|i| c.constraints().name(i)).collect()
+        })
+    }
+
+    /// Number of holonomic rows g(t, q) = 0 (the first of [`constraint_names`]).
+    #[getter]
+    fn holonomic_count(&self) -> usize {
+        use crate::Constraints;
+        self.model
+            .constrained()
+            .map_or(0, |c| c.constraints().holonomic_count())
+    }
+
+    /// The Lagrange multipliers λ at (t, q, q̇): shape (k,), or (states, k).
+    fn multipliers<'py>(
+        &self,
+        py: Python<'py>,
+        t: &Bound<'py, PyAny>,
+        q: &Bound<'py, PyAny>,
+        qd: &Bound<'py, PyAny>,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let c = self.constrained("multipliers")?;
+        self.each_state(py, "multipliers", t, q, qd, &[c.rows()], |t, q, qd, out| {
+            out.copy_from_slice(c.evaluate(t, q, qd)?.multipliers.as_slice());
+            Ok(())
+        })
+    }
+
+    /// The generalized reaction forces Gᵀλ at (t, q, q̇): shape (n,), or (states, n).
+    fn constraint_forces<'py>(
+        &self,
+        py: Python<'py>,
+        t: &Bound<'py, PyAny>,
+        q: &Bound<'py, PyAny>,
+        qd: &Bound<'py, PyAny>,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let c = self.constrained("constraint_forces")?;
+        let n = c.dof();
+        self.each_state(py, "constraint forces", t, q, qd, &[n], |t, q, qd, out| {
+            out.copy_from_slice(c.evaluate(t, q, qd)?.reaction_forces.as_slice());
+            Ok(())
+        })
+    }
+
+    /// The Cartesian reaction on each particle at (t, q, q̇), mᵢ (J M⁻¹ Gᵀλ)ᵢ with J = ∂r/∂q
+    /// (the reactions' part of each particle's acceleration, times its mass): shape
+    /// (count, dim), or (states, count, dim).
+    fn particle_reactions<'py>(
+        &self,
+        py: Python<'py>,
+        t: &Bound<'py, PyAny>,
+        q: &Bound<'py, PyAny>,
+        qd: &Bound<'py, PyAny>,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let c = self.constrained("particle_reactions")?;
+        let Some(p) = self.model.tape_particles() else {
+            return Err(PyValueError::new_err(
+                "particle_reactions needs the particle route (positions= and masses=); a model \
+                 stated by its energies has its reactions as constraint_forces (generalized)",
+            ));
+        };
+        let (count, dim) = (crate::Particles::count(p), crate::Particles::dim(p));
+        self.each_state(
+            py,
+            "particle reactions",
+            t,
+            q,
+            qd,
+            &[count, dim],
+            |t, q, qd, out| {
+                particle_reactions(c, p, t, q, qd, out)?;
+                Ok(())
+            },
+        )
+    }
+
+    /// The consistent state nearest (q, q̇) at t ([`Constrained::project`]): positions by
+    /// Gauss–Newton in the M metric, then velocities by the M-orthogonal projection.
+    #[pyo3(signature = (t, q, qd, tol=None))]
+    fn project(
+        &self,
+        t: f64,
+        q: Vec<f64>,
+        qd: Vec<f64>,
+        tol: Option<f64>,
+    ) -> PyResult<(Vec<f64>, Vec<f64>)> {
+        let c = self.constrained("project")?;
+        guard(|| Ok(c.project(t, &q, &qd, tol)?))
+    }
+
+    /// Refuse a state off the constraints ([`Constrained::check_consistent`]); nothing without
+    /// constraints.
+    #[pyo3(signature = (t, q, qd, tol=None))]
+    fn check_consistent(
+        &self,
+        t: f64,
+        q: Vec<f64>,
+        qd: Vec<f64>,
+        tol: Option<f64>,
+    ) -> PyResult<()> {
+        match self.model.constrained() {
+            Some(c) => guard(|| Ok(c.check_consistent(t, &q, &qd, tol)?)),
+            None => Ok(()),
+        }
     }
 
     /// The normalized Taylor coefficients qₖ = q⁽ᵏ⁾(t)/k! and q̇ₖ of the motion through
@@ -421,54 +561,50 @@ impl PyModel {
         let model = self.model.clone();
         let pending: Mutex<Option<PyErr>> = Mutex::new(None);
         let outcome = py.detach(|| {
-            catch_unwind(AssertUnwindSafe(
-                || -> Result<_, Box<(Failed, Vec<f64>)>> {
-                    let interrupt = ctrl_c(&pending);
-                    match solve_partial(
-                        &*model,
-                        &q0,
-                        &qd0,
-                        (t0, t_end),
-                        method,
-                        &options,
-                        Some(&interrupt),
-                    ) {
-                        Ok(sol) => match with_energy(&model, sol) {
-                            (sol, h, None) => Ok((sol, h)),
-                            (sol, h, Some(error)) => {
-                                let last =
-                                    sol.last().map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
-                                let failed = Failed {
-                                    error,
-                                    partial: Some(Solution {
-                                        status: Status::Failed,
-                                        ..sol
-                                    }),
-                                    last,
-                                };
-                                Err(Box::new((failed, h)))
-                            }
-                        },
-                        Err(mut failed) => {
-                            let h = match failed.partial.take() {
-                                Some(sol) => {
-                                    let (sol, h, cut) = with_energy(&model, sol);
-                                    if cut.is_some() {
-                                        // The last state kept is the one the error names.
-                                        failed.last = sol
-                                            .last()
-                                            .map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
-                                    }
-                                    failed.partial = Some(sol);
-                                    h
-                                }
-                                None => Vec::new(),
+            catch_unwind(AssertUnwindSafe(|| -> Result<_, Box<(Failed, Along)>> {
+                let interrupt = ctrl_c(&pending);
+                match solve_partial(
+                    &*model,
+                    &q0,
+                    &qd0,
+                    (t0, t_end),
+                    method,
+                    &options,
+                    Some(&interrupt),
+                ) {
+                    Ok(sol) => match with_energy(&model, sol) {
+                        (sol, h, None) => Ok((sol, h)),
+                        (sol, h, Some(error)) => {
+                            let last = sol.last().map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
+                            let failed = Failed {
+                                error,
+                                partial: Some(Solution {
+                                    status: Status::Failed,
+                                    ..sol
+                                }),
+                                last,
                             };
                             Err(Box::new((failed, h)))
                         }
+                    },
+                    Err(mut failed) => {
+                        let h = match failed.partial.take() {
+                            Some(sol) => {
+                                let (sol, h, cut) = with_energy(&model, sol);
+                                if cut.is_some() {
+                                    // The last state kept is the one the error names.
+                                    failed.last =
+                                        sol.last().map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
+                                }
+                                failed.partial = Some(sol);
+                                h
+                            }
+                            None => (Vec::new(), None),
+                        };
+                        Err(Box::new((failed, h)))
                     }
-                },
-            ))
+                }
+            }))
         });
         let wrap = solution::Wrap {
             kind: solution_type,
@@ -478,19 +614,23 @@ impl PyModel {
         let (sol, energy) = match outcome {
             Err(panic) => return Err(panic_error(panic)),
             Ok(Err(failed)) => {
-                let (failed, energy) = *failed;
+                let (failed, (energy, reactions)) = *failed;
                 if let Error::Interrupted { t } = failed.error {
                     return Err(interrupted(&pending, t));
                 }
-                return Err(error::with_partial(py, failed, energy, conserved, &wrap));
+                return Err(error::with_partial(
+                    py, failed, energy, reactions, conserved, &wrap,
+                ));
             }
             Ok(Ok(done)) => done,
         };
+        let (energy, reactions) = energy;
         wrap.wrap(
             solution::RunOutput {
                 sol,
                 energy,
                 conserved,
+                reactions,
             },
             None,
         )
@@ -532,6 +672,13 @@ impl PyModel {
             }
             let conserved = self.conserved(events.iter().any(|e| e.reset.is_some()));
             options.events = events;
+            // Refused here, as a run refuses it (the tolerance a run holds its steps to: rtol,
+            // at least PROJECTION_TOLERANCE; that for fixed steps).
+            if let Some(c) = self.model.constrained() {
+                let floor = crate::PROJECTION_TOLERANCE;
+                let tol = options.dt.map_or(options.rtol.max(floor), |_| floor);
+                c.check_consistent(t0, &q0, &qd0, Some(tol))?;
+            }
             integrator::PyIntegrator::new(
                 self.model.clone(),
                 (t0, q0, qd0),
@@ -574,6 +721,39 @@ impl PyModel {
                 .map(|(nodes, outputs)| model::loads(&nodes, &outputs, n, &params))
                 .transpose()?)
         })?;
+        if let Some(c) = self.model.constrained() {
+            let found = py
+                .detach(|| {
+                    catch_unwind(AssertUnwindSafe(|| match &loads {
+                        Some(loads) => {
+                            let with = WithLoads {
+                                model: c.system(),
+                                loads,
+                            };
+                            let system = Constrained::new(with, c.constraints());
+                            constrained_equilibrium(&system, t, &q_guess, &options)
+                        }
+                        None => constrained_equilibrium(c, t, &q_guess, &options),
+                    }))
+                })
+                .map_err(panic_error)??;
+            let k = &found.stiffness;
+            let stiffness = Array2::from_shape_fn((n, n), |(i, j)| k[(i, j)]);
+            return (
+                PyArray1::from_slice(py, found.q.as_slice()),
+                found.residual,
+                found.iterations,
+                linear::stability_name(found.stability),
+                PyArray1::from_slice(py, found.eigenvalues.as_slice()),
+                stiffness.into_pyarray(py),
+                found.reason.clone(),
+                None::<Bound<'py, PyAny>>,
+                None::<Bound<'py, PyAny>>,
+                PyArray1::from_slice(py, found.multipliers.as_slice()),
+                PyArray1::from_slice(py, found.reaction_forces.as_slice()),
+            )
+                .into_pyobject(py);
+        }
         let model = self.model.clone();
         let found = py
             .detach(|| {
@@ -608,6 +788,8 @@ impl PyModel {
             found.reason.clone(),
             re,
             im,
+            None::<Bound<'py, PyAny>>,
+            None::<Bound<'py, PyAny>>,
         )
             .into_pyobject(py)
     }
@@ -633,30 +815,106 @@ impl PyModel {
     }
 
     /// The modes about the equilibrium q at t (`crate::modes`), as a tuple (see `linear.rs`).
+    ///
+    /// A constrained model's n − k modes on its holonomic manifold
+    /// ([`crate::constrained_modes`]), with λ from [`crate::constrained_equilibrium`] started
+    /// at q (which must already be an equilibrium there).
     fn modes<'py>(&self, py: Python<'py>, t: f64, q: Vec<f64>) -> PyResult<Bound<'py, PyTuple>> {
-        guard(|| linear::modes_py(py, &*self.model, t, &q))
+        guard(|| match self.model.constrained() {
+            Some(c) => {
+                let options = StaticsOptions {
+                    frozen_time: true,
+                    ..StaticsOptions::default()
+                };
+                let at = constrained_equilibrium(c, t, &q, &options)?;
+                let found = constrained_modes(c, t, &q, at.multipliers.as_slice())?;
+                linear::modes_tuple(py, &found)
+            }
+            None => linear::modes_py(py, &*self.model, t, &q),
+        })
     }
 }
 
-/// The energy function h at every point of `sol`. Where h cannot be evaluated (it overflows),
-/// the solution is cut before that point and the error says where: no NaN in what is returned.
-fn with_energy(model: &AnyModel, mut sol: Solution) -> (Solution, Vec<f64>, Option<Error>) {
+/// What is computed along a run after it: the energy function h at every point and, for a
+/// constrained model, the multipliers and reactions there.
+type Along = (Vec<f64>, Option<Reactions>);
+
+/// The energy function h (and for a constrained model λ and Gᵀλ, from
+/// [`Constrained::evaluate`]) at every point of `sol`. Where they cannot be evaluated (h
+/// overflows, G loses rank), the solution is cut before that point and the error says where:
+/// no NaN in what is returned.
+fn with_energy(model: &AnyModel, mut sol: Solution) -> (Solution, Along, Option<Error>) {
+    let constrained = model.constrained();
     let mut h = Vec::with_capacity(sol.len());
+    let mut reactions = constrained.map(|c| Reactions {
+        multipliers: Vec::with_capacity(sol.len() * c.rows()),
+        rows: c.rows(),
+        forces: Vec::with_capacity(sol.len() * sol.dof),
+    });
     for i in 0..sol.len() {
-        match model.energy(sol.t[i], sol.q_at(i), sol.qd_at(i)) {
-            Ok(e) if e.is_finite() => h.push(e),
-            outcome => {
-                let t = sol.t[i];
+        let (t, q, qd) = (sol.t[i], sol.q_at(i), sol.qd_at(i));
+        let outcome = model.energy(t, q, qd).and_then(|e| {
+            if !e.is_finite() {
+                return Err(Error::NonFinite { what: "energy", t });
+            }
+            let at = match constrained {
+                Some(c) => Some(c.evaluate(t, q, qd)?),
+                None => None,
+            };
+            Ok((e, at))
+        });
+        match outcome {
+            Ok((e, at)) => {
+                h.push(e);
+                if let (Some(r), Some(at)) = (reactions.as_mut(), at) {
+                    r.multipliers.extend_from_slice(at.multipliers.as_slice());
+                    r.forces.extend_from_slice(at.reaction_forces.as_slice());
+                }
+            }
+            Err(error) => {
                 sol.t.truncate(i);
                 sol.q.truncate(i * sol.dof);
                 sol.qd.truncate(i * sol.dof);
-                let error = match outcome {
-                    Err(e) => e,
-                    Ok(_) => Error::NonFinite { what: "energy", t },
-                };
-                return (sol, h, Some(error));
+                return (sol, (h, reactions), Some(error));
             }
         }
     }
-    (sol, h, None)
+    (sol, (h, reactions), None)
+}
+
+/// The Cartesian reaction on each particle at (t, q, q̇): mᵢ (J M⁻¹ Gᵀλ)ᵢ, J = ∂r/∂q by dual
+/// numbers, into `out` (count × dim).
+fn particle_reactions(
+    c: &Constrained<AnyModel, crate::routes::ExprConstraints>,
+    p: &crate::routes::TapeParticles,
+    t: f64,
+    q: &[f64],
+    qd: &[f64],
+    out: &mut [f64],
+) -> crate::Result<()> {
+    use num_dual::Dual64;
+    let reaction = c.evaluate(t, q, qd)?.reaction_forces;
+    // M⁻¹ Gᵀλ: the reactions' part of q̈.
+    let m = c.system().mass_matrix(t, q, qd)?;
+    let dq = m
+        .cholesky()
+        .map(|f| f.solve(&reaction))
+        .ok_or_else(|| Error::SingularMassMatrix {
+            t,
+            q: q.to_vec(),
+            reason: "not positive definite",
+        })?;
+    // J (M⁻¹ Gᵀλ) in one directional pass.
+    let qq: Vec<Dual64> = q
+        .iter()
+        .zip(dq.iter())
+        .map(|(&x, &v)| Dual64::new(x, v))
+        .collect();
+    let mut r = vec![Dual64::from(0.0); out.len()];
+    crate::Particles::positions(p, Dual64::from(t), &qq, &mut r);
+    let dim = crate::Particles::dim(p);
+    for (k, (o, x)) in out.iter_mut().zip(&r).enumerate() {
+        *o = p.masses()[k / dim] * x.eps;
+    }
+    Ok(())
 }

@@ -36,6 +36,17 @@ pub(crate) struct RunOutput {
     pub(crate) sol: Solution,
     pub(crate) energy: Vec<f64>,
     pub(crate) conserved: bool,
+    /// The multipliers and reactions at the run's points, for a constrained model.
+    pub(crate) reactions: Option<Reactions>,
+}
+
+/// λ (k per point) and the generalized reactions Gᵀλ (n per point) along a constrained run,
+/// evaluated at its output states after the run.
+#[derive(Debug, Default)]
+pub(crate) struct Reactions {
+    pub(crate) multipliers: Vec<f64>,
+    pub(crate) rows: usize,
+    pub(crate) forces: Vec<f64>,
 }
 
 /// The fields, listed once below: the `SolutionField` enum, their Python names, and the class's methods
@@ -124,6 +135,8 @@ fields! {
     names: names, set_names => Names,
     event_names: event_names, set_event_names => EventNames,
     _y: y, set_y => Y,
+    multipliers: multipliers, set_multipliers => Multipliers,
+    constraint_forces: constraint_forces, set_constraint_forces => ConstraintForces,
 }
 
 /// A field's value taken out of the run (under its lock, in plain Rust), to be made a Python
@@ -131,11 +144,14 @@ fields! {
 enum Taken {
     Floats(Vec<f64>),
     Rows(Vec<f64>, usize),
-    Stats(Box<Statistics>, bool),
+    /// The statistics, whether h is conserved, whether the model is constrained.
+    Stats(Box<Statistics>, bool, bool),
     Status(i8),
     Message(String),
     Events(Vec<crate::integrators::Occurrences>, usize),
     Dense(Option<crate::integrators::Dense>),
+    /// A field a run without constraints does not have.
+    Absent,
 }
 
 /// What a run computed, and which fields have been taken from it (a bit per [`SolutionField`]).
@@ -164,7 +180,7 @@ pub struct PySolution {
     source: Mutex<Source>,
     /// One gate per field made from the run (one for the three event lists): the make runs
     /// once, and a field being made is waited for.
-    making: [PyOnceLock<()>; 9],
+    making: [PyOnceLock<()>; 14],
     /// The fields' values: made, or assigned from Python (the constructor, unpickling, the
     /// user); an assigned value replaces (and releases) the one before.
     values: Mutex<[Option<Py<PyAny>>; FIELDS.len()]>,
@@ -284,8 +300,17 @@ impl PySolution {
             sol,
             energy,
             conserved,
+            reactions,
         }) = run.as_mut()
         else {
+            // A solution built from its fields (or unpickled from a version before
+            // constraints) has no reactions: `None`, as a run without constraints.
+            if matches!(
+                field,
+                SolutionField::Multipliers | SolutionField::ConstraintForces
+            ) {
+                return Ok(Taken::Absent);
+            }
             return Err(missing(name));
         };
         let bit = 1 << field as usize;
@@ -300,13 +325,23 @@ impl PySolution {
             SolutionField::Q => Taken::Rows(std::mem::take(&mut sol.q), sol.dof),
             SolutionField::Qd => Taken::Rows(std::mem::take(&mut sol.qd), sol.dof),
             SolutionField::Energy => Taken::Floats(std::mem::take(energy)),
-            SolutionField::Stats => Taken::Stats(Box::new(sol.stats.clone()), *conserved),
+            SolutionField::Stats => {
+                Taken::Stats(Box::new(sol.stats.clone()), *conserved, reactions.is_some())
+            }
             SolutionField::TEvents | SolutionField::QEvents | SolutionField::QdEvents => {
                 Taken::Events(std::mem::take(&mut sol.events), sol.dof)
             }
             SolutionField::Status => Taken::Status(status_code(&sol.status)),
             SolutionField::Message => Taken::Message(sol.status.to_string()),
             SolutionField::Dense => Taken::Dense(sol.dense.take()),
+            SolutionField::Multipliers => match reactions {
+                Some(r) => Taken::Rows(std::mem::take(&mut r.multipliers), r.rows),
+                None => Taken::Absent,
+            },
+            SolutionField::ConstraintForces => match reactions {
+                Some(r) => Taken::Rows(std::mem::take(&mut r.forces), sol.dof),
+                None => Taken::Absent,
+            },
             SolutionField::Names | SolutionField::EventNames | SolutionField::Y => {
                 unreachable!("not made from a run")
             }
@@ -320,14 +355,17 @@ impl PySolution {
         let made = match taken {
             Taken::Floats(values) => PyArray1::from_vec(py, values).into_any(),
             Taken::Rows(values, n) => {
-                // Rows of n values as an array of shape (rows, n), without a copy.
+                // Rows of n values as an array of shape (rows, n), without a copy (k = 0
+                // multipliers: as many empty rows as points is not recoverable, so none).
                 let rows = values.len().checked_div(n).unwrap_or(0);
                 Array2::from_shape_vec((rows, n), values)
                     .map_err(|e| PyValueError::new_err(e.to_string()))?
                     .into_pyarray(py)
                     .into_any()
             }
-            Taken::Stats(stats, conserved) => stats_dict(py, &stats, conserved)?.into_any(),
+            Taken::Stats(stats, conserved, constrained) => {
+                stats_dict(py, &stats, conserved, constrained)?.into_any()
+            }
             Taken::Events(found, n) => {
                 let (mut t, mut q, mut qd) = (Vec::new(), Vec::new(), Vec::new());
                 for o in events::occurrences(py, found, n)? {
@@ -343,7 +381,7 @@ impl PySolution {
             Taken::Status(code) => code.into_pyobject(py)?.into_any(),
             Taken::Message(message) => message.into_pyobject(py)?.into_any(),
             Taken::Dense(Some(d)) => Bound::new(py, events::PyDense::new(d))?.into_any(),
-            Taken::Dense(None) => py.None().into_bound(py),
+            Taken::Dense(None) | Taken::Absent => py.None().into_bound(py),
         };
         let field = match field {
             SolutionField::TEvents | SolutionField::QEvents => SolutionField::QdEvents,
@@ -357,10 +395,13 @@ impl PySolution {
 /// The statistics dict: a copy of a template that has every key (no key made, hashed or
 /// inserted on a call, no growing of the table); the counters' keys are interned once, from
 /// [`Statistics::COUNTERS`].
+/// A constrained model's run adds the worst constraint residual after an accepted step
+/// (`constraint_residual`).
 pub(super) fn stats_dict<'py>(
     py: Python<'py>,
     s: &Statistics,
     conserved: bool,
+    constrained: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     type Template = (Py<PyDict>, Vec<Py<PyString>>);
     static STATS: PyOnceLock<Template> = PyOnceLock::new();
@@ -385,5 +426,8 @@ pub(super) fn stats_dict<'py>(
         stats.set_item(key.bind(py), count(s))?;
     }
     stats.set_item(intern!(py, "conserved"), conserved)?;
+    if constrained {
+        stats.set_item(intern!(py, "constraint_residual"), s.constraint_residual)?;
+    }
     Ok(stats)
 }

@@ -3,4 +3,5 @@
 //! arrow up to reach them.
 
 mod eval_paths;
+mod expr_constraints;
 mod taylor;

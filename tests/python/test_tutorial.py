@@ -14,6 +14,7 @@ TUTORIAL = SITE / "tutorial.rst"
 FLAGS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
 # The reference pages with examples, and how many examples each runs at least.
 PAGES = {"python.rst": 19, "events.rst": 20, "ensembles.rst": 24, "modes.rst": 13,
+         "constraints.rst": 40,
          "report.rst": 8}
 
 
