@@ -184,6 +184,18 @@ impl Options {
         self
     }
 
+    /// The relative tolerance a constrained run holds its initial state and its steps' ends
+    /// to: `rtol` when the step size is controlled (the constraints hold to the accuracy asked
+    /// for), at least [`PROJECTION_TOLERANCE`](crate::PROJECTION_TOLERANCE); that tolerance
+    /// itself for fixed steps.
+    pub fn projection_tolerance(&self) -> f64 {
+        let floor = crate::PROJECTION_TOLERANCE;
+        match self.dt {
+            Some(_) => floor,
+            None => self.rtol.max(floor),
+        }
+    }
+
     /// Check every option against the span `t0 → t_end`.
     pub(crate) fn validate(&self, t0: f64, t_end: f64) -> Result<()> {
         if let Some(dt) = self.dt

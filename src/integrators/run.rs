@@ -43,18 +43,6 @@ pub(crate) trait Integrator {
     ) -> Result<Box<dyn SegmentStepper<S>>>;
 }
 
-/// The relative tolerance a constrained run holds its initial state and its steps' ends to: the
-/// run's `rtol` when the step size is controlled (the constraints hold to the accuracy asked
-/// for), at least [`PROJECTION_TOLERANCE`](crate::PROJECTION_TOLERANCE); that tolerance itself
-/// for fixed steps.
-pub(crate) fn projection_tolerance(options: &Options) -> f64 {
-    let floor = crate::PROJECTION_TOLERANCE;
-    match options.dt {
-        Some(_) => floor,
-        None => options.rtol.max(floor),
-    }
-}
-
 /// `Err(why)` for a constrained system ([`Dynamics::constraints`]) when the method's step does
 /// not hold constraints: `how` says what the step would need.
 pub(crate) fn unconstrained_only<S: Dynamics + ?Sized>(
@@ -288,7 +276,7 @@ impl<'a, S: Dynamics + ?Sized> Run<'a, S> {
         let Some(constraints) = self.system.constraints() else {
             return Ok(false);
         };
-        let tol = projection_tolerance(self.options);
+        let tol = self.options.projection_tolerance();
         let (q, qd) = y.split_at_mut(self.n);
         let moved = constraints.project_in_place(t, q, qd, tol)?;
         self.stats.projections += usize::from(moved);

@@ -6,7 +6,7 @@ use super::auto;
 use super::events::{Status, Stop};
 use super::method::Method;
 use super::options::Options;
-use super::run::{Flow, Run, SegmentStepper, projection_tolerance};
+use super::run::{Flow, Run, SegmentStepper};
 use super::solution::{Failed, Solution, Statistics};
 use super::step_limit;
 use crate::checks::check_state;
@@ -233,7 +233,7 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
         method.check_fits(system, t0, q0, qd0)?;
         options.check_method(method)?;
         if let Some(constraints) = system.constraints() {
-            constraints.check_state(t0, q0, qd0, projection_tolerance(options))?;
+            constraints.check_state(t0, q0, qd0, options.projection_tolerance())?;
         }
         if let (Some(dt), Some(true)) = (options.dt, method.is_explicit()) {
             step_limit::check(system, t0, q0, qd0, dt, method)?;

@@ -672,12 +672,9 @@ impl PyModel {
             }
             let conserved = self.conserved(events.iter().any(|e| e.reset.is_some()));
             options.events = events;
-            // Refused here, as a run refuses it (the tolerance a run holds its steps to: rtol,
-            // at least PROJECTION_TOLERANCE; that for fixed steps).
+            // Refused here, as a run refuses it.
             if let Some(c) = self.model.constrained() {
-                let floor = crate::PROJECTION_TOLERANCE;
-                let tol = options.dt.map_or(options.rtol.max(floor), |_| floor);
-                c.check_consistent(t0, &q0, &qd0, Some(tol))?;
+                c.check_consistent(t0, &q0, &qd0, Some(options.projection_tolerance()))?;
             }
             integrator::PyIntegrator::new(
                 self.model.clone(),
