@@ -36,7 +36,8 @@
 //! the M-orthogonal projection), the routine a drift-free integration calls after each step;
 //! [`Constrained::check_consistent`] refuses an inconsistent one
 //! ([`Error::InconsistentState`]). As a [`Dynamics`] of its own it integrates with the
-//! Runge–Kutta methods and radau5, each accepted step projected back onto the constraints.
+//! Runge–Kutta methods and radau5, each accepted step projected back onto the constraints, and
+//! with holonomic rows only with RATTLE and the constrained midpoint step (`integrators/`).
 
 use crate::checks::{check_state, finite};
 use crate::dynamics::Dynamics;
@@ -48,6 +49,7 @@ use crate::program::jet;
 use crate::scalar::{Grad, Hyper, Scalar, grad_const, grad_part, grad_seed, hyper, hyper_mixed};
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 use num_dual::{Dual, Dual2, Dual64};
+use std::sync::OnceLock;
 
 /// Directions seeded per pass of the Jacobian G and of the linearity check.
 const CHUNK: usize = 4;
@@ -128,6 +130,9 @@ const VELOCITY_CORRECTIONS: usize = 3;
 pub struct Constrained<S, C> {
     system: S,
     constraints: C,
+    /// M's LDLᵀ factor when the wrapped system's M is constant ([`crate::Structure`]): made
+    /// once at the first state seen, not at every evaluation of the Schur complement.
+    mass_factor: OnceLock<Result<Vec<f64>>>,
 }
 
 /// q̈, λ and the reactions Gᵀλ at one state ([`Constrained::evaluate`]).
@@ -167,6 +172,7 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         Self {
             system,
             constraints,
+            mass_factor: OnceLock::new(),
         }
     }
 
@@ -440,22 +446,21 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
     /// when S cannot (G rank-deficient).
     fn schur<D: Scalar>(&self, t: D, q: &[D], qd: &[D], g: &[D]) -> Result<(Vec<D>, Vec<D>)> {
         let n = self.dof();
+        if self.system.structure().constant_mass {
+            let m = self.constant_mass_factor(t.re(), q, qd)?;
+            return self.schur_factored(m, t, q, g);
+        }
         let mut m = vec![D::zero(); n * n];
         self.system.mass_matrix_into(t, q, qd, &mut m);
-        if !m.iter().all(|x| x.re().is_finite()) {
-            return Err(Error::NonFinite {
-                what: "mass matrix",
-                t: t.re(),
-            });
-        }
-        factor(&mut m, n, t, q)?;
+        mass_factor_in_place(&mut m, n, t, q)?;
         self.schur_factored(&m, t, q, g)
     }
 
-    /// [`schur`](Self::schur) with M's LDLᵀ factor `m` given.
-    fn schur_factored<D: Scalar>(
+    /// [`schur`](Self::schur) with M's LDLᵀ factor `m` given (over the scalar, or in `f64` for
+    /// a constant M).
+    fn schur_factored<F: Copy, D: Scalar + std::ops::Mul<F, Output = D>>(
         &self,
-        m: &[D],
+        m: &[F],
         t: D,
         q: &[D],
         g: &[D],
@@ -466,19 +471,36 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         for row in x.chunks_exact_mut(n) {
             ldlt_solve(m, n, row);
         }
+        // S is symmetric: one dot product per pair, factored in place (no copy kept for the
+        // error path, which forms S again).
+        let entry = |i: usize, j: usize| dot(&g[i * n..(i + 1) * n], &x[j * n..(j + 1) * n]);
         let mut s = vec![D::zero(); k * k];
         for i in 0..k {
-            for j in 0..k {
-                s[i * k + j] = dot(&g[i * n..(i + 1) * n], &x[j * n..(j + 1) * n]);
+            for j in i..k {
+                s[i * k + j] = entry(i, j);
+                s[j * k + i] = s[i * k + j];
             }
         }
-        let mut sf = s.clone();
-        if ldlt_in_place(&mut sf, k).is_err() {
-            let s: Vec<f64> = s.iter().map(|x| x.re()).collect();
+        if ldlt_in_place(&mut s, k).is_err() {
+            let s: Vec<f64> = (0..k * k).map(|ij| entry(ij / k, ij % k).re()).collect();
             let q: Vec<f64> = q.iter().map(|x| x.re()).collect();
             return Err(self.dependent(&s, k, t.re(), &q));
         }
-        Ok((x, sf))
+        Ok((x, s))
+    }
+
+    /// The LDLᵀ factor of a constant M, made at the first state seen and kept.
+    fn constant_mass_factor<D: Scalar>(&self, t: f64, q: &[D], qd: &[D]) -> Result<&[f64]> {
+        let n = self.dof();
+        let factor = self.mass_factor.get_or_init(|| {
+            let q: Vec<f64> = q.iter().map(|x| x.re()).collect();
+            let qd: Vec<f64> = qd.iter().map(|x| x.re()).collect();
+            let mut m = vec![0.0; n * n];
+            self.system.mass_matrix_into(t, &q, &qd, &mut m);
+            mass_factor_in_place(&mut m, n, t, &q)?;
+            Ok(m)
+        });
+        factor.as_deref().map_err(Clone::clone)
     }
 
     /// Replace `r` (length k′ ≤ k, the first k′ rows of G in `g`, row-major k′ × n) by the
@@ -609,9 +631,15 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         let (n, k) = (self.dof(), self.rows());
         let mut m = vec![0.0; n * n];
         program.mass_and_force(t, q, qd, &mut m, qdd);
-        finite(&m, "mass matrix", t)?;
-        factor(&mut m, n, t, q)?;
-        crate::eom::solve(&m, n, t, qdd)?;
+        // A constant M's factor is kept from the first evaluation.
+        let m: &[f64] = if self.system.structure().constant_mass {
+            self.constant_mass_factor(t, q, qd)?
+        } else {
+            finite(&m, "mass matrix", t)?;
+            factor(&mut m, n, t, q)?;
+            &m
+        };
+        crate::eom::solve(m, n, t, qdd)?;
         reactions.fill(0.0);
         if k == 0 {
             return Ok(());
@@ -624,7 +652,7 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         }
         finite(&g, "constraint Jacobian", t)?;
         finite(&gamma, "constraint bias γ", t)?;
-        let (x, sf) = self.schur_factored(&m, t, q, &g)?;
+        let (x, sf) = self.schur_factored(m, t, q, &g)?;
         self.apply_multipliers(&g, &gamma, &x, &sf, qdd, multipliers, reactions);
         Ok(())
     }
@@ -651,17 +679,18 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         if k == 0 {
             return Ok(());
         }
-        let mut g = vec![D::zero(); k * n];
-        self.jacobian_into(t, q, qd, &mut g);
-        let mut gamma = vec![D::zero(); k];
-        self.gamma_into(t, q, qd, &mut gamma);
-        for (what, x) in [("constraint Jacobian", &g), ("constraint bias γ", &gamma)] {
+        // G and γ in one buffer: one allocation fewer per evaluation.
+        let mut buffer = vec![D::zero(); k * n + k];
+        let (g, gamma) = buffer.split_at_mut(k * n);
+        self.jacobian_into(t, q, qd, g);
+        self.gamma_into(t, q, qd, gamma);
+        for (what, x) in [("constraint Jacobian", &*g), ("constraint bias γ", &*gamma)] {
             if !x.iter().all(|v| v.re().is_finite()) {
                 return Err(Error::NonFinite { what, t: t.re() });
             }
         }
-        let (x, sf) = self.schur(t, q, qd, &g)?;
-        self.apply_multipliers(&g, &gamma, &x, &sf, qdd, multipliers, reactions);
+        let (x, sf) = self.schur(t, q, qd, g)?;
+        self.apply_multipliers(g, gamma, &x, &sf, qdd, multipliers, reactions);
         Ok(())
     }
 
@@ -939,7 +968,8 @@ impl<S: Dynamics, C: Constraints> Dynamics for Constrained<S, C> {
         Err(
             "the Taylor method expands the unconstrained eq. 55 program, which has no \
              multipliers: a constrained model takes a Runge–Kutta method or radau5, each step \
-             projected back onto the constraints"
+             projected back onto the constraints, or with holonomic rows only RATTLE \
+             (stormer_verlet, yoshida4/6/8) or midpoint"
                 .into(),
         )
     }
@@ -995,6 +1025,19 @@ impl<S: Dynamics, C: Constraints> crate::dynamics::ConstraintAccess for Constrai
         let mut qdd = vec![0.0; self.dof()];
         self.evaluate_into(t, q, qd, &mut qdd, multipliers, reactions)
     }
+    fn holonomic_rates_into(&self, t: f64, q: &[f64], out: &mut [f64]) {
+        if !self.constraints.depends_on_time() {
+            out.fill(0.0);
+            return;
+        }
+        let qq: Vec<Dual64> = q.iter().map(|&x| Dual64::from_re(x)).collect();
+        let mut rates = vec![Dual64::from_re(0.0); out.len()];
+        self.constraints
+            .holonomic(Dual64::new(t, 1.0), &qq, &mut rates);
+        for (o, r) in out.iter_mut().zip(&rates) {
+            *o = r.eps;
+        }
+    }
 }
 
 /// The tolerance of [`Constrained::project`] and [`Constrained::check_consistent`].
@@ -1030,6 +1073,18 @@ fn worst_row(r: &[f64], g: &[f64], n: usize, scale: &[f64]) -> (usize, f64) {
         }
     }
     worst
+}
+
+/// M (n × n, at (t, q)) replaced by its LDLᵀ factor: [`Error::NonFinite`] for a non-finite M,
+/// [`Error::SingularMassMatrix`] when it cannot be factored.
+fn mass_factor_in_place<D: Scalar>(m: &mut [D], n: usize, t: D, q: &[D]) -> Result<()> {
+    if !m.iter().all(|x| x.re().is_finite()) {
+        return Err(Error::NonFinite {
+            what: "mass matrix",
+            t: t.re(),
+        });
+    }
+    factor(m, n, t, q)
 }
 
 fn dot<D: Scalar>(x: &[D], y: &[D]) -> D {

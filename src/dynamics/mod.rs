@@ -228,6 +228,10 @@ pub trait ConstraintAccess {
         multipliers: &mut [f64],
         reactions: &mut [f64],
     ) -> Result<()>;
+
+    /// ∂g/∂t(t, q) into `out` (length [`holonomic_rows`](Self::holonomic_rows)): zero unless a
+    /// row moves; the velocity-level condition of RATTLE's last stage is G q̇ + ∂g/∂t = 0.
+    fn holonomic_rates_into(&self, t: f64, q: &[f64], out: &mut [f64]);
 }
 
 /// h = q̇·p − L from the momenta and the Lagrangian: [`Dynamics::energy`] of a system with no

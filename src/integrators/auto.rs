@@ -18,12 +18,25 @@ pub(super) fn choose<S: Dynamics + ?Sized>(
 ) -> (Method, String) {
     if let Some(c) = system.constraints() {
         let rows = c.holonomic_rows() + c.velocity_rows();
+        let s = system.structure();
+        if options.dt.is_some() && s.conservative() && s.separable && c.velocity_rows() == 0 {
+            return (
+                Method::Yoshida4,
+                format!(
+                    "constrained ({rows} holonomic rows), separable (constant M, U(q)) and \
+                     conservative, with a fixed dt: yoshida4 as a composition of RATTLE steps \
+                     stays on the constraints to round-off and, symplectic on the constraint \
+                     manifold, keeps the energy error bounded over long runs"
+                ),
+            );
+        }
         let (method, why) = choose_for(system, t0, q0, qd0, t_end, options, false);
         return (
             method,
             format!(
                 "constrained ({rows} rows): a method whose steps are projected back onto the \
-                 constraints (the symplectic and Taylor methods do not take them); {why}"
+                 constraints (RATTLE serves only conservative separable systems with holonomic \
+                 rows at a fixed dt, and Taylor does not take constraints); {why}"
             ),
         );
     }

@@ -486,7 +486,9 @@ impl Integrator for Gauss {
     ) -> std::result::Result<(), String> {
         unconstrained_only(
             system,
-            "its collocation on (q, p) has no multipliers (a SHAKE-type constrained Gauss–Legendre step is not built)",
+            "its collocation on (q, p) has no multipliers (a constrained Gauss–Legendre step, \
+             Jay's SPARK, is not built; midpoint takes a constrained variational step, and \
+             stormer_verlet and yoshida4/6/8 run as RATTLE on separable models)",
         )
     }
 

@@ -15,9 +15,11 @@ macro_rules! methods {
             /// Choose from the structure, the options and the initial state; the choice and its
             /// reason are in [`Statistics::choice`](super::Statistics::choice):
             ///
-            /// 0. a constrained system chooses by the rules below among the methods that
-            ///    project their steps onto the constraints (not the symplectic ones, not
-            ///    `taylor`), and its reason starts with "constrained";
+            /// 0. a constrained system's reason starts with "constrained": `yoshida4` (a
+            ///    composition of RATTLE steps) when it is conservative and separable with
+            ///    holonomic rows only and a fixed `dt`; otherwise the rules below among the
+            ///    methods that project their steps onto the constraints (not the symplectic
+            ///    ones, not `taylor`);
             /// 1. conservative (no Φ, no Q″, no explicit t) with a fixed `dt`: `blanes_moan4` when
             ///    separable (constant M, U(q)), otherwise `gauss4` (symplectic for any L);
             /// 2. otherwise (forced, dissipative, time-dependent, or tolerances only): `radau5`

@@ -43,10 +43,15 @@
 //! accelerations with the Runge–Kutta methods and radau5, each accepted step projected back onto
 //! the constraints (positions, then velocities, to the run's `rtol`, or 10⁻¹² at a fixed `dt`):
 //! no drift over any run length; [`Statistics::projections`] and
-//! [`Statistics::constraint_residual`] say what it took. The initial state must satisfy the
-//! constraints ([`Error::InconsistentState`](crate::Error::InconsistentState); see
-//! [`Constrained::project`](crate::Constrained::project)); the other methods refuse a constrained
-//! system with [`Error::UnsupportedMethod`].
+//! [`Statistics::constraint_residual`] say what it took. With holonomic rows only,
+//! `stormer_verlet` and `yoshida4/6/8` (on a separable system) run as compositions of RATTLE
+//! steps and `midpoint` takes a constrained variational step: each step ends on the constraints
+//! to round-off without a projection, and the map is symplectic on the constraint manifold, so
+//! the energy error stays bounded. The initial state must satisfy the constraints
+//! ([`Error::InconsistentState`](crate::Error::InconsistentState); see
+//! [`Constrained::project`](crate::Constrained::project)); the other methods (`blanes_moan4`,
+//! `gauss4/6`, `taylor`, and the symplectic ones on velocity rows) refuse a constrained system
+//! with [`Error::UnsupportedMethod`].
 //!
 //! Events ([`Event`], in [`Options::events`]) are sign changes of conditions g(t, q, q̇), found
 //! with every method on each step's interpolant and refined to round-off; a terminal event ends
@@ -96,6 +101,7 @@ mod implicit;
 mod method;
 mod options;
 mod radau;
+mod rattle;
 mod registry;
 mod run;
 mod runge_kutta;

@@ -64,7 +64,9 @@ pub(crate) fn unconstrained_only<S: Dynamics + ?Sized>(
     match system.constraints() {
         Some(_) => Err(format!(
             "the model is constrained, and {how}; the Runge–Kutta methods and radau5 project \
-             each step back onto the constraints"
+             each step back onto the constraints, and with holonomic rows only \
+             stormer_verlet and yoshida4/6/8 (RATTLE, on a separable system) and midpoint end \
+             each step on them"
         )),
         None => Ok(()),
     }

@@ -6,9 +6,25 @@
 //!
 //! The last kick's force is the first kick's of the next step (FSAL): s force evaluations per
 //! step. M is factored once (LDLᵀ).
+//!
+//! On a constrained system with holonomic rows g(t, q) = 0 (`rattle.rs`), Störmer–Verlet is
+//! RATTLE (Hairer, Lubich & Wanner, *Geometric Numerical Integration*, §VII.1.4):
+//!
+//! v_{1/2} = v₀ + (h/2) a(q₀) − M⁻¹G(q₀)ᵀλ,  q₁ = q₀ + h v_{1/2},  g(t₁, q₁) = 0,
+//! v₁ = v_{1/2} + (h/2) a(q₁) − M⁻¹G(q₁)ᵀμ,  G(q₁) v₁ + ∂g/∂t(t₁, q₁) = 0,
+//!
+//! λ by Newton to round-off, μ from a linear k × k system; it is symmetric and symplectic on
+//! the constraint manifold, so the Yoshida compositions of RATTLE steps keep their order and
+//! their symplecticity (HLW §V.3, §VII.1). Between the composed steps the velocity stage and
+//! the next half kick merge as in the plain splitting (the next drift's multipliers absorb any
+//! change along M⁻¹Gᵀ): one constrained drift per stage, one velocity stage per step. Moving
+//! rows are served (∂g/∂t in the velocity stage). Blanes–Moan's splitting is not a composition
+//! of Verlet steps: its drifts would need the exact free flow on the manifold, and it refuses
+//! constrained models, as every splitting refuses velocity rows.
 
 use super::dense::{Ends, Interpolant};
-use super::run::{Flow, Integrator, Run, SegmentStepper, unconstrained_only};
+use super::rattle::{Manifold, holonomic_only};
+use super::run::{Flow, Integrator, Run, SegmentStepper};
 use crate::dynamics::Dynamics;
 use crate::eom;
 use crate::error::{Error, Result};
@@ -73,6 +89,17 @@ impl SymplecticTableau {
                 .all(|(x, y)| (x - y).abs() <= 1e-15 * (1.0 + x.abs()))
         };
         pal(&self.a) && pal(&self.b)
+    }
+
+    /// Whether the splitting is a composition of Störmer–Verlet steps S(w₁h) ∘ … ∘ S(w_m h)
+    /// ([`composition`](Self::composition): b₀ = a₀/2, bⱼ = (aⱼ₋₁ + aⱼ)/2, b_s = a_{s−1}/2), so
+    /// that on a constrained system it is the same composition of RATTLE steps.
+    pub fn is_composition(&self) -> bool {
+        let s = self.a.len();
+        let close = |x: f64, y: f64| (x - y).abs() <= 1e-14 * (1.0 + y.abs());
+        close(self.b[0], 0.5 * self.a[0])
+            && close(self.b[s], 0.5 * self.a[s - 1])
+            && (1..s).all(|j| close(self.b[j], 0.5 * (self.a[j - 1] + self.a[j])))
     }
 
     /// Number of force evaluations per step.
@@ -250,10 +277,18 @@ impl Integrator for Splitting {
         q0: &[f64],
         qd0: &[f64],
     ) -> std::result::Result<(), String> {
-        unconstrained_only(
-            system,
-            "the explicit splittings' kick and drift have no multipliers (RATTLE is not built)",
-        )?;
+        if system.constraints().is_some() {
+            holonomic_only(system, self.tableau.name)?;
+            if !self.tableau.is_composition() {
+                return Err(format!(
+                    "the model is constrained, and {} is not a composition of Störmer–Verlet \
+                     steps: its drifts would need the exact free flow on the constraint \
+                     manifold (a geodesic), which RATTLE approximates to order 2 only; \
+                     stormer_verlet and yoshida4/6/8 are compositions of RATTLE steps",
+                    self.tableau.name
+                ));
+            }
+        }
         let s = system.structure();
         if !s.separable {
             return Err(
@@ -300,10 +335,20 @@ impl Integrator for Splitting {
         };
         let q = q0.to_vec();
         let v = qd0.to_vec();
+        let manifold = match run.system.constraints() {
+            Some(c) => {
+                let mut m = Manifold::new(n, c.holonomic_rows());
+                m.tangent(c, &kick.factor, t0, &q)?;
+                Some(m)
+            }
+            None => None,
+        };
         let mut acc = vec![0.0; n];
         kick.accelerations(run, t0, &q, &v, &mut acc)?;
         Ok(Box::new(SplittingStepper {
             old: (q.clone(), v.clone(), acc.clone()),
+            manifold,
+            a_end: vec![0.0; n],
             y: vec![0.0; 2 * n],
             split: self,
             kick,
@@ -316,9 +361,25 @@ impl Integrator for Splitting {
     }
 }
 
+/// The constrained q̈ at (t, q, v), counted as an evaluation of the right-hand side.
+fn constrained_accelerations<S: Dynamics + ?Sized>(
+    run: &mut Run<'_, S>,
+    t: f64,
+    q: &[f64],
+    v: &[f64],
+    out: &mut [f64],
+) -> Result<()> {
+    run.stats.rhs_evaluations += 1;
+    run.system.accelerations_into(t, q, v, out)
+}
+
 /// Where a splitting run stands between its equal steps.
 struct SplittingStepper {
     split: Splitting,
+    /// RATTLE's constrained stages, on a constrained system.
+    manifold: Option<Manifold>,
+    /// The constrained q̈ at the step's end, for its interpolant (the kick's `acc` is not).
+    a_end: Vec<f64>,
     kick: Kick,
     q: Vec<f64>,
     v: Vec<f64>,
@@ -337,6 +398,8 @@ impl<S: Dynamics + ?Sized> SegmentStepper<S> for SplittingStepper {
     fn step(&mut self, run: &mut Run<'_, S>) -> Result<Flow> {
         let Self {
             split,
+            manifold,
+            a_end,
             kick,
             q,
             v,
@@ -353,10 +416,16 @@ impl<S: Dynamics + ?Sized> SegmentStepper<S> for SplittingStepper {
         let t_new = run.grid_time(i + 1, steps);
         let h = t_new - t;
         let dense = run.needs_interpolant(t_new);
+        let system = run.system;
+        let mut constraints = system.constraints().zip(manifold.as_mut());
         if dense {
             q_old.copy_from_slice(q);
             v_old.copy_from_slice(v);
-            a_old.copy_from_slice(acc);
+            match constraints {
+                // The interpolant's ends carry the constrained q̈, not the kick's.
+                Some(_) => constrained_accelerations(run, t, q, v, a_old)?,
+                None => a_old.copy_from_slice(acc),
+            }
         }
         let (a, b) = (&split.tableau.a, &split.tableau.b);
         let last_drift = a.len() - 1;
@@ -366,19 +435,45 @@ impl<S: Dynamics + ?Sized> SegmentStepper<S> for SplittingStepper {
                 *vi += hb * ai;
             }
             let ha = h * a[j];
-            for (qi, vi) in q.iter_mut().zip(v.iter()) {
-                *qi += ha * vi;
-            }
             let tj = if j == last_drift {
                 t_new
             } else {
                 t + split.nodes[j] * h
             };
+            // On a constrained system the adjacent half kicks of the composed RATTLE steps
+            // merge as in the plain splitting: the velocity stage between them moves v along
+            // W = M⁻¹Gᵀ at the same point, which the next drift's multipliers absorb.
+            match constraints.as_mut() {
+                Some((c, m)) => m
+                    .drift(*c, &kick.factor, tj, q, v, ha)
+                    .map_err(|e| match e {
+                        // Dated, as every Newton failure, by the step's start.
+                        Error::NewtonFailure {
+                            iterations,
+                            residual,
+                            ..
+                        } => Error::NewtonFailure {
+                            t,
+                            iterations,
+                            residual,
+                        },
+                        e => e,
+                    })?,
+                None => {
+                    for (qi, vi) in q.iter_mut().zip(v.iter()) {
+                        *qi += ha * vi;
+                    }
+                }
+            }
             kick.accelerations(run, tj, q, v, acc)?;
         }
         let hb = h * b[a.len()];
         for (vi, ai) in v.iter_mut().zip(acc.iter()) {
             *vi += hb * ai;
+        }
+        if let Some((c, m)) = constraints {
+            let residual = m.project_velocity(c, t_new, q, v)?;
+            run.stats.constraint_residual = run.stats.constraint_residual.max(residual);
         }
         if !(q.iter().all(|x| x.is_finite()) && v.iter().all(|x| x.is_finite())) {
             return Err(Error::NonFinite {
@@ -387,6 +482,9 @@ impl<S: Dynamics + ?Sized> SegmentStepper<S> for SplittingStepper {
             });
         }
         run.stats.accepted_steps += 1;
+        if dense && manifold.is_some() {
+            constrained_accelerations(run, t_new, q, v, a_end)?;
+        }
         y[..n].copy_from_slice(q);
         y[n..].copy_from_slice(v);
         let step = dense.then(|| Interpolant::Hermite {
@@ -398,7 +496,7 @@ impl<S: Dynamics + ?Sized> SegmentStepper<S> for SplittingStepper {
                 a0: a_old,
                 q1: q,
                 v1: v,
-                a1: acc,
+                a1: if manifold.is_some() { a_end } else { acc },
             },
         });
         run.accept(t, t_new, y, i + 1 == steps, step.as_ref())

@@ -18,9 +18,19 @@
 //! explicit. The map (q_k, p_k) ↦ (q_{k+1}, p_{k+1}) is symplectic and symmetric, of order 2,
 //! for any regular Lagrangian; with dissipation it reproduces the energy decay with no spurious
 //! drift. (It coincides with the one-stage Gauss method on (q, p).)
+//!
+//! On a constrained system with holonomic rows g(t, q) = 0 the step is the discrete
+//! Lagrange–d'Alembert principle with multipliers in RATTLE form (Marsden & West §3.5;
+//! Leyendecker, Marsden & Ortiz, *ZAMM* 88 (2008) 677–708): the first equation gains
+//! −G(q_k)ᵀΛ and is solved with g(t_{k+1}, q_{k+1}) = 0 for (V, Λ) by Newton on the (n + k)
+//! system, p_{k+1} gains G(q_k)ᵀΛ, and the velocity stage of `rattle.rs` (M at q_{k+1}) puts
+//! q̇_{k+1} on G q̇ + ∂g/∂t = 0, p_{k+1} then the momenta of that velocity. Symplectic and
+//! symmetric on the constraint manifold, order 2; each step ends on the constraints to
+//! round-off. Velocity rows are refused.
 
 use super::implicit::{FixedSteps, ImplicitStep, Legendre};
-use super::run::{Integrator, Run, SegmentStepper, unconstrained_only};
+use super::rattle::{Manifold, holonomic_only};
+use super::run::{Integrator, Run, SegmentStepper};
 use crate::Scalar;
 use crate::dynamics::Dynamics;
 use crate::dynamics::ForceParts;
@@ -95,6 +105,43 @@ struct Stepper {
     tmp_d: Vec<Dual64>,
     legendre: Legendre,
     v_scale: f64,
+    /// The constrained step's work space, on a constrained system.
+    constrained: Option<Multipliers>,
+}
+
+/// The constrained midpoint step's unknowns beside V and its work space: the multipliers Λ of
+/// G(q_k)ᵀ, G at both ends, the (n + k) Newton matrix, M at the new point for the velocity
+/// stage.
+struct Multipliers {
+    k: usize,
+    lambda: Vec<f64>,
+    g0: Vec<f64>,
+    g1: Vec<f64>,
+    values: Vec<f64>,
+    q1: Vec<f64>,
+    rhs: Vec<f64>,
+    zero: Vec<f64>,
+    lu: Lu<f64>,
+    mass: Vec<f64>,
+    manifold: Manifold,
+}
+
+impl Multipliers {
+    fn new(n: usize, k: usize) -> Self {
+        Self {
+            k,
+            lambda: vec![0.0; k],
+            g0: vec![0.0; k * n],
+            g1: vec![0.0; k * n],
+            values: vec![0.0; k],
+            q1: vec![0.0; n],
+            rhs: vec![0.0; n + k],
+            zero: vec![0.0; n],
+            lu: Lu::new(n + k),
+            mass: vec![0.0; n * n],
+            manifold: Manifold::new(n, k),
+        }
+    }
 }
 
 impl Stepper {
@@ -132,6 +179,10 @@ impl Stepper {
             tmp_d: vec![zero; n],
             legendre: Legendre::new(n),
             v_scale,
+            constrained: run
+                .system
+                .constraints()
+                .map(|c| Multipliers::new(n, c.holonomic_rows())),
         })
     }
 
@@ -152,6 +203,22 @@ impl Stepper {
 
     /// ∂R/∂V at the current guess, factored.
     fn build<S: Dynamics + ?Sized>(&mut self, run: &mut Run<'_, S>, t: f64, h: f64) -> Result<()> {
+        self.residual_jacobian(run, t, h)?;
+        self.lu.matrix().copy_from(&self.jac);
+        run.stats.factorizations += 1;
+        self.lu_h = if self.lu.factor() { h } else { f64::NAN };
+        self.fresh = true;
+        self.refresh = false;
+        Ok(())
+    }
+
+    /// ∂R/∂V at the current guess into `jac`.
+    fn residual_jacobian<S: Dynamics + ?Sized>(
+        &mut self,
+        run: &mut Run<'_, S>,
+        t: f64,
+        h: f64,
+    ) -> Result<()> {
         let (system, parts) = (run.system, self.parts);
         let (q0, p0) = (&self.y[..self.n], &self.p[..]);
         let (qm, g, tmp) = (&mut self.qm_d, &mut self.g_d, &mut self.tmp_d);
@@ -167,11 +234,6 @@ impl Stepper {
             },
         )?;
         run.stats.jacobian_evaluations += 1;
-        self.lu.matrix().copy_from(&self.jac);
-        run.stats.factorizations += 1;
-        self.lu_h = if self.lu.factor() { h } else { f64::NAN };
-        self.fresh = true;
-        self.refresh = false;
         Ok(())
     }
 
@@ -227,6 +289,9 @@ impl Stepper {
 impl<S: Dynamics + ?Sized> ImplicitStep<S> for Stepper {
     fn attempt(&mut self, run: &mut Run<'_, S>, t: f64, h: f64) -> Result<Option<Convergence>> {
         run.poll(t)?;
+        if self.constrained.is_some() {
+            return self.attempt_constrained(run, t, h);
+        }
         let n = self.n;
         self.guess(h);
         if !same_step(self.lu_h, h) || self.refresh {
@@ -288,6 +353,153 @@ impl<S: Dynamics + ?Sized> ImplicitStep<S> for Stepper {
     }
 }
 
+impl Stepper {
+    /// The constrained step (discrete Lagrange–d'Alembert with multipliers, RATTLE form:
+    /// Marsden & West 2001, §3.5; Leyendecker, Marsden & Ortiz, "Variational integrators for
+    /// constrained dynamical systems", *ZAMM* 88 (2008) 677–708):
+    ///
+    /// p_k = −D₁L_d(q_k, q_{k+1}) − F_d⁻ − G(q_k)ᵀΛ,   g(t_{k+1}, q_{k+1}) = 0,
+    /// p_{k+1} = D₂L_d(q_k, q_{k+1}) + F_d⁺ − G(q_{k+1})ᵀμ,   G(q_{k+1}) q̇_{k+1} + ∂g/∂t = 0.
+    ///
+    /// The first two are solved for (V, Λ), q_{k+1} = q_k + hV, by simplified Newton with the
+    /// (n + k) matrix [[∂R/∂V, −G(q_k)ᵀ], [G(q_{k+1}), 0]] built at the guess (the row of g
+    /// divided by h), to round-off; the last two by RATTLE's velocity stage, p_{k+1} then the
+    /// momenta of the projected q̇_{k+1}. The map is symplectic and symmetric on the constraint
+    /// manifold, of order 2, for any regular Lagrangian.
+    fn attempt_constrained<S: Dynamics + ?Sized>(
+        &mut self,
+        run: &mut Run<'_, S>,
+        t: f64,
+        h: f64,
+    ) -> Result<Option<Convergence>> {
+        let c = run
+            .system
+            .constraints()
+            .expect("a constrained step on a constrained system");
+        let n = self.n;
+        let (t_mid, t_new) = (t + 0.5 * h, t + h);
+        self.guess(h);
+        self.residual_jacobian(run, t, h)?;
+        let Some(cp) = self.constrained.as_mut() else {
+            unreachable!("attempt_constrained is called with the work space set")
+        };
+        let k = cp.k;
+        let q0 = &self.y[..n];
+        c.jacobian_into(t, q0, &cp.zero, &mut cp.g0)?;
+        for ((x, &q), &v) in cp.q1.iter_mut().zip(q0).zip(&self.v) {
+            *x = q + h * v;
+        }
+        c.jacobian_into(t_new, &cp.q1, &cp.zero, &mut cp.g1)?;
+        let m = cp.lu.matrix();
+        m.fill(0.0);
+        for i in 0..n {
+            for j in 0..n {
+                m[(i, j)] = self.jac[(i, j)];
+            }
+            for r in 0..k {
+                m[(i, n + r)] = -cp.g0[r * n + i];
+                m[(n + r, i)] = cp.g1[r * n + i];
+            }
+        }
+        run.stats.factorizations += 1;
+        if !cp.lu.factor() {
+            return Ok(Some(Convergence::unfactored(self.jac.as_slice(), t_mid)));
+        }
+        cp.lambda.fill(0.0);
+        // The rows g/h carry the round-off of g (ε |q|) over h into V: V is judged against
+        // |q|/h too, i.e. the step's change of position against 10⁻³ of the positions.
+        let floor = 1e-3 * self.v_scale.max(max_norm(q0) / h.abs());
+        let mut conv = Convergence::new(MAX_ITERATIONS);
+        loop {
+            residual_into(
+                run.system,
+                self.parts,
+                t_mid,
+                h,
+                q0,
+                &self.p,
+                &self.v,
+                &mut self.qm,
+                &mut self.r,
+                &mut self.g,
+                &mut self.tmp,
+            );
+            run.stats.rhs_evaluations += 1;
+            for ((x, &q), &v) in cp.q1.iter_mut().zip(q0).zip(&self.v) {
+                *x = q + h * v;
+            }
+            c.holonomic_into(t_new, &cp.q1, &mut cp.values);
+            for i in 0..n {
+                let reaction: f64 = (0..k).map(|r| cp.g0[r * n + i] * cp.lambda[r]).sum();
+                cp.rhs[i] = self.r[i] - reaction;
+            }
+            for r in 0..k {
+                cp.rhs[n + r] = cp.values[r] / h;
+            }
+            if !cp.rhs.iter().all(|x| x.is_finite()) {
+                conv.not_finite("constrained step residual", t_mid);
+                return Ok(Some(conv));
+            }
+            cp.lu.solve(&mut cp.rhs);
+            for (v, d) in self.v.iter_mut().zip(&cp.rhs[..n]) {
+                *v -= d;
+            }
+            for (l, d) in cp.lambda.iter_mut().zip(&cp.rhs[n..]) {
+                *l -= d;
+            }
+            let scale = max_norm(&self.v).max(floor).max(f64::MIN_POSITIVE);
+            match conv.judge(max_norm(&cp.rhs[..n]) / scale) {
+                Verdict::Continue => {}
+                Verdict::Converged => break,
+                Verdict::Failed => return Ok(Some(conv)),
+            }
+        }
+        // q_{k+1} = q_k + hV; p_{k+1} − p_k = h (∂L/∂q + F) at the midpoint + G(q_k)ᵀΛ.
+        let (q_new, v_new) = self.y_new.split_at_mut(n);
+        for i in 0..n {
+            q_new[i] = self.y[i] + h * self.v[i];
+            let reaction: f64 = (0..k).map(|r| cp.g0[r * n + i] * cp.lambda[r]).sum();
+            self.p_new[i] = self.p[i] + h * self.g[i] + reaction;
+        }
+        if !(q_new.iter().chain(&self.p_new).all(|x| x.is_finite())) {
+            return Err(Error::NonFinite {
+                what: "state",
+                t: t_new,
+            });
+        }
+        for i in 0..n {
+            v_new[i] = 2.0 * self.v[i] - self.y[n + i];
+        }
+        self.legendre.velocity(
+            run.system,
+            t_new,
+            q_new,
+            &self.p_new,
+            v_new,
+            1e-3 * self.v_scale,
+            &mut run.stats,
+        )?;
+        // RATTLE's velocity stage in the metric of M at the new point, then the momenta of
+        // the projected velocity (for T quadratic in q̇, p_{k+1} − G(q_{k+1})ᵀμ).
+        run.system
+            .mass_matrix_into(t_new, q_new, v_new, &mut cp.mass);
+        crate::eom::factor(&mut cp.mass, n, t_new, q_new)?;
+        run.stats.factorizations += 1;
+        cp.manifold.tangent(c, &cp.mass, t_new, q_new)?;
+        let residual = cp.manifold.project_velocity(c, t_new, q_new, v_new)?;
+        run.stats.constraint_residual = run.stats.constraint_residual.max(residual);
+        run.system
+            .momenta_into(t_new, q_new, v_new, &mut self.p_new);
+        crate::checks::finite(&self.p_new, "momenta", t_new)?;
+        self.prev = Some(h);
+        self.v_prev.copy_from_slice(&self.v);
+        std::mem::swap(&mut self.y, &mut self.y_new);
+        std::mem::swap(&mut self.p, &mut self.p_new);
+        self.v_scale = self.v_scale.max(max_norm(&self.y[n..]));
+        Ok(None)
+    }
+}
+
 impl Integrator for Variational {
     fn order(&self) -> usize {
         2
@@ -308,10 +520,7 @@ impl Integrator for Variational {
         _q0: &[f64],
         _qd0: &[f64],
     ) -> std::result::Result<(), String> {
-        unconstrained_only(
-            system,
-            "its discrete Euler–Lagrange step has no multipliers (a constrained variational step is not built)",
-        )
+        holonomic_only(system, "midpoint")
     }
 
     fn start<S: Dynamics + ?Sized>(

@@ -215,10 +215,7 @@ fn methods_that_do_not_hold_constraints_refuse_them() {
     let p = pendulum(1.0, 1.0);
     let q0 = [0.0, -1.0];
     for method in [
-        Method::StormerVerlet,
-        Method::Yoshida4,
         Method::BlanesMoan4,
-        Method::Midpoint,
         Method::Gauss4,
         Method::Gauss6,
         Method::Taylor,
@@ -231,23 +228,85 @@ fn methods_that_do_not_hold_constraints_refuse_them() {
         match solve(&p, &q0, &[0.5, 0.0], (0.0, 1.0), method, &options) {
             Err(Error::UnsupportedMethod { why, fits, .. }) => {
                 assert!(why.contains("constrain"), "{method}: {why}");
-                assert_eq!(fits, ["rk4", "dopri5", "dop853", "radau5"], "{method}");
+                assert_eq!(
+                    fits,
+                    [
+                        "rk4",
+                        "dopri5",
+                        "dop853",
+                        "stormer_verlet",
+                        "yoshida4",
+                        "yoshida6",
+                        "yoshida8",
+                        "midpoint",
+                        "radau5"
+                    ],
+                    "{method}"
+                );
             }
             other => panic!("{method}: {other:?}"),
         }
     }
 }
 
+/// Holonomic rows that do not read t, declared so (the trait's default is a moving set).
+pub(crate) struct Still(pub(crate) Rows);
+impl Constraints for Still {
+    fn holonomic_count(&self) -> usize {
+        self.0.holonomic_count()
+    }
+    fn holonomic<D: lagrangian::Scalar>(&self, t: D, q: &[D], out: &mut [D]) {
+        self.0.holonomic(t, q, out)
+    }
+    fn depends_on_time(&self) -> bool {
+        false
+    }
+}
+
 #[test]
 fn auto_chooses_a_projected_method_and_says_why() {
-    let p = pendulum(1.0, 1.0);
+    let p = Constrained::new(point(1.0, true), Still(holonomic(&[Row::Circle(1.0)])));
     let q0 = [0.6_f64.sin(), -0.6_f64.cos()];
-    for options in [Options::fixed(0.01), Options::adaptive(1e-9, 1e-9)] {
+    // Conservative, separable, holonomic, with a fixed dt: RATTLE (yoshida4); with
+    // tolerances only, DOP853 with its steps projected.
+    for (options, method, reason) in [
+        (Options::fixed(0.01), Method::Yoshida4, "RATTLE"),
+        (Options::adaptive(1e-9, 1e-9), Method::Dop853, "projected"),
+    ] {
         let sol = solve(&p, &q0, &[0.0, 0.0], (0.0, 1.0), Method::Auto, &options).unwrap();
-        assert_eq!(sol.stats.method, Method::Dop853);
+        assert_eq!(sol.stats.method, method);
         let why = sol.stats.choice.unwrap();
-        assert!(why.starts_with("constrained (1 rows)"), "{why}");
+        assert!(why.starts_with("constrained (1 "), "{why}");
+        assert!(why.contains(reason), "{why}");
+        if method == Method::Yoshida4 {
+            assert!(sol.stats.constraint_residual < 1e-13);
+        }
     }
+    // A velocity row keeps the projected methods at a fixed dt too.
+    let knife = Constrained::new(
+        System::new(3, Diagonal(vec![1.0, 1.0, 0.2])),
+        Rows {
+            holonomic: Vec::new(),
+            velocity: vec![VRow::Knife],
+        },
+    );
+    let fixed = Options::fixed(0.01);
+    let sol = solve(
+        &knife,
+        &[0.0; 3],
+        &[1.0, 0.0, 0.5],
+        (0.0, 1.0),
+        Method::Auto,
+        &fixed,
+    )
+    .unwrap();
+    assert_eq!(sol.stats.method, Method::Dop853);
+    assert!(
+        sol.stats
+            .choice
+            .unwrap()
+            .starts_with("constrained (1 rows)")
+    );
 }
 
 #[test]

@@ -10,6 +10,7 @@
 //! (e.g. `cargo test --features jit --test integration events::`).
 
 mod ad;
+mod cartesian_chain;
 mod common;
 mod compiled;
 mod constrained_motion;
@@ -24,6 +25,7 @@ mod implicit;
 mod integrators;
 mod linearize;
 mod partial;
+mod rattle;
 mod routes;
 mod scenes;
 mod statics;
