@@ -251,7 +251,7 @@ def stability_cases(quick: bool = False) -> List[Case]:
         (math.sin(2.5), -math.cos(2.5)), (0.0, 0.0), 5.0, 1e-3,
         notes="a constrained model (issue 41): the Runge–Kutta methods and radau5 project each "
               "step back onto the rod, stormer_verlet, yoshida4/6/8 and midpoint step by "
-              "RATTLE and the constrained midpoint; the others refuse it (n/a, reasons below)."))
+              "RATTLE and the constrained midpoint; the others refuse it (n/a, each with its reason)."))
     kq0, kqd0 = kepler_periapsis(1.0, 1.0, 0.99)
     kepler_steps = 50_000 if quick else 200_000
     cases.append(Case(
