@@ -485,8 +485,7 @@ class Model:
           interpreted: ``backend="interpreter"``, or where no native code could be made) or
           ``"rust"`` (a ready-made scene);
         - ``constraints``: the number of constraint rows (holonomic and velocity; 0 without
-          constraints). A constrained model runs with the projected Runge–Kutta methods and
-          ``radau5`` whatever ``separable`` says (see :doc:`constraints`).
+          constraints); :doc:`constraints` says which methods take them.
 
         A model stated by particles gets its T derived from the positions and runs the same
         way."""

@@ -8,8 +8,10 @@
 //! the state's values or calls a function the graph lacks, so the Taylor method runs on every
 //! scene (`tests/integration/trace.rs` checks each traced program against the Rust code). A new
 //! scene must keep to that, or its Taylor runs fail with [`crate::Error::NotTraceable`] naming
-//! the operation.
+//! the operation. [`Andrews`] (the squeezing mechanism) is a constrained system outside the
+//! registry, which builds unconstrained ones.
 
+mod andrews;
 mod ball_in_sphere;
 mod charged_particle;
 mod damped_oscillator;
@@ -24,6 +26,7 @@ mod rigid_disc;
 mod rolling_cylinder;
 mod virtual_work;
 
+pub use andrews::{ANDREWS_COORDINATES, Andrews, AndrewsReference};
 pub use ball_in_sphere::{BallInSphere, elliptic_k};
 pub use charged_particle::{ChargedParticle, LorentzForce};
 pub use damped_oscillator::DampedOscillator;

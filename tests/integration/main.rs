@@ -10,6 +10,7 @@
 //! (e.g. `cargo test --features jit --test integration events::`).
 
 mod ad;
+mod andrews;
 mod cartesian_chain;
 mod common;
 mod compiled;
