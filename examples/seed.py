@@ -1,8 +1,9 @@
 """The main job from Python: the seed's systems stated as energies in Python, simulated in Rust.
 
 Each scene is written with the expression DSL (T, U, Φ, Q as in the seed), simulated, and compared
-with its exact solution or with the seed's closed form. Run with `python3 examples/seed.py` after
-`pip install .`.
+with its exact solution or with the seed's closed form; the last section takes the seed's systems
+with their constraints kept as equations (``lg.scenes.CONSTRAINED``) and checks the reactions the
+seed eliminates. Run with `python3 examples/seed.py` after `pip install .`.
 """
 
 import math
@@ -14,12 +15,12 @@ import lagrangian as lg
 
 def report(name: str, what: str, err: float, sol: "lg.Solution") -> None:
     steps = sol.stats.get("accepted_steps", 0)
-    print(f"{name:<34} {what:<34} {err:>9.1e}   {sol.stats['method']:<8} {steps:>7} steps")
+    print(f"{name:<34} {what:<34} {err:>9.1e}   {sol.stats['method']:<14} {steps:>7} steps")
 
 
 def main() -> None:
     print("Seed scenes defined in Python, simulated in Rust\n")
-    print(f"{'system':<34} {'checked against':<34} {'error':>9}   method    steps")
+    print(f"{'system':<34} {'checked against':<34} {'error':>9}   method            steps")
 
     # Double pendulum (§2): energy function h = T + U is conserved.
     th1, th2 = lg.coordinates("th1 th2")
@@ -94,7 +95,7 @@ def constrained() -> None:
     """The seed's systems with their constraints kept as equations (lg.scenes.CONSTRAINED): the
     reactions the seed never sees come out as the multipliers."""
     print("\nConstrained: the eliminated coordinates kept, the constraints stated as equations\n")
-    print(f"{'system':<34} {'checked against':<34} {'error':>9}   method    steps")
+    print(f"{'system':<34} {'checked against':<34} {'error':>9}   method            steps")
     scenes = lg.scenes
 
     # Rolling cylinder, x and θ under x = rθ (eq. 45): eq. 48's acceleration, and the friction

@@ -197,3 +197,24 @@ def test_non_numbers_are_type_errors():
         lg.scenes.cartesian_pendulum(m="1")
     with pytest.raises(TypeError):
         lg.scenes.rolling_cylinder_constrained(mass=1.0)
+
+
+# -- examples/seed.py -------------------------------------------------------------------------------
+
+
+def test_seed_example_constrained_section_meets_the_closed_forms():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[2] / "examples" / "seed.py"
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr
+    section = done.stdout.split("Constrained:", 1)[1].splitlines()[3:]
+    rows = [line for line in section if line.strip()]
+    assert len(rows) == 8, rows
+    for line in rows:
+        # The error column follows the 34 + 1 + 34 characters of the two text columns.
+        error = float(line[70:79])
+        assert error < 1e-9, line
