@@ -73,7 +73,9 @@ def rolling_cylinder_constrained(m: float = 1.0, j: float = 0.005, r: float = 0.
     constrained motion is eq. 48, ẍ = m g sin α / (m + J/r²), and the multiplier is the
     friction force along the incline that rolling needs (G = (1, −r)):
     λ = −(J/r²) ẍ = −m g sin α · (J/r²) / (m + J/r²), pointing up the slope; its torque −rλ
-    spins the cylinder up. The seed's R_x, R_y that "never appear" are this force.
+    spins the cylinder up. The seed's R_x, R_y that "never appear" are this force and the
+    normal force m g cos α: the cylinder rolls without slipping while the friction coefficient
+    is at least |λ| / (m g cos α) = tan α · (J/r²) / (m + J/r²).
 
     Raises ``TypeError`` for a parameter that is not a real number, ``ValueError`` for one
     that is not finite, a mass, inertia or radius that is not > 0.

@@ -88,6 +88,9 @@ def test_rolling_cylinder_acceleration_and_friction():
     lam = model.multipliers(0.0, [0.3, 0.3 / r], [1.0, 1.0 / r])
     assert lam[0] == pytest.approx(friction, rel=1e-13)
     assert -r * lam[0] == pytest.approx(j * accel / r, rel=1e-13)  # J θ̈ = torque
+    # Rolling needs a friction coefficient of at least |λ| / N with N = m g cos α.
+    needed = abs(lam[0]) / (m * g * math.cos(alpha))
+    assert needed == pytest.approx(math.tan(alpha) * (j / r**2) / (m + j / r**2), rel=1e-13)
     assert sol.stats["constraint_residual"] < 1e-10
     # And it matches the seed's eliminated scene step for step.
     reduced = lg.scenes.rolling_cylinder(m=m, j=j, r=r, g=g, alpha=alpha)
