@@ -1,8 +1,9 @@
 """The main job from Python: the seed's systems stated as energies in Python, simulated in Rust.
 
 Each scene is written with the expression DSL (T, U, Φ, Q as in the seed), simulated, and compared
-with its exact solution or with the seed's closed form. Run with `python3 examples/seed.py` after
-`pip install .`.
+with its exact solution or with the seed's closed form; the last section takes the seed's systems
+with their constraints kept as equations (``lg.scenes.CONSTRAINED``) and checks the reactions the
+seed eliminates. Run with `python3 examples/seed.py` after `pip install .`.
 """
 
 import math
@@ -14,12 +15,12 @@ import lagrangian as lg
 
 def report(name: str, what: str, err: float, sol: "lg.Solution") -> None:
     steps = sol.stats.get("accepted_steps", 0)
-    print(f"{name:<34} {what:<34} {err:>9.1e}   {sol.stats['method']:<8} {steps:>7} steps")
+    print(f"{name:<34} {what:<34} {err:>9.1e}   {sol.stats['method']:<14} {steps:>7} steps")
 
 
 def main() -> None:
     print("Seed scenes defined in Python, simulated in Rust\n")
-    print(f"{'system':<34} {'checked against':<34} {'error':>9}   method    steps")
+    print(f"{'system':<34} {'checked against':<34} {'error':>9}   method            steps")
 
     # Double pendulum (§2): energy function h = T + U is conserved.
     th1, th2 = lg.coordinates("th1 th2")
@@ -86,6 +87,72 @@ def main() -> None:
     eq = lg.scenes.two_springs(1.0, 1.0, 200.0, 50.0, 3.0, 2.0).equilibrium([0.0, 0.0])
     print(f"  x = {eq.q}, seed: x1 = (f1+f2)/k1 = {5.0 / 200.0}, x2 = x1 + f2/k2 = {5.0 / 200.0 + 2.0 / 50.0}"
           f", stable = {eq.stable}")
+
+    constrained()
+
+
+def constrained() -> None:
+    """The seed's systems with their constraints kept as equations (lg.scenes.CONSTRAINED): the
+    reactions the seed never sees come out as the multipliers."""
+    print("\nConstrained: the eliminated coordinates kept, the constraints stated as equations\n")
+    print(f"{'system':<34} {'checked against':<34} {'error':>9}   method            steps")
+    scenes = lg.scenes
+
+    # Rolling cylinder, x and θ under x = rθ (eq. 45): eq. 48's acceleration, and the friction
+    # force rolling needs is the multiplier λ = −(J/r²) ẍ.
+    mc, J, r, g, alpha = 2.0, 0.01, 0.1, 9.81, 0.3
+    cyl = scenes.rolling_cylinder_constrained(m=mc, j=J, r=r, g=g, alpha=alpha)
+    sol = cyl.simulate([0.0, 0.0], [0.0, 0.0], 2.0, method="dop853", rtol=1e-10, atol=1e-12)
+    accel = mc * g * math.sin(alpha) / (mc + J / r**2)
+    report("cylinder, x = rθ kept (eq. 45)", "x(2) = ½ ẍ t², eq. 48", abs(sol.q[-1, 0] - 2 * accel), sol)
+    report("  its friction force = λ", "−(J/r²) ẍ", abs(sol.multipliers[-1, 0] + J / r**2 * accel), sol)
+
+    # Ball in a sphere, θ1 and θ2 under (r1 − r2)θ1 = r2θ2 (eq. 49): the small-oscillation
+    # frequency of eq. 53 by modes on the constraint manifold, and a simulated period.
+    mb, r1, r2 = 0.1, 0.5, 0.02
+    Jb = 0.4 * mb * r2**2
+    ball = scenes.ball_in_sphere_constrained(m=mb, j=Jb, r1=r1, r2=r2, g=g)
+    w0 = math.sqrt(g / ((r1 - r2) * (1 + Jb / (mb * r2**2))))
+    w_modes = math.sqrt(ball.modes([0.0, 0.0]).omega_squared[0])
+    print(f"{'ball in a sphere, eq. 49 kept':<34} {'ω0 by modes (eq. 53)':<34} "
+          f"{abs(w_modes - w0) / w0:>9.1e}   modes")
+    th0 = 1e-4
+    period = 2 * math.pi / w0
+    sol = ball.simulate([th0, (r1 - r2) * th0 / r2], [0.0, 0.0], period, method="rk4",
+                        dt=period / 2000)
+    report("  simulated", "back at θ0 after 2π/ω0", abs(sol.q[-1, 0] - th0) / th0, sol)
+
+    # Cartesian pendulum: a rod x² + y² = l², RATTLE keeps it on the rod to round-off; the
+    # tension −2lλ = m (g cos θ + l θ̇²).
+    l, th = 1.0, 1.0
+    pend = scenes.cartesian_pendulum(m=1.0, l=l, g=g)
+    q0 = [l * math.sin(th), -l * math.cos(th)]
+    sol = pend.simulate(q0, [0.0, 0.0], 10.0, method="stormer_verlet", dt=1e-3)
+    report("Cartesian pendulum (RATTLE)", "rod length, 10 s", sol.stats["constraint_residual"], sol)
+    rate = (sol.q[:, 0] * sol.qd[:, 1] - sol.q[:, 1] * sol.qd[:, 0]) / l**2
+    angle = np.arctan2(sol.q[:, 0], -sol.q[:, 1])
+    tension = -2 * l * np.array([pend.multipliers(t, q, qd)[0]
+                                 for t, q, qd in zip(sol.t[::500], sol.q[::500], sol.qd[::500])])
+    exact = g * np.cos(angle[::500]) + l * rate[::500] ** 2
+    report("  its tension = −2lλ", "m (g cos θ + l θ̇²)", float(np.max(np.abs(tension - exact))), sol)
+
+    # Virtual work with the reactions kept (§3.2 examples 3 and 4), closed chains in Cartesian
+    # coordinates: the rhombus link balances at Q = P tan θ, the spring rhombus at
+    # m g sin θ = 2k(L0 − a sin θ) cos θ.
+    P, Q, ll = 3.0, 5.0, 0.8
+    eq = scenes.rhombus_link_constrained(l=ll, p=P, q=Q).equilibrium([0.5, 0.2])
+    theta = math.atan2(eq.q[1], eq.q[0])
+    print(f"{'rhombus link (example 3)':<34} {'Q = P tan θ':<34} "
+          f"{abs(Q - P * math.tan(theta)) / Q:>9.1e}   equilibrium, reaction Gᵀλ = "
+          f"{np.round(eq.constraint_forces, 12).tolist()} (−2P, −2Q)")
+    a, k, L0, M = 0.7, 300.0, 0.5, 3.0
+    eq = scenes.spring_rhombus_constrained(a=a, k=k, l0=L0, m=M, g=g).equilibrium([0.35, 0.56])
+    theta = math.atan2(eq.q[0], eq.q[1])
+    balance = M * g * math.sin(theta) - 2 * k * (L0 - a * math.sin(theta)) * math.cos(theta)
+    print(f"{'spring rhombus (example 4)':<34} {'Mg sinθ = 2k(L0 − a sinθ) cosθ':<34} "
+          f"{abs(balance) / (M * g):>9.1e}   equilibrium, θ = {math.degrees(theta):.4f}°, "
+          f"λ = {eq.multipliers[0]:.6g} = −Mg/(a cos θ) = {-M * g / (a * math.cos(theta)):.6g}, "
+          f"{eq.stability}")
 
 
 if __name__ == "__main__":

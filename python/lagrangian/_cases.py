@@ -45,7 +45,7 @@ class Scene:
     extra: Dict[str, Any] = field(default_factory=dict)
 
     def model(self) -> Model:
-        """The scene's model (native Rust)."""
+        """The scene's model (native Rust, or a constrained model stated in Python)."""
         return getattr(scenes, self.scene)(**self.params)  # type: ignore[no-any-return]
 
 
@@ -126,4 +126,9 @@ def report_scenes() -> List[Scene]:
         Scene("n_pendulum", "N-pendulum, N = 4", "n_pendulum",
               dict(masses=[1.0] * 4, lengths=[0.5] * 4, g=9.81), (0.4, 0.3, 0.2, 0.1),
               (0.0,) * 4, 5.0, 0.5, peers=True),
+        # Constrained (issue 41): the bob's x, y under x² + y² = l²; the methods that cannot keep
+        # a run on the constraint are listed as not applicable, with their reason.
+        Scene("cartesian_pendulum", "Cartesian pendulum, x² + y² = l² (constrained)",
+              "cartesian_pendulum", dict(m=1.0, l=1.0, g=9.81),
+              (math.sin(1.0), -math.cos(1.0)), (0.0, 0.0), 10.0, 1.0),
     ]

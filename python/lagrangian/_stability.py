@@ -26,7 +26,14 @@ import numpy as np
 from . import _lagrangian, scenes
 from ._cases import kepler_exact, kepler_periapsis, oscillator_exact
 from ._model import Model
-from ._measure import FINAL_ONLY, UNSUPPORTED, Reference, computed_reference, state_error
+from ._measure import (
+    FINAL_ONLY,
+    UNSUPPORTED,
+    Reference,
+    computed_reference,
+    state_error,
+    unsupported_reason,
+)
 
 __all__ = ["Case", "Outcome", "StabilityMatrix", "check_methods", "stability_cases", "run_stability"]
 
@@ -125,8 +132,9 @@ class StabilityMatrix:
             cells = [self.outcome(case.key, m).cell() for m in self.methods]
             lines.append(f"| {case.title} | " + " | ".join(cells) + " |")
         lines += ["", "✓ error · time: solved within the case's tolerance; a name: the typed "
-                  "error the method returned; n/a: the method does not apply (explicit "
-                  "splittings need a separable system); coarse: a fixed-step answer outside the "
+                  "error the method returned; n/a: the method does not apply (its reason is "
+                  "listed under the case: explicit splittings need a separable system, some "
+                  "methods cannot keep a constrained run on its constraints); coarse: a fixed-step answer outside the "
                   "tolerance that halving dt visibly changes (the step is too coarse, and the "
                   "usual check shows it); chaotic: beyond the predictability horizon — the error "
                   "is what the Lyapunov exponent amplifies the tolerance to, or the two "
@@ -140,8 +148,18 @@ class StabilityMatrix:
             lines.append(f"- **{case.title}**: t_end = {case.t_end:.4g}, dt = {case.dt:.3g}, "
                          f"rtol = atol = {case.rtol:.0e}, tolerance {case.accept:.0e} "
                          f"({'relative energy change' if case.measure == 'energy' else 'relative state error'}); "
-                         f"reference: {ref}. {case.notes}")
+                         f"reference: {ref}. {case.notes}" + self._not_applicable(case.key))
         return "\n".join(lines)
+
+    def _not_applicable(self, case: str) -> str:
+        """The methods that do not apply to ``case``, grouped by the reason each gives."""
+        why: Dict[str, List[str]] = {}
+        for o in self.outcomes:
+            if o.case == case and o.status == "n/a":
+                reason = unsupported_reason(o.detail) or o.detail
+                why.setdefault(reason, []).append(o.method)
+        return "".join(f" Not applicable ({reason}): {', '.join(methods)}."
+                       for reason, methods in why.items())
 
     def to_dict(self) -> Dict[str, Any]:
         """Plain data (JSON-ready)."""
@@ -227,6 +245,13 @@ def stability_cases(quick: bool = False) -> List[Case]:
         "light_bob", "double pendulum m2/m1 = 1e-9", _double(1.0, 1e-9, 1.0),
         (1.0, 0.5), (0.0, 0.0), 5.0, 1e-3,
         notes="M has condition number ~1e9; the light bob is driven by the heavy one."))
+    cases.append(Case(
+        "constrained_pendulum", "Cartesian pendulum x² + y² = l², θ0 = 2.5 (constrained)",
+        lambda: scenes.cartesian_pendulum(m=1.0, l=1.0, g=9.81),
+        (math.sin(2.5), -math.cos(2.5)), (0.0, 0.0), 5.0, 1e-3,
+        notes="a constrained model (issue 41): the Runge–Kutta methods and radau5 project each "
+              "step back onto the rod, stormer_verlet, yoshida4/6/8 and midpoint step by "
+              "RATTLE and the constrained midpoint; the others refuse it (n/a, each with its reason)."))
     kq0, kqd0 = kepler_periapsis(1.0, 1.0, 0.99)
     kepler_steps = 50_000 if quick else 200_000
     cases.append(Case(

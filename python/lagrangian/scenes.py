@@ -13,6 +13,12 @@ defaults, docstrings and coordinate names are the ones declared there, and the a
 checked by name in Rust. ``model.coordinates`` gives the coordinates for loads in
 ``equilibrium``; ``model.exact`` gives the exact solution of the scenes that have one.
 
+Beside them, the seed's systems with their constraints kept as equations (issue 41): plain
+Python functions returning a constrained :class:`~lagrangian.Model` (``CONSTRAINED`` lists
+them, outside ``__all__`` and the Rust catalog) — :func:`cartesian_pendulum`,
+:func:`rolling_cylinder_constrained`, :func:`ball_in_sphere_constrained`,
+:func:`rhombus_link_constrained` and :func:`spring_rhombus_constrained`.
+
 >>> import lagrangian as lg
 >>> dp = lg.scenes.double_pendulum(m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81)
 >>> [c.name for c in dp.coordinates]
@@ -26,11 +32,21 @@ from __future__ import annotations
 import inspect
 from typing import Any, Callable, Dict, List, Tuple
 
-from . import _lagrangian
+from . import _constrained_scenes, _lagrangian
+from ._constrained_scenes import (
+    ball_in_sphere_constrained,
+    cartesian_pendulum,
+    rhombus_link_constrained,
+    rolling_cylinder_constrained,
+    spring_rhombus_constrained,
+)
 from ._scene_model import SceneModel
 
 # The scene functions only: ``SceneModel`` and ``catalog`` are public but not scenes.
 __all__: List[str] = []
+
+# The constrained scenes (Python functions returning a constrained ``Model``), in catalog order.
+CONSTRAINED: Tuple[str, ...] = tuple(_constrained_scenes.__all__)
 
 
 def catalog() -> List[Dict[str, Any]]:
@@ -123,11 +139,15 @@ def _stub() -> str:
         'regenerate with\n``python -c "from lagrangian import scenes; '
         "print(scenes._stub(), end='')\" > python/lagrangian/scenes.pyi``.\"\"\"",
         "",
-        "from typing import Any, Dict, List, Sequence",
+        "from typing import Any, Dict, List, Sequence, Tuple",
         "",
+        "from ._constrained_scenes import (",
+        *(f"    {name} as {name}," for name in sorted(CONSTRAINED)),
+        ")",
         "from ._scene_model import SceneModel as SceneModel",
         "",
         "__all__: List[str]",
+        "CONSTRAINED: Tuple[str, ...]",
         "",
         "def catalog() -> List[Dict[str, Any]]: ...",
     ]

@@ -1,11 +1,19 @@
 """Generated from the scene registry by ``lagrangian.scenes._stub()``: do not edit; regenerate with
 ``python -c "from lagrangian import scenes; print(scenes._stub(), end='')" > python/lagrangian/scenes.pyi``."""
 
-from typing import Any, Dict, List, Sequence
+from typing import Any, Dict, List, Sequence, Tuple
 
+from ._constrained_scenes import (
+    ball_in_sphere_constrained as ball_in_sphere_constrained,
+    cartesian_pendulum as cartesian_pendulum,
+    rhombus_link_constrained as rhombus_link_constrained,
+    rolling_cylinder_constrained as rolling_cylinder_constrained,
+    spring_rhombus_constrained as spring_rhombus_constrained,
+)
 from ._scene_model import SceneModel as SceneModel
 
 __all__: List[str]
+CONSTRAINED: Tuple[str, ...]
 
 def catalog() -> List[Dict[str, Any]]: ...
 def simple_pendulum(m: float = 1.0, l: float = 1.0, g: float = 9.81) -> SceneModel: ...

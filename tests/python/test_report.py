@@ -32,7 +32,7 @@ def report(tmp_path_factory: pytest.TempPathFactory) -> Dict[str, Any]:
 
 
 SCENES = ["double_pendulum", "forced_two_mass", "ball_in_sphere", "rolling_cylinder",
-          "damped_oscillator", "kepler", "elastic_pendulum", "n_pendulum"]
+          "damped_oscillator", "kepler", "elastic_pendulum", "n_pendulum", "cartesian_pendulum"]
 
 
 def test_folder_has_tables_plots_and_json(report: Dict[str, Any]) -> None:
@@ -65,7 +65,8 @@ def test_exact_references_where_known(report: Dict[str, Any]) -> None:
     kinds = {s["key"]: s["work_precision"]["reference"]["kind"] for s in report["scenes"]}
     for key in ("forced_two_mass", "rolling_cylinder", "damped_oscillator", "kepler"):
         assert kinds[key] == "exact"
-    for key in ("double_pendulum", "ball_in_sphere", "elastic_pendulum", "n_pendulum"):
+    for key in ("double_pendulum", "ball_in_sphere", "elastic_pendulum", "n_pendulum",
+                "cartesian_pendulum"):
         assert kinds[key] == "computed"
         agreement = next(s for s in report["scenes"] if s["key"] == key)[
             "work_precision"]["reference"]["agreement"]
@@ -99,7 +100,7 @@ def test_long_run_energy_of_symplectic_methods_stays_bounded(report: Dict[str, A
             scene["key"], runs)
     keys = {s["key"] for s in report["scenes"] if "long_run" in s}
     assert keys == {"double_pendulum", "ball_in_sphere", "rolling_cylinder", "kepler",
-                    "elastic_pendulum", "n_pendulum"}
+                    "elastic_pendulum", "n_pendulum", "cartesian_pendulum"}
 
 
 def _outcomes(report: Dict[str, Any]) -> Dict[str, Dict[str, Dict[str, Any]]]:
@@ -151,6 +152,20 @@ def test_stability_expected_outcomes(report: Dict[str, Any]) -> None:
     for method in ("stormer_verlet", "yoshida4", "yoshida6", "yoshida8", "blanes_moan4",
                    "midpoint", "gauss4", "gauss6"):
         assert m["long_run"][method]["status"] == "solved", method
+    # A constrained model: the methods that keep a run on the constraints (projection, RATTLE,
+    # the constrained midpoint) solve it; the others do not apply, each saying why.
+    constrained = m["constrained_pendulum"]
+    for method in ("rk4", "dopri5", "dop853", "radau5", "stormer_verlet", "yoshida4",
+                   "yoshida6", "yoshida8", "midpoint"):
+        assert constrained[method]["status"] in ("solved", "coarse"), (method, constrained[method])
+    for method in ("dopri5", "dop853", "radau5"):
+        assert constrained[method]["status"] == "solved", method
+    for method in ("gauss4", "gauss6", "blanes_moan4", "taylor"):
+        o = constrained[method]
+        assert o["status"] == "n/a" and "constrained" in o["detail"], (method, o)
+    text = (Path(report["_folder"]) / "stability.md").read_text()
+    line = next(x for x in text.splitlines() if x.startswith("- **Cartesian pendulum"))
+    assert "Not applicable (" in line and "gauss4" in line
     # The chaotic pendulum: answers beyond the Lyapunov horizon are reported as such.
     chaotic = m["chaotic"]
     assert all(o["status"] in ("solved", "chaotic", "coarse", "n/a") for o in chaotic.values())
