@@ -104,6 +104,16 @@ pub(crate) fn with_buf<L: Copy, const CAP: usize, R>(
     f(fill_buf(&mut stack, &mut heap, len, fill))
 }
 
+/// [`with_buf`] for plain `f64` work space, `len` zeros: the stack array is not zeroed first
+/// (no dual payloads whose stale bytes could be subnormals), so a generous `CAP` costs nothing
+/// beyond the `len` slots used.
+#[inline(always)]
+pub(crate) fn with_f64_buf<const CAP: usize, R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
+    let mut stack = [const { MaybeUninit::<f64>::uninit() }; CAP];
+    let mut heap = Vec::new();
+    f(fill_buf(&mut stack, &mut heap, len, 0.0))
+}
+
 /// The first `len` slots of `stack` set to `fill`, or `heap` filled with `len` of them when
 /// `len > CAP`.
 #[inline(always)]

@@ -47,7 +47,7 @@ use crate::error::{Error, Result};
 use crate::linalg::{ldlt_in_place, ldlt_solve};
 use crate::program::jet;
 use crate::scalar::{
-    Grad, Hyper, Scalar, grad_const, grad_part, grad_seed, hyper, hyper_mixed, with_buf,
+    Grad, Hyper, Scalar, grad_const, grad_part, grad_seed, hyper, hyper_mixed, with_f64_buf,
 };
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 use num_dual::{Dual, Dual2, Dual64};
@@ -268,6 +268,23 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         let mut velocity = vec![0.0; kh + kv];
         if kh > 0 {
             self.constraints.holonomic(t, q, &mut position);
+        }
+        // ġ = G q̇ from compiled rows when the constraints have them and hold still (∂g/∂t = 0);
+        // otherwise one dual pass along the motion.
+        let n = self.dof();
+        let compiled = kh > 0
+            && !self.constraints.depends_on_time()
+            && with_f64_buf::<256, _>((kh + kv) * (n + 1), |buf| {
+                let (g, gamma) = buf.split_at_mut((kh + kv) * n);
+                let done = self.constraints.compiled_rows(t, q, qd, g, gamma);
+                if done {
+                    for (i, r) in velocity[..kh].iter_mut().enumerate() {
+                        *r = dot(&g[i * n..(i + 1) * n], qd);
+                    }
+                }
+                done
+            });
+        if kh > 0 && !compiled {
             let td = Dual64::new(t, self.time_rate());
             let qq: Vec<Dual64> = q.iter().zip(qd).map(|(&x, &v)| Dual64::new(x, v)).collect();
             let mut out = vec![Dual64::from(0.0); kh];
@@ -344,7 +361,7 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
             loop {
                 self.constraints.holonomic(t, &q, &mut r);
                 finite(&r, "constraint residual", t)?;
-                self.jacobian_into(t, &q, &qd, &mut g);
+                self.jacobian_f64(t, &q, &qd, &mut g);
                 finite(&g[..kh * n], "constraint Jacobian", t)?;
                 let (worst, scaled) = worst_row(&r, &g, n, &q);
                 if let Some((before, was)) = polished.take() {
@@ -378,7 +395,7 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
                 iterations += 1;
             }
         }
-        self.jacobian_into(t, &q, &qd, &mut g);
+        self.jacobian_f64(t, &q, &qd, &mut g);
         finite(&g, "constraint Jacobian", t)?;
         self.check_linear(t, &q, &qd, &g)?;
         for correction in 0..=VELOCITY_CORRECTIONS {
@@ -650,7 +667,7 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         let (n, k) = (self.dof(), self.rows());
         let constant = self.system.structure().constant_mass;
         // One work buffer (on the stack for small systems): M, G, M⁻¹Gᵀ, γ and S.
-        with_buf::<f64, 512, _>(n * n + 2 * k * n + k + k * k, 0.0, |buf| {
+        with_f64_buf::<512, _>(n * n + 2 * k * n + k + k * k, |buf| {
             let (m, rest) = buf.split_at_mut(n * n);
             let (g, rest) = rest.split_at_mut(k * n);
             let (x, rest) = rest.split_at_mut(k * n);
@@ -741,6 +758,17 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
                 reactions[j] += g[i * n + j] * l;
                 qdd[j] += x[i * n + j] * l;
             }
+        }
+    }
+
+    /// G into `g` (row-major k × n) at an `f64` state, unchecked: from the constraints'
+    /// compiled rows when they have them, otherwise by [`jacobian_into`](Self::jacobian_into).
+    fn jacobian_f64(&self, t: f64, q: &[f64], qd: &[f64], g: &mut [f64]) {
+        let done = with_f64_buf::<64, _>(self.rows(), |gamma| {
+            self.constraints.compiled_rows(t, q, qd, g, gamma)
+        });
+        if !done {
+            self.jacobian_into(t, q, qd, g);
         }
     }
 
@@ -969,7 +997,7 @@ impl<S: Dynamics, C: Constraints> Dynamics for Constrained<S, C> {
                     &mut *(out as *mut [D] as *mut [f64]),
                 )
             };
-            with_buf::<f64, 64, _>(k + n, 0.0, |buf| {
+            with_f64_buf::<64, _>(k + n, |buf| {
                 let (lf, rf) = buf.split_at_mut(k);
                 self.solve_first_kind_f64(tf, qf, qdf, outf, lf, rf)
             })?;

@@ -15,7 +15,7 @@ use crate::expr::graph::Graph;
 use crate::program::compile::Tape;
 use crate::program::eval::Function;
 use crate::program::inputs::Inputs;
-use crate::scalar::with_buf;
+use crate::scalar::with_f64_buf;
 use std::sync::Arc;
 
 /// G (row-major, rows × n) and γ (rows) of a set of constraint rows, as one program over
@@ -153,7 +153,7 @@ impl ConstraintRows {
         let (n, k) = (self.program.dof, self.program.rows);
         assert!(q.len() == n && qd.len() == n, "wrong state lengths");
         assert!(g.len() == k * n && gamma.len() == k, "wrong output lengths");
-        with_buf::<f64, 256, _>(k * n + k, 0.0, |out| {
+        with_f64_buf::<256, _>(k * n + k, |out| {
             #[cfg(feature = "jit")]
             if let Some(native) = &self.program.native {
                 native.eval(self.function.constants(), t, q, qd, out);
