@@ -652,6 +652,16 @@ class Model:
         self._constrained("constraint_forces")
         return self._evaluate("constraint_forces", t, q, qd)  # type: ignore[no-any-return]
 
+    def constraint_power(self, t: float, q: ArrayLike, qd: ArrayLike) -> FloatArray:
+        """The reactions' power Gᵀλ·q̇ at (t, q, q̇): zero for constraints that hold still,
+        otherwise the rate at which a moving constraint (a driven wire, a moving support) feeds
+        energy in, so that the energy function balances as dh/dt = Gᵀλ·q̇ + Q″·q̇ − q̇·∂Φ/∂q̇ −
+        ∂L/∂t. A float for one state, shape (states,) for several. Raises as
+        :meth:`multipliers`.
+        """
+        forces = np.asarray(self.constraint_forces(t, q, qd))
+        return np.einsum("...i,...i->...", forces, np.asarray(qd, dtype=float))  # type: ignore[no-any-return]
+
     def particle_reactions(self, t: float, q: ArrayLike, qd: ArrayLike) -> FloatArray:
         """The Cartesian reaction force on each particle at (t, q, q̇) (particle route):
         Rᵢ = mᵢ (J M⁻¹ Gᵀλ)ᵢ with J = ∂r/∂q — the particle's mass times the part of its

@@ -172,6 +172,16 @@ class Solution(_lagrangian.NativeSolution):
         return str(self._dense.interpolant), int(self._dense.order)
 
     @property
+    def constraint_power(self) -> Optional[FloatArray]:
+        """The reactions' power Gᵀλ·q̇ at each output, shape (n,), or ``None`` without
+        constraints: zero for constraints that hold still (the seed's R does no work), the
+        energy a moving constraint feeds in otherwise, so that dh/dt = Gᵀλ·q̇ + Q″·q̇ −
+        q̇·∂Φ/∂q̇ − ∂L/∂t along the run (see :meth:`Model.constraint_power`)."""
+        if self.constraint_forces is None:
+            return None
+        return np.einsum("ij,ij->i", self.constraint_forces, self.qd)  # type: ignore[no-any-return]
+
+    @property
     def y(self) -> FloatArray:
         """The states in SciPy's ``solve_ivp`` layout, shape (2 dof, n): rows q₁ … q_dof then
         q̇₁ … q̇_dof, column k at ``t[k]`` — ``np.vstack([q.T, qd.T])``. Built once on first

@@ -491,6 +491,20 @@ def test_moving_constraint_bead_on_a_spinning_wire():
                     rtol=1e-10, atol=1e-11)
     assert_allclose(sol.multipliers[:, 0], 2 * m * w**2 * r0 * np.sinh(w * t),
                     rtol=1e-9, atol=1e-11)
+    # The wire does work: h = ½ m (ṙ² + ω² r²) = ½ m r₀² ω² cosh 2ωt, and the reactions' power
+    # Gᵀλ·q̇ is its rate, m r₀² ω³ sinh 2ωt, at every output and from the model pointwise.
+    assert_allclose(sol.energy, 0.5 * m * r0**2 * w**2 * np.cosh(2 * w * t), rtol=1e-9)
+    power = m * r0**2 * w**3 * np.sinh(2 * w * t)
+    assert_allclose(sol.constraint_power, power, rtol=1e-9, atol=1e-12)
+    assert_allclose(bead.constraint_power(t[4], sol.q[4], sol.qd[4]), power[4], rtol=1e-9)
+    assert_allclose(bead.constraint_power(0.0, sol.q, sol.qd), np.sum(
+        bead.constraint_forces(0.0, sol.q, sol.qd) * sol.qd, axis=1), rtol=1e-14, atol=1e-15)
+    # A constraint that holds still does no work, and a model without one has no power.
+    pendulum = cartesian_pendulum()
+    psol = pendulum.simulate(*pendulum_state(1.0, 0.0, 0.8), 1.0, rtol=1e-10, atol=1e-12)
+    assert np.max(np.abs(psol.constraint_power)) < 1e-9
+    free = lg.Model([x, y], kinetic=0.5 * (x.d**2 + y.d**2))
+    assert free.simulate([0.0, 0.0], [1.0, 0.0], 1.0).constraint_power is None
     # At rest on the wire at t = 0 is not consistent: the wire moves.
     with pytest.raises(ValueError, match="wire.*velocity"):
         bead.simulate([r0, 0.0], [0.0, 0.0], 1.0)
