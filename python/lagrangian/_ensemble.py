@@ -351,14 +351,14 @@ def _check_consistent(
 ) -> None:
     """Refuse, before any run, an initial state off a constrained model's constraints (with
     each run's parameters), naming the run: as :meth:`Model.simulate` refuses it, to the
-    tolerance a run holds its steps to (``rtol``, at least 1e-12; 1e-12 for fixed steps)."""
+    tolerance a run holds its steps to (the native check applies the run's rule)."""
     if not base.constraint_names:
         return
-    tol = 1e-12 if "dt" in options else max(float(options["rtol"]), 1e-12)
+    rtol = None if "dt" in options else float(options["rtol"])
     for i in range(q.shape[0]):
         model = base._rebound({k: float(v[i]) for k, v in sweep.items()}) if sweep else base
         try:
-            model._native.check_consistent(float(options["t0"]), q[i].tolist(), qd[i].tolist(), tol)
+            model._native.check_consistent(float(options["t0"]), q[i].tolist(), qd[i].tolist(), rtol)
         except ValueError as e:
             raise ValueError(f"run {i}: {e} (Model.project repairs a state)") from None
 

@@ -119,6 +119,8 @@ pub use dense::{Dense, DenseParts};
 pub use ensemble::{RunResult, Systems, solve_many};
 pub use events::{Condition, Direction, Event, Occurrences, Reset, Status};
 pub use method::Method;
+#[cfg(feature = "python")]
+pub(crate) use options::projection_tolerance;
 pub use options::{Options, Output};
 pub use solution::{Failed, Solution, Statistics};
 #[cfg(feature = "python")]

@@ -189,11 +189,7 @@ impl Options {
     /// for), at least [`PROJECTION_TOLERANCE`](crate::PROJECTION_TOLERANCE); that tolerance
     /// itself for fixed steps.
     pub fn projection_tolerance(&self) -> f64 {
-        let floor = crate::PROJECTION_TOLERANCE;
-        match self.dt {
-            Some(_) => floor,
-            None => self.rtol.max(floor),
-        }
+        projection_tolerance(self.dt.is_none().then_some(self.rtol))
     }
 
     /// Check every option against the span `t0 → t_end`.
@@ -321,6 +317,14 @@ impl Options {
 /// The error of an invalid option.
 fn bad<T>(what: &'static str, why: String) -> Result<T> {
     Err(Error::InvalidInput { what, why })
+}
+
+/// [`Options::projection_tolerance`] from the run's `rtol` when its step size is controlled,
+/// `None` for fixed steps: the one statement of the rule, also for the Python binding's checks
+/// before a run.
+pub(crate) fn projection_tolerance(controlled_rtol: Option<f64>) -> f64 {
+    let floor = crate::PROJECTION_TOLERANCE;
+    controlled_rtol.map_or(floor, |rtol| rtol.max(floor))
 }
 
 #[cfg(test)]

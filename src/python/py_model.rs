@@ -311,18 +311,20 @@ impl PyModel {
         guard(|| Ok(c.project(t, &q, &qd, tol)?))
     }
 
-    /// Refuse a state off the constraints ([`Constrained::check_consistent`]); nothing without
-    /// constraints.
-    #[pyo3(signature = (t, q, qd, tol=None))]
+    /// Refuse a state off the constraints ([`Constrained::check_consistent`]) to the tolerance
+    /// a run with `rtol` holds (`None`: a run of fixed steps), as the run itself would before
+    /// its first step; nothing without constraints.
+    #[pyo3(signature = (t, q, qd, rtol=None))]
     fn check_consistent(
         &self,
         t: f64,
         q: Vec<f64>,
         qd: Vec<f64>,
-        tol: Option<f64>,
+        rtol: Option<f64>,
     ) -> PyResult<()> {
+        let tol = crate::integrators::projection_tolerance(rtol);
         match self.model.constrained() {
-            Some(c) => guard(|| Ok(c.check_consistent(t, &q, &qd, tol)?)),
+            Some(c) => guard(|| Ok(c.check_consistent(t, &q, &qd, Some(tol))?)),
             None => Ok(()),
         }
     }
