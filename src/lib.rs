@@ -50,6 +50,7 @@ mod python;
 mod routes;
 mod scalar;
 pub mod scenes;
+pub mod sensitivity;
 mod statics;
 pub mod tape;
 mod taylor;

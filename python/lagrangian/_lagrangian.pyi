@@ -78,6 +78,8 @@ class NativeSolution:
     _y: Any
     multipliers: Any
     constraint_forces: Any
+    sensitivities: Any
+    event_sensitivities: Any
     def __new__(cls, *_args: Any, **_kwargs: Any) -> Self: ...
 
 _S = TypeVar("_S", bound=NativeSolution)
@@ -271,6 +273,29 @@ class NativeModel:
         names: Optional[Tuple[str, ...]],
         event_names: Tuple[str, ...],
     ) -> Optional[_S]: ...
+    def simulate_sensitivities(
+        self,
+        q0: Sequence[float],
+        qd0: Sequence[float],
+        t_end: float,
+        t0: float,
+        method: str,
+        dt: Optional[float],
+        rtol: float,
+        atol: float,
+        t_eval: Optional[_FloatArray],
+        max_steps: Optional[int],
+        every: Optional[int],
+        events: Sequence[_EventSpec],
+        dense: bool,
+        backend: str,
+        solution_type: Type[_S],
+        names: Optional[Tuple[str, ...]],
+        event_names: Tuple[str, ...],
+        directions: Sequence[Tuple[str, int]],
+        params: Sequence[float],
+        error_all: bool,
+    ) -> _S: ...
     def integrator(
         self,
         q0: Sequence[float],

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, 
 import numpy as np
 import numpy.typing as npt
 
-from . import _lagrangian
+from . import _lagrangian, _sensitivity
 from ._drawing import Drawing
 from ._events import Event, event_specs
 from ._expr import (
@@ -772,6 +772,8 @@ class Model:
         output_every: Optional[int] = None,
         events: Optional[Sequence[Event]] = None,
         dense: bool = False,
+        sensitivities: Optional[Sequence[str]] = None,
+        sensitivity_error_control: bool = True,
     ) -> Solution:
         """Integrate the equations of motion from (q0, qd0) at ``t0`` to ``t_end``.
 
@@ -824,6 +826,21 @@ class Model:
             Keep every step's interpolant, so that the solution is callable: ``sol(t)`` gives
             (q, q̇) anywhere in the span (``sol.interpolant`` says which interpolant and its
             order). Off by default: nothing extra is stored.
+        sensitivities : sequence of str, optional
+            Also compute how the motion depends on these parameters of the model and on the
+            initial state (``"q0"``, ``"qd0"``), exactly: the variational equations are derived
+            on the expression graph and integrated with the state by the same method (every
+            method but ``blanes_moan4``, whose splitting needs a separable system; the
+            explicit symplectic methods need one too). ``sol.sensitivities[name]`` is
+            ∂(q, q̇)/∂p at each output, shape (len(t), 2 dof), or for ``"q0"`` / ``"qd0"``
+            shape (len(t), 2 dof, dof) (column j: ∂(q, q̇)/∂q0[j]); ``sol.event_sensitivities``
+            holds, per event, the derivatives of its times, {name: (k,)} or (k, dof). A
+            parameter the model does not depend on gives zeros. Not with events that reset the
+            state, nor with constraints. See :doc:`sensitivities`.
+        sensitivity_error_control : bool
+            With ``sensitivities``: control the local error of the sensitivities too (the
+            default), or of (q, q̇) only (fewer steps; CVODES's ``errconS``; with ``dop853``,
+            ``dopri5`` and ``radau5``).
 
         Returns
         -------
@@ -865,6 +882,11 @@ class Model:
         if dense is not False and dense is not True:
             flag("dense", dense)
         native, backend = self._native, self._backend
+        if sensitivities is not None:
+            return self._simulate_sensitivities(
+                q0, qd0, (t0, end), (method, dt, rtol, atol, times, max_steps, every), specs,
+                dense, event_names, sensitivities, sensitivity_error_control,
+            )
         # The arguments spelled out (a vectorcall): unpacked from a tuple with *, the call went
         # through an argument tuple, 1 000 more instructions (callgrind). A failure during the
         # run raises with the partial solution as `err.solution` (see `Raises`).
@@ -879,6 +901,39 @@ class Model:
         sol: Solution = native.simulate(q0, qd0, end, t0, method, dt, rtol, atol, times,
                                         max_steps, every, specs, dense, backend, Solution,
                                         self._names, event_names)
+        return sol
+
+    def _simulate_sensitivities(
+        self,
+        q0: ArrayLike,
+        qd0: ArrayLike,
+        span: Tuple[float, float],
+        run: Tuple[Any, ...],
+        specs: List[Any],
+        dense: bool,
+        event_names: Tuple[str, ...],
+        names: object,
+        error_control: object,
+    ) -> Solution:
+        """``simulate`` with sensitivities (see there): the variational system runs in the
+        model's place and its sensitivities are named here."""
+        if error_control is not False and error_control is not True:
+            flag("sensitivity_error_control", error_control)
+        n = self.dof
+        scene = getattr(self, "scene", None)
+        wanted, layout = _sensitivity.directions(names, self._parameters, n, scene)
+        q0, qd0 = vector("q0", q0, n), vector("qd0", qd0, n)
+        (t0, end), (method, dt, rtol, atol, times, max_steps, every) = span, run
+        params = [float(v) for v in self._parameters.values()] if scene is None else []
+        sol: Solution = self._native.simulate_sensitivities(
+            q0, qd0, end, t0, method, dt, rtol, atol, times, max_steps, every, specs, dense,
+            self._backend, Solution, self._names, event_names, wanted, params,
+            bool(error_control),
+        )
+        sol.sensitivities = _sensitivity.named(sol.sensitivities, layout)
+        sol.event_sensitivities = _sensitivity.named_events(sol.event_sensitivities, layout)
+        if dense:
+            sol._dense = _sensitivity.Leading(sol._dense, n)
         return sol
 
     def integrator(

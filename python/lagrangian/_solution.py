@@ -52,6 +52,13 @@ class Solution(_lagrangian.NativeSolution):
         (see :meth:`Model.multipliers`); ``None`` without constraints.
     constraint_forces : numpy.ndarray, shape (n, dof), or None
         The generalized reaction forces Gᵀλ at each output, or ``None``.
+    sensitivities : dict of str to numpy.ndarray, or None
+        With ``simulate(..., sensitivities=[...])``: ∂(q, q̇)/∂p at each output for each
+        parameter named, shape (n, 2 dof), and for ``"q0"`` / ``"qd0"`` shape (n, 2 dof, dof)
+        (column j: the derivative along q0[j] or qd0[j]); ``None`` otherwise.
+    event_sensitivities : list of dict, or None
+        With sensitivities, per event the derivatives of its times t* by the implicit function
+        theorem, {name: (k,)} for a parameter and (k, dof) for ``"q0"`` / ``"qd0"``.
     names : tuple of str, optional
         The coordinate names (from the model), used to label plots.
     y : numpy.ndarray, shape (2 dof, n)
@@ -89,6 +96,8 @@ class Solution(_lagrangian.NativeSolution):
     _dense: Any
     _y: Optional[FloatArray]
     multipliers: Optional[FloatArray]
+    sensitivities: Optional[Dict[str, FloatArray]]
+    event_sensitivities: Optional[List[Dict[str, FloatArray]]]
     constraint_forces: Optional[FloatArray]
 
     def __init__(
@@ -118,6 +127,7 @@ class Solution(_lagrangian.NativeSolution):
         self._dense = dense
         self._y = None
         self.multipliers = self.constraint_forces = None
+        self.sensitivities = self.event_sensitivities = None
 
     def __reduce__(self) -> Tuple[Any, ...]:
         # Every protocol rebuilds a solution from its fields (``Solution.__new__``, then

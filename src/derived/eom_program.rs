@@ -122,7 +122,7 @@ pub struct EomGraph {
 }
 
 /// Index of M_ij (i ≤ j) in the upper triangle stored row by row.
-fn upper(n: usize, i: usize, j: usize) -> usize {
+pub(crate) fn upper(n: usize, i: usize, j: usize) -> usize {
     i * n - i * (i + 1) / 2 + j
 }
 
@@ -253,16 +253,15 @@ const JACOBIAN_INSTRUCTIONS_MAX: usize = 600;
 
 /// The LDLᵀ factors of M written out on the graph, node by node as [`ldlt_in_place`] computes
 /// them: L below the diagonal, the pivots d and their reciprocals.
-#[cfg(feature = "jit")]
-struct Factors {
+pub(crate) struct Factors {
     l: Vec<Vec<usize>>,
+    #[cfg_attr(not(feature = "jit"), allow(dead_code))]
     d: Vec<usize>,
     inv: Vec<usize>,
 }
 
-#[cfg(feature = "jit")]
 impl Factors {
-    fn of(graph: &mut Graph, eom: &EomGraph) -> Result<Self> {
+    pub(crate) fn of(graph: &mut Graph, eom: &EomGraph) -> Result<Self> {
         let n = eom.dof;
         let m = |i: usize, j: usize| eom.mass[upper(n, i.min(j), i.max(j))];
         let one = graph.constant(1.0);
@@ -292,7 +291,7 @@ impl Factors {
     }
 
     /// M⁻¹ b: L y = b, then D z = y, then Lᵀ x = z.
-    fn solve(&self, graph: &mut Graph, mut x: Vec<usize>) -> Result<Vec<usize>> {
+    pub(crate) fn solve(&self, graph: &mut Graph, mut x: Vec<usize>) -> Result<Vec<usize>> {
         let (n, l) = (x.len(), &self.l);
         let mut s = Simplify(graph);
         for i in 0..n {
@@ -314,6 +313,7 @@ impl Factors {
     }
 
     /// The pivots, then M's diagonal: the outputs [`pivots_hold`] checks.
+    #[cfg(feature = "jit")]
     fn checks(&self, eom: &EomGraph) -> impl Iterator<Item = usize> {
         let n = eom.dof;
         let diagonal = (0..n).map(move |j| eom.mass[upper(n, j, j)]);

@@ -3,7 +3,8 @@
 //! owns the Taylor program of the same M and f), and `models.rs` (ready-made graphs of a few
 //! systems). It sits above the Taylor lowering, which it hands M's and f's nodes.
 //! `constraint_program.rs` derives a constrained model's G and γ the same way
-//! ([`ConstraintProgram`](constraint_program::ConstraintProgram)).
+//! ([`ConstraintProgram`](constraint_program::ConstraintProgram)), and `variational.rs` the
+//! variational equations of eq. 55 (forward sensitivities) as a model of their own.
 //!
 //! [`EomGraph`]: eom_program::EomGraph
 //! [`EomProgram`]: eom_program::EomProgram
@@ -12,3 +13,4 @@
 pub(crate) mod constraint_program;
 pub(crate) mod eom_program;
 pub mod models;
+pub(crate) mod variational;

@@ -67,6 +67,11 @@ pub struct Options {
     /// Keep every step's interpolant: [`Solution::dense`](super::Solution::dense) gives the
     /// state anywhere in the span. Off by default: nothing extra is stored.
     pub dense: bool,
+    /// Only the first k coordinates and their velocities enter the error norm of the adaptive
+    /// methods (DOPRI5, DOP853, Radau IIA); `None`: every component. A run of the variational
+    /// equations ([`crate::sensitivity::Variational`]) sets it to leave the sensitivities out of error
+    /// control, as CVODES's `errconS = false` does.
+    pub error_coordinates: Option<usize>,
 }
 
 impl Default for Options {
@@ -84,6 +89,7 @@ impl Default for Options {
             stiffness_check: Some(1000),
             events: Vec::new(),
             dense: false,
+            error_coordinates: None,
         }
     }
 }
@@ -184,6 +190,21 @@ impl Options {
         self
     }
 
+    /// Control the error of the first `k` coordinates (and their velocities) only
+    /// ([`Options::error_coordinates`]).
+    pub fn with_error_coordinates(mut self, k: usize) -> Self {
+        self.error_coordinates = Some(k);
+        self
+    }
+
+    /// The two ranges of y = (q, q̇) (length `2 n`) that the error norm reads: all of it, or the
+    /// first k coordinates and their velocities ([`Options::error_coordinates`]).
+    pub(crate) fn error_ranges(&self, len: usize) -> [std::ops::Range<usize>; 2] {
+        let n = len / 2;
+        let k = self.error_coordinates.map_or(n, |k| k.min(n));
+        [0..k, n..n + k]
+    }
+
     /// The relative tolerance a constrained run holds its initial state and its steps' ends
     /// to: `rtol` when the step size is controlled (the constraints hold to the accuracy asked
     /// for), at least [`PROJECTION_TOLERANCE`](crate::PROJECTION_TOLERANCE); that tolerance
@@ -233,6 +254,14 @@ impl Options {
             return bad(
                 "max_steps",
                 "max_steps = 0: at least one step is needed".into(),
+            );
+        }
+        if self.error_coordinates == Some(0) {
+            return bad(
+                "error_coordinates",
+                "error_coordinates = 0: control at least one coordinate's error, or none to \
+                 control every component"
+                    .into(),
             );
         }
         if self.stiffness_check == Some(0) {
@@ -297,6 +326,25 @@ impl Options {
             }
         }
         Ok(())
+    }
+
+    /// Check [`Options::error_coordinates`] against a system of `n` coordinates and the method:
+    /// the Taylor method sizes its steps from every component's series, so it controls them all.
+    pub(crate) fn check_error_coordinates(&self, method: Method, n: usize) -> Result<()> {
+        match self.error_coordinates {
+            Some(k) if k > n => bad(
+                "error_coordinates",
+                format!("error_coordinates = {k}, but the system has {n} coordinates"),
+            ),
+            Some(k) if k < n && self.dt.is_none() && method == Method::Taylor => bad(
+                "error_coordinates",
+                "taylor sizes its steps from the series of every component, so it cannot leave \
+                 some out of error control: use dop853, dopri5 or radau5, or control every \
+                 component"
+                    .into(),
+            ),
+            _ => Ok(()),
+        }
     }
 
     /// Check that `method` can run with these options: a fixed-step method needs `dt`.

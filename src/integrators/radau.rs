@@ -97,11 +97,12 @@ const MAX_FACTOR: f64 = 10.0;
 /// Radau IIA of order 5.
 pub(crate) struct Radau;
 
-/// RMS norm of x / scale (Hairer's error norm).
-fn rms(x: &[f64], scale: &[f64]) -> f64 {
-    let m = x.len() as f64;
-    (x.iter()
-        .zip(scale)
+/// The root mean square of x / scale over the components in `ranges`.
+fn rms(x: &[f64], scale: &[f64], ranges: &[std::ops::Range<usize>; 2]) -> f64 {
+    let m = ranges.iter().map(ExactSizeIterator::len).sum::<usize>() as f64;
+    (ranges
+        .iter()
+        .flat_map(|r| x[r.clone()].iter().zip(&scale[r.clone()]))
         .map(|(x, s)| (x / s) * (x / s))
         .sum::<f64>()
         / m)
@@ -142,6 +143,9 @@ struct Stepper {
     dw: [Vec<f64>; 3],
     stage: Vec<f64>,
     scale: Vec<f64>,
+    /// The components the error estimate reads (`Options::error_ranges`); Newton's
+    /// convergence test reads every component.
+    ranges: [std::ops::Range<usize>; 2],
     err: Vec<f64>,
     rhs_r: Vec<f64>,
     rhs_c: Vec<C64>,
@@ -189,6 +193,7 @@ impl Stepper {
             dw: [v(), v(), v()],
             stage: v(),
             scale: v(),
+            ranges: run.options.error_ranges(m),
             err: v(),
             rhs_r: v(),
             rhs_c: vec![C64::new(0.0, 0.0); m],
@@ -486,7 +491,7 @@ impl Stepper {
         }
         let mut err = std::mem::take(&mut self.err);
         self.solve_real(h, &mut err);
-        let mut norm = rms(&err, &self.scale);
+        let mut norm = rms(&err, &self.scale, &self.ranges);
         if rejected && norm > 1.0 {
             for i in 0..m {
                 self.stage[i] = self.y[i] + err[i];
@@ -499,7 +504,7 @@ impl Stepper {
                         err[i] = self.f_new[i] + ze;
                     }
                     self.solve_real(h, &mut err);
-                    norm = rms(&err, &self.scale);
+                    norm = rms(&err, &self.scale, &self.ranges);
                 }
                 Err(Error::NonFinite { .. }) => norm = f64::INFINITY,
                 Err(e) => return Err(e),
@@ -529,8 +534,8 @@ impl Stepper {
     ) -> Result<f64> {
         let m = 2 * self.n;
         self.set_scale();
-        let d0 = rms(&self.y, &self.scale);
-        let d1 = rms(&self.f, &self.scale);
+        let d0 = rms(&self.y, &self.scale, &self.ranges);
+        let d1 = rms(&self.f, &self.scale, &self.ranges);
         let h0 = if d0 < 1e-5 || d1 < 1e-5 {
             1e-6
         } else {
@@ -545,7 +550,7 @@ impl Stepper {
         for i in 0..m {
             self.err[i] = self.f_new[i] - self.f[i];
         }
-        let d2 = rms(&self.err, &self.scale) / h0;
+        let d2 = rms(&self.err, &self.scale, &self.ranges) / h0;
         let h1 = if d1 <= 1e-15 && d2 <= 1e-15 {
             (h0 * 1e-3).max(1e-6)
         } else {

@@ -136,15 +136,28 @@ impl ExplicitRk {
     }
 
     /// Hairer's scaled error norm of the step (≤ 1: accept).
-    fn error_norm(&self, c: &mut Cache, h: f64, rtol: f64, atol: f64) -> f64 {
+    /// `ranges`: the components the norm reads (`Options::error_ranges`).
+    fn error_norm(
+        &self,
+        c: &mut Cache,
+        h: f64,
+        (rtol, atol): (f64, f64),
+        ranges: &[std::ops::Range<usize>; 2],
+    ) -> f64 {
         let s = self.tableau.stages();
-        let m = c.y.len() as f64;
+        let m = ranges.iter().map(ExactSizeIterator::len).sum::<usize>() as f64;
         let scaled = |e: &[f64], y: &[f64], y1: &[f64]| -> f64 {
-            e.iter()
-                .zip(y.iter().zip(y1))
-                .map(|(e, (a, b))| {
-                    let sk = atol + rtol * a.abs().max(b.abs());
-                    (e / sk) * (e / sk)
+            ranges
+                .iter()
+                .map(|r| {
+                    e[r.clone()]
+                        .iter()
+                        .zip(y[r.clone()].iter().zip(&y1[r.clone()]))
+                        .map(|(e, (a, b))| {
+                            let sk = atol + rtol * a.abs().max(b.abs());
+                            (e / sk) * (e / sk)
+                        })
+                        .sum::<f64>()
                 })
                 .sum::<f64>()
         };
@@ -276,13 +289,20 @@ impl ExplicitRk {
         h_max: f64,
     ) -> Result<f64> {
         let (rtol, atol) = (run.options.rtol, run.options.atol);
-        let m = c.y.len() as f64;
+        let ranges = run.options.error_ranges(c.y.len());
+        let m = ranges.iter().map(ExactSizeIterator::len).sum::<usize>() as f64;
         let norm = |v: &[f64], y: &[f64]| -> f64 {
-            (v.iter()
-                .zip(y)
-                .map(|(v, y)| {
-                    let sk = atol + rtol * y.abs();
-                    (v / sk) * (v / sk)
+            (ranges
+                .iter()
+                .map(|r| {
+                    v[r.clone()]
+                        .iter()
+                        .zip(&y[r.clone()])
+                        .map(|(v, y)| {
+                            let sk = atol + rtol * y.abs();
+                            (v / sk) * (v / sk)
+                        })
+                        .sum::<f64>()
                 })
                 .sum::<f64>()
                 / m)
@@ -351,7 +371,8 @@ impl ExplicitRk {
         let tab = &self.tableau;
         let ctl = tab.control;
         let opts = run.options;
-        let (rtol, atol) = (opts.rtol, opts.atol);
+        let tolerances = (opts.rtol, opts.atol);
+        let ranges = opts.error_ranges(c.y.len());
         let dir = run.dir();
         let h_max = state.h_max;
         let mut h = state.h;
@@ -387,7 +408,7 @@ impl ExplicitRk {
             let trial = self.stages(run, c, t, h);
             let (err, failure) = match trial {
                 Ok(()) if c.y_new.iter().all(|v| v.is_finite()) => {
-                    (self.error_norm(c, h, rtol, atol), "error estimate")
+                    (self.error_norm(c, h, tolerances, &ranges), "error estimate")
                 }
                 Ok(()) => (f64::NAN, "state"),
                 // A trial stage far off (an unstable step of a stiff problem) can also make M

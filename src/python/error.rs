@@ -123,6 +123,7 @@ pub(crate) fn with_partial(
                 energy,
                 conserved,
                 reactions,
+                sensitivities: None,
             };
             let message = value.str()?.to_string();
             value.setattr("solution", wrap.wrap(run, Some(message))?)?;

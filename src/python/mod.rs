@@ -34,6 +34,7 @@ mod methods;
 mod model;
 mod py_model;
 mod scenes;
+mod sensitivity;
 mod solution;
 mod states;
 

@@ -10,12 +10,13 @@ use crate::program::{compile::Tape, eval::Function, inputs::Inputs};
 use crate::routes::{EnergyModel, ExprConstraints, TapeParticles};
 use crate::scenes::registry::{Arguments, Drawn, Positions, Scene, positions_of, scenes};
 use crate::scenes::*;
-use crate::trace::WithProgram;
+use crate::sensitivity::{Direction, Variational};
+use crate::trace::{TraceEnergies, WithProgram};
 use crate::{
     CartesianForces, Constrained, Dissipation, Dynamics, Error, GeneralizedForces, KineticEnergy,
     ParticleSystem, Particles, Potential, Result, Scalar, Structure, System,
 };
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 /// The enum over the tape models and every scene of the registry, its dispatch macro `each!`,
 /// and the scenes' construction and positions, all from the one list in
@@ -87,6 +88,19 @@ macro_rules! any_model {
                             .into(),
                     )),
                     $(AnyModel::$scene(s) => s.program(),)*
+                }
+            }
+
+            /// The energies of a scene traced onto the expression graph (its parameters are
+            /// numbers there), for what is derived on request: the variational equations.
+            pub(crate) fn scene_graph(&self) -> Result<(Graph, Energies)> {
+                match self {
+                    AnyModel::Energy(_) | AnyModel::Particles(..) | AnyModel::Constrained(_) => {
+                        Err(bad("not a scene".into()))
+                    }
+                    $(AnyModel::$scene(s) => s.system().trace_energies().map_err(|why| {
+                        Error::NotTraceable { what: <$scene as Scene>::INFO.name.into(), why }
+                    }),)*
                 }
             }
 
@@ -323,7 +337,13 @@ pub(crate) struct CompiledModel {
     pub(crate) energies: Option<(Arc<Graph>, Energies)>,
     /// The constraints' tapes (holonomic over (t, q), velocity over (t, q, q̇)) and row names.
     pub(crate) constraints: Option<ConstraintTapes>,
+    /// The variational systems compiled so far, by their directions: shared by every binding
+    /// of the model (`with_parameters`, a fit's iterations), compiled once each.
+    pub(crate) variational: VariationalCache,
 }
+
+/// The variational systems of a model by their directions ([`CompiledModel::variational`]).
+pub(crate) type VariationalCache = Arc<Mutex<Vec<(Vec<Direction>, Arc<Variational>)>>>;
 
 /// The compiled rows of a constrained model, bound to parameters in [`CompiledModel::bind`].
 #[derive(Debug, Clone)]
@@ -566,6 +586,7 @@ impl CompiledModel {
             eom,
             energies: energies.map(|parts| (Arc::new(g), parts)),
             constraints,
+            variational: Arc::default(),
         })
     }
 
@@ -602,6 +623,40 @@ impl CompiledModel {
             ));
         };
         crate::statics::input_matrix(graph, parts, params, inputs, lin)
+    }
+
+    /// The variational system along `directions` ([`Variational`]), compiled on the first
+    /// request for these directions and kept.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] for a constrained model or one without equations of motion on
+    /// the graph; as [`Variational::new`].
+    pub(crate) fn variational(&self, directions: &[Direction]) -> Result<Arc<Variational>> {
+        let mut kept = self.variational.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some((_, v)) = kept.iter().find(|(d, _)| d == directions) {
+            return Ok(v.clone());
+        }
+        if self.constraints.is_some() {
+            return Err(Error::InvalidInput {
+                what: "sensitivities",
+                why: "the sensitivities of a constrained model are not derived (its \
+                      variational equations need the multipliers' derivatives): state the model \
+                      in minimal coordinates, or fit it without sensitivities"
+                    .into(),
+            });
+        }
+        let (Some((graph, parts)), Some(eom)) = (&self.energies, &self.eom) else {
+            return Err(bad(
+                "the model has no equations of motion to differentiate".into()
+            ));
+        };
+        let v = Variational::new(graph, self.dof, self.params, parts, directions)?;
+        let v = Arc::new(match eom.backend() {
+            "native" => v,
+            _ => v.interpreted(),
+        });
+        kept.push((directions.to_vec(), v.clone()));
+        Ok(v)
     }
 
     /// The system at these parameter values.

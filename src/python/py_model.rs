@@ -10,10 +10,12 @@ use super::args::{StepOptions, check_finite, check_vector, count, run_options};
 use super::error::{self, guard, panic_error};
 use super::interrupt::{ctrl_c, interrupted};
 use super::model::{self, AnyModel, Backend, CompiledModel, RawNode, Spec, WithLoads};
+use super::sensitivity::{self, SensitivityRun};
 use super::solution::Reactions;
 use super::states::{self, States};
 use super::{events, first_order, integrator, linear, solution};
 use crate::integrators::{Failed, Method, Options, Solution, Status, solve_partial};
+use crate::sensitivity::{Direction, Variational};
 use crate::{
     Constrained, Dynamics, Error, StaticsOptions, constrained_equilibrium, constrained_modes,
     equilibrium,
@@ -92,6 +94,195 @@ impl PyModel {
                 _ => PyArray1::from_vec(py, values).reshape(dims)?.into_any(),
             }))
         })
+    }
+}
+
+/// The options of a run as `simulate` receives them.
+struct RunSetup<'a> {
+    span: (f64, f64),
+    method: &'a str,
+    steps: StepOptions,
+    max_steps: Option<i64>,
+    output: (Option<Vec<f64>>, Option<i64>),
+    dense: bool,
+    backend: &'a str,
+}
+
+/// A run ready to go: the system that runs (the model, or its variational system), its
+/// initial state, method, checked options and whether h is a constant of it.
+struct Runnable {
+    system: Arc<AnyModel>,
+    q0: Vec<f64>,
+    qd0: Vec<f64>,
+    span: (f64, f64),
+    method: Method,
+    options: Options,
+    conserved: bool,
+}
+
+impl PyModel {
+    /// The method and checked options of `setup`, with the events compiled for a system of
+    /// `dof` coordinates, and whether h is a constant of the run.
+    fn run_options(
+        &self,
+        setup: RunSetup<'_>,
+        events: Vec<events::EventSpec>,
+        dof: usize,
+    ) -> PyResult<(Method, Options, bool)> {
+        let (t0, t_end) = setup.span;
+        check_finite("t0", t0)?;
+        check_finite("t_end", t_end)?;
+        let backend = Backend::named(setup.backend)?;
+        let events = events
+            .into_iter()
+            .map(|spec| events::event(spec, dof, backend))
+            .collect::<Result<Vec<_>, Error>>()?;
+        let (method, mut options) = run_options(
+            setup.span,
+            setup.method,
+            setup.steps,
+            setup.max_steps,
+            setup.output,
+        )?;
+        let conserved = self.conserved(events.iter().any(|e| e.reset.is_some()));
+        options.events = events;
+        options.dense = setup.dense;
+        options.validate(t0, t_end)?;
+        Ok((method, options, conserved))
+    }
+
+    /// The variational system of this model along `directions`: compiled once per model
+    /// stated in Python, traced from a scene's energies.
+    fn variational(&self, directions: &[Direction]) -> Result<Arc<Variational>, Error> {
+        match &self.compiled {
+            Some(c) => c.variational(directions),
+            None => {
+                let (graph, parts) = self.model.scene_graph()?;
+                let n = self.model.dof();
+                Ok(Arc::new(Variational::new(
+                    &graph, n, 0, &parts, directions,
+                )?))
+            }
+        }
+    }
+
+    /// Run `run` with the GIL released and Ctrl-C polled; the solution (the model's part of it
+    /// and its sensitivities, for a variational run) wrapped by `wrap`, with h (and a
+    /// constrained model's reactions) from this model. A failure raises with the partial
+    /// solution.
+    fn run<'py>(
+        &self,
+        py: Python<'py>,
+        run: Runnable,
+        sensitivities: Option<&SensitivityRun>,
+        wrap: &solution::Wrap<'_, 'py>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let model = &*self.model;
+        let Runnable {
+            system,
+            q0,
+            qd0,
+            span,
+            method,
+            options,
+            conserved,
+        } = run;
+        // The model's own part of a run of its variational system (the first n coordinates).
+        let n = model.dof();
+        let own = |sol: Solution| match sensitivities {
+            Some(s) => s.variational.split(sol).solution,
+            None => sol,
+        };
+        let failed_at = |sol: Solution, error: Error| -> Box<(Failed, Along)> {
+            let (sol, h, cut) = with_energy(model, sol);
+            let _ = cut;
+            let last = sol.last().map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
+            let failed = Failed {
+                error,
+                partial: Some(Solution {
+                    status: Status::Failed,
+                    ..sol
+                }),
+                last,
+            };
+            Box::new((failed, h))
+        };
+        type Done = (Solution, Along, Option<sensitivity::Sensitivities>);
+        let pending: Mutex<Option<PyErr>> = Mutex::new(None);
+        let outcome = py.detach(|| {
+            catch_unwind(AssertUnwindSafe(
+                || -> Result<Done, Box<(Failed, Along)>> {
+                    let interrupt = ctrl_c(&pending);
+                    match solve_partial(
+                        &*system,
+                        &q0,
+                        &qd0,
+                        span,
+                        method,
+                        &options,
+                        Some(&interrupt),
+                    ) {
+                        Ok(sol) => {
+                            let (sol, found) = match sensitivities {
+                                Some(s) => match s.finish(model, sol) {
+                                    (sol, Ok(found)) => (sol, Some(found)),
+                                    (sol, Err(error)) => return Err(failed_at(sol, error)),
+                                },
+                                None => (sol, None),
+                            };
+                            match with_energy(model, sol) {
+                                (sol, h, None) => Ok((sol, h, found)),
+                                (sol, _, Some(error)) => Err(failed_at(sol, error)),
+                            }
+                        }
+                        Err(mut failed) => {
+                            let h = match failed.partial.take() {
+                                Some(sol) => {
+                                    let (sol, h, cut) = with_energy(model, own(sol));
+                                    // The last state kept is the one the error names.
+                                    if cut.is_some() || sensitivities.is_some() {
+                                        failed.last = sol
+                                            .last()
+                                            .map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
+                                    }
+                                    failed.partial = Some(sol);
+                                    h
+                                }
+                                None => (Vec::new(), None),
+                            };
+                            if let Some((_, q, qd)) = failed.last.as_mut() {
+                                q.truncate(n);
+                                qd.truncate(n);
+                            }
+                            Err(Box::new((failed, h)))
+                        }
+                    }
+                },
+            ))
+        });
+        let (sol, (energy, reactions), sensitivities) = match outcome {
+            Err(panic) => return Err(panic_error(panic)),
+            Ok(Err(failed)) => {
+                let (failed, (energy, reactions)) = *failed;
+                if let Error::Interrupted { t } = failed.error {
+                    return Err(interrupted(&pending, t));
+                }
+                return Err(error::with_partial(
+                    py, failed, energy, reactions, conserved, wrap,
+                ));
+            }
+            Ok(Ok(done)) => done,
+        };
+        wrap.wrap(
+            solution::RunOutput {
+                sol,
+                energy,
+                conserved,
+                reactions,
+                sensitivities,
+            },
+            None,
+        )
     }
 }
 
@@ -541,102 +732,115 @@ impl PyModel {
         let (Some(q0), Some(qd0)) = (states::vector(q0, n), states::vector(qd0, n)) else {
             return Ok(None);
         };
-        check_finite("t0", t0)?;
-        check_finite("t_end", t_end)?;
-        let times = t_eval.map(|t| t.as_array().iter().copied().collect());
-        let backend = Backend::named(backend)?;
-        let events = events
-            .into_iter()
-            .map(|spec| events::event(spec, n, backend))
-            .collect::<Result<Vec<_>, Error>>()?;
-        let (method, mut options) = run_options(
-            (t0, t_end),
+        let setup = RunSetup {
+            span: (t0, t_end),
             method,
-            StepOptions { dt, rtol, atol },
+            steps: StepOptions { dt, rtol, atol },
             max_steps,
-            (times, every),
-        )?;
-        let conserved = self.conserved(events.iter().any(|e| e.reset.is_some()));
-        options.events = events;
-        options.dense = dense;
-        options.validate(t0, t_end)?;
-        let model = self.model.clone();
-        let pending: Mutex<Option<PyErr>> = Mutex::new(None);
-        let outcome = py.detach(|| {
-            catch_unwind(AssertUnwindSafe(|| -> Result<_, Box<(Failed, Along)>> {
-                let interrupt = ctrl_c(&pending);
-                match solve_partial(
-                    &*model,
-                    &q0,
-                    &qd0,
-                    (t0, t_end),
-                    method,
-                    &options,
-                    Some(&interrupt),
-                ) {
-                    Ok(sol) => match with_energy(&model, sol) {
-                        (sol, h, None) => Ok((sol, h)),
-                        (sol, h, Some(error)) => {
-                            let last = sol.last().map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
-                            let failed = Failed {
-                                error,
-                                partial: Some(Solution {
-                                    status: Status::Failed,
-                                    ..sol
-                                }),
-                                last,
-                            };
-                            Err(Box::new((failed, h)))
-                        }
-                    },
-                    Err(mut failed) => {
-                        let h = match failed.partial.take() {
-                            Some(sol) => {
-                                let (sol, h, cut) = with_energy(&model, sol);
-                                if cut.is_some() {
-                                    // The last state kept is the one the error names.
-                                    failed.last =
-                                        sol.last().map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
-                                }
-                                failed.partial = Some(sol);
-                                h
-                            }
-                            None => (Vec::new(), None),
-                        };
-                        Err(Box::new((failed, h)))
-                    }
-                }
-            }))
-        });
+            output: (
+                t_eval.map(|t| t.as_array().iter().copied().collect()),
+                every,
+            ),
+            dense,
+            backend,
+        };
+        let (method, options, conserved) = self.run_options(setup, events, n)?;
         let wrap = solution::Wrap {
             kind: solution_type,
             names,
             event_names,
         };
-        let (sol, energy) = match outcome {
-            Err(panic) => return Err(panic_error(panic)),
-            Ok(Err(failed)) => {
-                let (failed, (energy, reactions)) = *failed;
-                if let Error::Interrupted { t } = failed.error {
-                    return Err(interrupted(&pending, t));
-                }
-                return Err(error::with_partial(
-                    py, failed, energy, reactions, conserved, &wrap,
-                ));
-            }
-            Ok(Ok(done)) => done,
+        let run = Runnable {
+            system: self.model.clone(),
+            q0,
+            qd0,
+            span: (t0, t_end),
+            method,
+            options,
+            conserved,
         };
-        let (energy, reactions) = energy;
-        wrap.wrap(
-            solution::RunOutput {
-                sol,
-                energy,
-                conserved,
-                reactions,
-            },
-            None,
-        )
-        .map(Some)
+        self.run(py, run, None, &wrap).map(Some)
+    }
+
+    /// `simulate` with the sensitivities along `directions` (`("param", index)`, `("q0", i)`,
+    /// `("qd0", i)`): the variational system runs in the model's place, and the solution
+    /// carries `sensitivities` (outputs × directions × 2n) and `event_sensitivities` (per event,
+    /// occurrences × directions), which the package names. `params` are the model's parameter
+    /// values (a scene has none on its graph); `error_all` controls the sensitivities' error
+    /// too (else only (q, q̇)'s).
+    #[pyo3(signature = (q0, qd0, t_end, t0, method, dt, rtol, atol, t_eval, max_steps, every,
+                        events, dense, backend, solution_type, names, event_names, directions,
+                        params, error_all))]
+    #[allow(clippy::too_many_arguments)]
+    fn simulate_sensitivities<'py>(
+        &self,
+        py: Python<'py>,
+        q0: Vec<f64>,
+        qd0: Vec<f64>,
+        t_end: f64,
+        t0: f64,
+        method: &str,
+        dt: Option<f64>,
+        rtol: f64,
+        atol: f64,
+        t_eval: Option<PyReadonlyArray1<'py, f64>>,
+        max_steps: Option<i64>,
+        every: Option<i64>,
+        events: Vec<events::EventSpec>,
+        dense: bool,
+        backend: &str,
+        solution_type: &Bound<'py, PyType>,
+        names: &Bound<'py, PyAny>,
+        event_names: &Bound<'py, PyAny>,
+        directions: Vec<(String, usize)>,
+        params: Vec<f64>,
+        error_all: bool,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let n = self.model.dof();
+        check_vector("q0", &q0, n)?;
+        check_vector("qd0", &qd0, n)?;
+        let directions = sensitivity::directions(&directions)?;
+        let variational = self.variational(&directions)?;
+        let sensitivities = SensitivityRun::new(variational.clone(), &events)?;
+        let setup = RunSetup {
+            span: (t0, t_end),
+            method,
+            steps: StepOptions { dt, rtol, atol },
+            max_steps,
+            output: (
+                t_eval.map(|t| t.as_array().iter().copied().collect()),
+                every,
+            ),
+            dense,
+            backend,
+        };
+        let size = n * (1 + directions.len());
+        let (method, mut options, conserved) = self.run_options(setup, events, size)?;
+        if !error_all {
+            options.error_coordinates = Some(n);
+        }
+        let params = if self.compiled.is_some() {
+            &params[..]
+        } else {
+            &[]
+        };
+        let system = Arc::new(AnyModel::Energy(variational.bind(params)?));
+        let (q0, qd0) = variational.initial_state(&q0, &qd0)?;
+        let wrap = solution::Wrap {
+            kind: solution_type,
+            names,
+            event_names,
+        };
+        let run = Runnable {
+            system,
+            q0,
+            qd0,
+            span: (t0, t_end),
+            method,
+            options,
+            conserved,
+        };
+        self.run(py, run, Some(&sensitivities), &wrap)
     }
 
     /// An integrator standing at (t0, q0, q̇0) with this method and these options (`dt` a step

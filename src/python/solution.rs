@@ -38,6 +38,9 @@ pub(crate) struct RunOutput {
     pub(crate) conserved: bool,
     /// The multipliers and reactions at the run's points, for a constrained model.
     pub(crate) reactions: Option<Reactions>,
+    /// The sensitivities at the run's points and of its events' times, for a run of the
+    /// variational system (`simulate(..., sensitivities=[...])`).
+    pub(crate) sensitivities: Option<super::sensitivity::Sensitivities>,
 }
 
 /// λ (k per point) and the generalized reactions Gᵀλ (n per point) along a constrained run,
@@ -137,6 +140,8 @@ fields! {
     _y: y, set_y => Y,
     multipliers: multipliers, set_multipliers => Multipliers,
     constraint_forces: constraint_forces, set_constraint_forces => ConstraintForces,
+    sensitivities: sensitivities, set_sensitivities => Sensitivities,
+    event_sensitivities: event_sensitivities, set_event_sensitivities => EventSensitivities,
 }
 
 /// A field's value taken out of the run (under its lock, in plain Rust), to be made a Python
@@ -199,9 +204,10 @@ impl<'py> Wrap<'_, 'py> {
     /// solution of a failed run.
     pub(crate) fn wrap(
         &self,
-        run: RunOutput,
+        mut run: RunOutput,
         failure: Option<String>,
     ) -> PyResult<Bound<'py, PyAny>> {
+        let sensitivities = run.sensitivities.take();
         let py = self.kind.py();
         let message = match failure {
             Some(m) => Some(m.into_pyobject(py)?.into_any().unbind()),
@@ -216,6 +222,29 @@ impl<'py> Wrap<'_, 'py> {
         native.set(SolutionField::EventNames, self.event_names.clone().unbind());
         if let Some(message) = message {
             native.set(SolutionField::Message, message);
+        }
+        if let Some(s) = sensitivities {
+            // (outputs, directions, 2n) and, per event, (occurrences, directions): the
+            // package names the columns.
+            let rows = s.values.len() / (s.columns * s.width).max(1);
+            let values =
+                numpy::ndarray::Array3::from_shape_vec((rows, s.columns, s.width), s.values)
+                    .map_err(|e| PyValueError::new_err(e.to_string()))?;
+            native.set(
+                SolutionField::Sensitivities,
+                values.into_pyarray(py).into_any().unbind(),
+            );
+            let mut events = Vec::with_capacity(s.events.len());
+            for e in s.events {
+                let k = e.len() / s.columns.max(1);
+                let e = Array2::from_shape_vec((k, s.columns), e)
+                    .map_err(|e| PyValueError::new_err(e.to_string()))?;
+                events.push(e.into_pyarray(py).into_any());
+            }
+            native.set(
+                SolutionField::EventSensitivities,
+                PyList::new(py, events)?.into_any().unbind(),
+            );
         }
         Ok(sol)
     }
@@ -241,8 +270,8 @@ impl PySolution {
             .map(|v| v.clone_ref(py))
     }
 
-    /// The field: its value, else made from the run (once), else `None` for the names and the
-    /// `y` cache; `AttributeError` for a field neither assigned nor in a run.
+    /// The field: its value, else made from the run (once), else `None` for the names, the
+    /// `y` cache and the sensitivities (assigned when the run has them); `AttributeError` for a field neither assigned nor in a run.
     fn get(&self, py: Python<'_>, field: SolutionField) -> PyResult<Py<PyAny>> {
         if let Some(value) = self.value(py, field) {
             return Ok(value);
@@ -250,7 +279,11 @@ impl PySolution {
         // The gate: the field's index, the event lists' shared one, two fewer after them.
         let k = field as usize;
         let gate = match field {
-            SolutionField::Names | SolutionField::EventNames | SolutionField::Y => {
+            SolutionField::Names
+            | SolutionField::EventNames
+            | SolutionField::Y
+            | SolutionField::Sensitivities
+            | SolutionField::EventSensitivities => {
                 return Ok(py.None());
             }
             SolutionField::TEvents | SolutionField::QEvents | SolutionField::QdEvents => {
@@ -301,6 +334,7 @@ impl PySolution {
             energy,
             conserved,
             reactions,
+            ..
         }) = run.as_mut()
         else {
             // A solution built from its fields (or unpickled from a version before
@@ -342,9 +376,11 @@ impl PySolution {
                 Some(r) => Taken::Rows(std::mem::take(&mut r.forces), sol.dof),
                 None => Taken::Absent,
             },
-            SolutionField::Names | SolutionField::EventNames | SolutionField::Y => {
-                unreachable!("not made from a run")
-            }
+            SolutionField::Names
+            | SolutionField::EventNames
+            | SolutionField::Y
+            | SolutionField::Sensitivities
+            | SolutionField::EventSensitivities => unreachable!("not made from a run"),
         })
     }
 

@@ -21,7 +21,8 @@ MODULES = sorted(p.stem for p in PACKAGE.glob("*.py") if p.stem != "__init__")
 LAYERS: List[Tuple[str, Set[str]]] = [
     ("native module and expressions", {"_lagrangian", "_expr"}),
     ("validation", {"_validate"}),
-    ("events, solution, linearization, drawing", {"_events", "_solution", "_linear", "_drawing"}),
+    ("events, solution, linearization, drawing, sensitivities",
+     {"_events", "_solution", "_linear", "_drawing", "_sensitivity"}),
     ("model, scenes, SymPy bridge", {"_model", "_scene_model", "_constrained_scenes", "scenes", "_sympy"}),
     ("ensembles", {"_ensemble"}),
     ("plotting", {"_plot"}),

@@ -19,7 +19,7 @@ Module = Tuple[str, ...]
 LAYERS = [
     "error", "scalar", "checks", "linalg", "nonlinear", "energies", "eom", "expr", "program",
     "native", "taylor", "derived", "dynamics", "routes", "tape", "constrained",
-    "integrators", "statics", "trace",
+    "integrators", "statics", "sensitivity", "trace",
     "scenes", "python", "tests",
 ]
 

@@ -1,0 +1,257 @@
+//! Forward sensitivities: how a run's motion depends on the model's parameters and on its
+//! initial state, exactly (no finite differences), for a model stated on the expression graph.
+//!
+//! [`Variational`] compiles the variational equations of eq. 55 (derived on the graph by
+//! `derived::variational`) into a model of n(1 + m) coordinates, x = (q, s₁, …, sₘ), that
+//! every integrator runs as it runs any model; [`solve_sensitivities`] runs it from the model's
+//! initial state and splits the result into the model's own run and
+//! ∂(q, q̇)/∂θⱼ at each output ([`SensitivitySolution`]). With
+//! [`Options::with_error_coordinates`] the step size is controlled on (q, q̇) alone (CVODES's
+//! `errconS = false`); by default the sensitivities are error-controlled too.
+//!
+//! ```
+//! use lagrangian::sensitivity::{Direction, Variational, solve_sensitivities};
+//! use lagrangian::tape::{Binary, Energies, Graph};
+//! use lagrangian::{Method, Options};
+//! # use approx::assert_relative_eq;
+//! // x″ = −k x: T = ½ ẋ², U = ½ k x², parameter k.
+//! let mut g = Graph::new();
+//! let (k, x, v, half) = (g.param(0), g.coord(0), g.velocity(0), g.constant(0.5));
+//! let v2 = g.binary(Binary::Mul, v, v)?;
+//! let kinetic = g.binary(Binary::Mul, half, v2)?;
+//! let x2 = g.binary(Binary::Mul, x, x)?;
+//! let kx2 = g.binary(Binary::Mul, k, x2)?;
+//! let potential = g.binary(Binary::Mul, half, kx2)?;
+//! let parts = Energies { kinetic, potential: Some(potential), ..Energies::default() };
+//! let wrt = [Direction::Parameter(0), Direction::Position(0)];
+//! let variational = Variational::new(&g, 1, 1, &parts, &wrt)?;
+//! let system = variational.bind(&[4.0])?;
+//! let options = Options::adaptive(1e-12, 1e-12).with_output(lagrangian::Output::Final);
+//! let sol = solve_sensitivities(&variational, &system, &[1.0], &[0.0], (0.0, 1.0),
+//!                               Method::Dop853, &options)?;
+//! // x = cos(ω t), ω = √k: ∂x/∂k = −t sin(ω t)/(2ω), ∂x/∂x₀ = cos(ω t).
+//! let (w, t) = (2.0_f64, 1.0);
+//! assert_relative_eq!(sol.sensitivity(0, 0)[0], -t * (w * t).sin() / (2.0 * w), epsilon = 1e-10);
+//! assert_relative_eq!(sol.sensitivity(0, 1)[0], (w * t).cos(), epsilon = 1e-10);
+//! # Ok::<(), lagrangian::Error>(())
+//! ```
+
+use crate::derived::eom_program::{Energies, EomProgram};
+pub use crate::derived::variational::Direction;
+use crate::derived::variational::{variational_energies, variational_initial_state};
+use crate::error::{Error, Result};
+use crate::expr::graph::Graph;
+use crate::integrators::{Failed, Method, Options, Solution, solve_partial};
+use crate::program::{compile::Tape, eval::Function, inputs::Inputs};
+use crate::routes::EnergyModel;
+use std::sync::Arc;
+
+/// The variational system of a model stated on the graph, compiled once: bind it to parameter
+/// values ([`Variational::bind`]) and run it with any method ([`solve_sensitivities`]).
+#[derive(Debug, Clone)]
+pub struct Variational {
+    dof: usize,
+    directions: Vec<Direction>,
+    kinetic: Arc<Tape>,
+    forces: Arc<Tape>,
+    program: EomProgram,
+}
+
+impl Variational {
+    /// The variational equations of the model whose energies are `parts` (nodes of `graph`,
+    /// `dof` coordinates, `params` parameters) along `directions`.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] for a direction outside the model or none; as
+    /// [`EomProgram::new`] for the model itself.
+    pub fn new(
+        graph: &Graph,
+        dof: usize,
+        params: usize,
+        parts: &Energies,
+        directions: &[Direction],
+    ) -> Result<Self> {
+        let mut g = graph.clone();
+        let system = variational_energies(&mut g, dof, params, parts, directions)?;
+        let size = dof * (1 + directions.len());
+        let inputs = Inputs::kinetic(size, params);
+        let what = "the variational equations";
+        let kinetic = Arc::new(Tape::new(&g, &[system.kinetic], inputs, what)?);
+        let forces = system.forces.as_deref().unwrap_or_default();
+        let forces = Arc::new(Tape::new(&g, forces, inputs, what)?);
+        let program = EomProgram::new(&mut g, size, params, &system)?;
+        Ok(Self {
+            dof,
+            directions: directions.to_vec(),
+            kinetic,
+            forces,
+            program,
+        })
+    }
+
+    /// The same system run by the interpreter (see [`EomProgram::interpreted`]).
+    pub fn interpreted(self) -> Self {
+        Self {
+            program: self.program.interpreted(),
+            ..self
+        }
+    }
+
+    /// The model's number of coordinates n (the system has n(1 + m)).
+    pub fn dof(&self) -> usize {
+        self.dof
+    }
+
+    /// The directions, one column of sensitivities each.
+    pub fn directions(&self) -> &[Direction] {
+        &self.directions
+    }
+
+    /// The variational system at these parameter values, a model of n(1 + m) coordinates.
+    ///
+    /// # Errors
+    /// As [`Function::new`] and [`EomProgram::bind`].
+    pub fn bind(&self, params: &[f64]) -> Result<EnergyModel> {
+        let size = self.dof * (1 + self.directions.len());
+        let kinetic = Function::new(self.kinetic.clone(), params)?;
+        let forces = Function::new(self.forces.clone(), params)?;
+        EnergyModel::new(size, kinetic, None, None, Some(forces))?
+            .with_program(self.program.bind(params)?)
+    }
+
+    /// The variational system's initial state from the model's (q₀, q̇₀): the sensitivities
+    /// start at zero for a parameter and at a unit vector for an initial coordinate or velocity.
+    ///
+    /// # Errors
+    /// [`Error::DimensionMismatch`] when q₀ or q̇₀ has not n entries.
+    pub fn initial_state(&self, q0: &[f64], qd0: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
+        for (what, v) in [("q0", q0), ("qd0", qd0)] {
+            if v.len() != self.dof {
+                return Err(Error::DimensionMismatch {
+                    what,
+                    expected: self.dof,
+                    got: v.len(),
+                });
+            }
+        }
+        Ok(variational_initial_state(q0, qd0, &self.directions))
+    }
+
+    /// Split a run of the variational system into the model's run (its n coordinates, events
+    /// included) and the sensitivities at each output. The continuous solution, when kept,
+    /// stays the variational system's (its first n coordinates are the model's).
+    pub fn split(&self, sol: Solution) -> SensitivitySolution {
+        let (n, m) = (self.dof, self.directions.len());
+        let size = sol.dof;
+        let mut values = Vec::with_capacity(sol.len() * m * 2 * n);
+        let (mut q, mut qd) = (
+            Vec::with_capacity(sol.len() * n),
+            Vec::with_capacity(sol.len() * n),
+        );
+        for i in 0..sol.len() {
+            let (qi, qdi) = (sol.q_at(i), sol.qd_at(i));
+            q.extend_from_slice(&qi[..n]);
+            qd.extend_from_slice(&qdi[..n]);
+            for j in 0..m {
+                let at = n + j * n..n + (j + 1) * n;
+                values.extend_from_slice(&qi[at.clone()]);
+                values.extend_from_slice(&qdi[at]);
+            }
+        }
+        let events = sol
+            .events
+            .iter()
+            .map(|o| {
+                let leading = |v: &[f64]| -> Vec<f64> {
+                    v.chunks_exact(size)
+                        .flat_map(|r| &r[..n])
+                        .copied()
+                        .collect()
+                };
+                crate::integrators::Occurrences {
+                    t: o.t.clone(),
+                    q: leading(&o.q),
+                    qd: leading(&o.qd),
+                }
+            })
+            .collect();
+        let event_states = sol.events;
+        SensitivitySolution {
+            solution: Solution {
+                dof: n,
+                q,
+                qd,
+                events,
+                ..sol
+            },
+            directions: self.directions.clone(),
+            sensitivities: values,
+            event_states,
+        }
+    }
+}
+
+/// A run with its sensitivities ([`solve_sensitivities`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SensitivitySolution {
+    /// The model's own run: its n coordinates at each output, its events, its statistics (the
+    /// work of the variational system's run).
+    pub solution: Solution,
+    /// The directions, in the order of the columns.
+    pub directions: Vec<Direction>,
+    /// ∂(q, q̇)/∂θⱼ at each output i: 2n numbers (∂q, then ∂q̇) from `(i m + j) 2n`.
+    pub sensitivities: Vec<f64>,
+    /// The variational system's state at each event occurrence (n(1 + m) coordinates per
+    /// occurrence), for the sensitivities there (of the event's time, say).
+    pub event_states: Vec<crate::integrators::Occurrences>,
+}
+
+impl SensitivitySolution {
+    /// ∂(q, q̇)/∂θⱼ at output `i` (2n numbers: ∂q, then ∂q̇) for direction `j`.
+    pub fn sensitivity(&self, i: usize, j: usize) -> &[f64] {
+        let width = 2 * self.solution.dof;
+        let at = (i * self.directions.len() + j) * width;
+        &self.sensitivities[at..at + width]
+    }
+}
+
+/// Run the variational system `system` (bound from `variational`) from the model's (q₀, q̇₀)
+/// over `span` with `method` and `options`, and split the result ([`Variational::split`]).
+///
+/// Events that reset the state are refused: a reset moves the sensitivities too (by the
+/// reset's own derivatives), which the variational system does not state.
+///
+/// # Errors
+/// As [`solve_partial`]; [`Error::InvalidInput`] for an event with a reset.
+pub fn solve_sensitivities(
+    variational: &Variational,
+    system: &EnergyModel,
+    q0: &[f64],
+    qd0: &[f64],
+    span: (f64, f64),
+    method: Method,
+    options: &Options,
+) -> Result<SensitivitySolution> {
+    check_no_resets(options)?;
+    let (q, qd) = variational.initial_state(q0, qd0)?;
+    solve_partial(system, &q, &qd, span, method, options, None)
+        .map(|sol| variational.split(sol))
+        .map_err(|failed: Failed| failed.error)
+}
+
+/// [`Error::InvalidInput`] when an event of `options` resets the state (see
+/// [`solve_sensitivities`]).
+pub fn check_no_resets(options: &Options) -> Result<()> {
+    match options.events.iter().find(|e| e.reset.is_some()) {
+        Some(e) => Err(Error::InvalidInput {
+            what: "sensitivities",
+            why: format!(
+                "event {:?} resets the state, and a reset would move the sensitivities by its \
+                 own derivatives, which are not derived: run without the reset, or without \
+                 sensitivities",
+                e.name
+            ),
+        }),
+        None => Ok(()),
+    }
+}
