@@ -27,7 +27,7 @@ from typing import (
 import numpy as np
 import numpy.typing as npt
 
-from . import _lagrangian
+from . import _lagrangian, _sensitivity
 from ._events import Event, event_specs
 from ._solution import Solution
 from ._validate import (
@@ -116,6 +116,10 @@ class Ensemble:
         The coordinate names.
     output : str
         ``"t_eval"``, ``"final"`` or ``"steps"``: which of the layouts above.
+    sensitivities : dict of str to numpy.ndarray or list, or None
+        With ``simulate_many(..., sensitivities=[...])``: ∂(q, q̇)/∂θ by name, in the layout
+        of ``q`` with 2 dof columns (∂q, then ∂q̇), and a trailing axis of dof for ``"q0"``
+        and ``"qd0"`` (see :meth:`Model.simulate_many`); masked where ``q`` is.
 
     A failed run keeps what it computed up to its last accepted step, and only that: with
     ``t_eval`` its rows past the failure are masked, as are the rows past a terminal event
@@ -140,6 +144,7 @@ class Ensemble:
         "parameters",
         "names",
         "output",
+        "sensitivities",
         "_model",
         "_events",
         "_terminal",
@@ -160,6 +165,7 @@ class Ensemble:
     parameters: Dict[str, FloatArray]
     names: Tuple[str, ...]
     output: str
+    sensitivities: Optional[Dict[str, Any]]
 
     def __init__(
         self,
@@ -211,6 +217,7 @@ class Ensemble:
         self.t, self.q, self.qd = t, q, qd
         self.names = () if model is None else tuple(c.name for c in model.coordinates)
         self.output = mode
+        self.sensitivities = None
         self.parameters = dict(parameters or {})
         self._model = model
 
@@ -280,7 +287,7 @@ class Ensemble:
             message = failure.message
         else:
             message = self._terminal.get(i, "reached t_end")
-        return Solution(
+        sol = Solution(
             np.ascontiguousarray(t, dtype=np.float64),
             np.ascontiguousarray(q, dtype=np.float64),
             np.ascontiguousarray(qd, dtype=np.float64),
@@ -295,6 +302,23 @@ class Ensemble:
             status=status,
             message=message,
         )
+        if self.sensitivities is not None:
+            sol.sensitivities = {
+                name: np.ascontiguousarray(_run_rows(self.output, values, i, rows))
+                for name, values in self.sensitivities.items()
+            }
+            sol.event_sensitivities = None
+        return sol
+
+
+def _run_rows(output: str, values: Any, i: int, rows: int) -> FloatArray:
+    """Run ``i``'s ``rows`` points of a per-run quantity in an ensemble's layout."""
+    if output == "steps":
+        return np.asarray(values[i], dtype=np.float64)
+    data = np.ma.getdata(values)
+    if output == "t_eval":
+        return np.asarray(data[i, :rows], dtype=np.float64)
+    return np.asarray(data[i : i + rows], dtype=np.float64)
 
 
 def simulate_many(
@@ -317,6 +341,8 @@ def simulate_many(
     executor: Any = None,
     chunks: Optional[int] = None,
     timeout: Optional[float] = None,
+    sensitivities: Optional[Sequence[str]] = None,
+    sensitivity_error_control: bool = True,
 ) -> Ensemble:
     """:meth:`Model.simulate_many` (documented there)."""
     n = model.dof
@@ -333,13 +359,130 @@ def simulate_many(
     if workers is not None:
         workers = at_least_one("workers", workers, "thread")
     mode = "final" if final_only else "steps" if t_eval is None else "t_eval"
+    runner: Any = base
+    if sensitivities is not None:
+        runner = Variational(base, sensitivities, flag("sensitivity_error_control",
+                                                       sensitivity_error_control))
+        if any(e.reset for e in events):
+            raise ValueError(
+                "an event that resets the state would move the sensitivities by its own "
+                "derivatives, which are not derived: run without the reset, or without "
+                "sensitivities"
+            )
+        if sweep and getattr(base, "scene", None) is not None:
+            raise ValueError(
+                "a scene's arguments are numbers in its Rust code: sweep them without "
+                "sensitivities, or state the system with lg.Model"
+            )
+        q, qd = runner.initial_states(q, qd)
+        options = {**options, "error_coordinates": runner.error_coordinates}
     if executor is None or k == 0:
-        raw = _run(base, q, qd, t_end, sweep, options, events, workers or 0)
+        raw = _run(runner, q, qd, t_end, sweep, options, events, workers or 0)
     else:
         raw = _run_on(
-            executor, base, q, qd, t_end, sweep, options, events, workers, chunks, timeout
+            executor, runner, q, qd, t_end, sweep, options, events, workers, chunks, timeout
         )
-    return Ensemble(raw, base, mode, sweep, events)
+    ensemble = Ensemble(raw, base, mode, sweep, events)
+    if isinstance(runner, Variational):
+        runner.split(ensemble)
+    return ensemble
+
+
+class Variational:
+    """A model's variational system along named directions, as an ensemble runs it in the
+    model's place: the native model of n(1 + m) coordinates, the runs' initial states, and the
+    split of the results into the model's states and the sensitivities. Pickled as the model
+    and the names (a chunk's worker compiles it again)."""
+
+    __slots__ = ("base", "names", "control", "wanted", "layout", "_native")
+
+    def __init__(self, base: "Model", names: Sequence[str], control: bool) -> None:
+        self.base, self.names, self.control = base, names, control
+        scene = getattr(base, "scene", None)
+        self.wanted, self.layout = _sensitivity.directions(names, base._parameters, base.dof,
+                                                           scene)
+        params = [float(v) for v in base._parameters.values()] if scene is None else []
+        self._native = base._native.variational_model(self.wanted, params)
+
+    def __reduce__(self) -> Tuple[Any, ...]:
+        return Variational, (self.base, self.names, self.control)
+
+    # What `_run` reads of a model: the events are the model's, the parameters too.
+    @property
+    def _coordinates(self) -> Any:
+        return self.base._coordinates
+
+    @property
+    def _parameters(self) -> Dict[str, Any]:
+        return self.base._parameters
+
+    @property
+    def parameters(self) -> Dict[str, Any]:
+        return self.base.parameters
+
+    @property
+    def _backend(self) -> str:
+        return self.base._backend
+
+    def _sweep_arguments(self, sweep: Mapping[str, FloatArray], k: int) -> Dict[str, Any]:
+        return self.base._sweep_arguments(sweep, k)
+
+    @property
+    def error_coordinates(self) -> Optional[int]:
+        """The coordinates whose error is controlled: all (``None``) or the model's own."""
+        return None if self.control else self.base.dof
+
+    def initial_states(self, q: FloatArray, qd: FloatArray) -> Tuple[FloatArray, FloatArray]:
+        """Each run's (q₀, q̇₀) with the sensitivities' initial values: zero along a
+        parameter, a unit vector along q₀ᵢ or q̇₀ᵢ."""
+        k, n = q.shape
+        size = n * (1 + len(self.wanted))
+        big_q, big_qd = np.zeros((k, size)), np.zeros((k, size))
+        big_q[:, :n], big_qd[:, :n] = q, qd
+        for j, (kind, i) in enumerate(self.wanted):
+            if kind == "q0":
+                big_q[:, n + j * n + i] = 1.0
+            elif kind == "qd0":
+                big_qd[:, n + j * n + i] = 1.0
+        return big_q, big_qd
+
+    def split(self, ens: "Ensemble") -> None:
+        """The model's coordinates back into ``ens.q`` and ``ens.qd`` (and the events'), the
+        rest into ``ens.sensitivities`` by name."""
+        n, m = self.base.dof, len(self.wanted)
+
+        def parts(q: Any, qd: Any) -> Tuple[Any, Any, Any]:
+            # (..., n(1 + m)) → (..., n), (..., n), (..., m, 2n)
+            lead = q.shape[:-1]
+            s_q = q[..., n:].reshape(lead + (m, n))
+            s_qd = qd[..., n:].reshape(lead + (m, n))
+            cat = np.ma.concatenate if np.ma.isMaskedArray(q) else np.concatenate
+            return q[..., :n], qd[..., :n], cat([s_q, s_qd], axis=-1)
+
+        if isinstance(ens.q, list):
+            split = [parts(q, qd) for q, qd in zip(ens.q, ens.qd)]
+            ens.q = [a for a, _, _ in split]
+            ens.qd = [b for _, b, _ in split]
+            ens.sensitivities = {
+                name: [_sensitivity.named(np.asarray(s), self.layout)[name] for _, _, s in split]
+                for name, _, _ in self.layout
+            }
+        else:
+            ens.q, ens.qd, raw = parts(ens.q, ens.qd)
+            flat = raw.reshape((-1,) + raw.shape[-2:])
+            named = _sensitivity.named(np.ma.getdata(flat), self.layout)
+            ens.sensitivities = {}
+            for name, values in named.items():
+                values = values.reshape(raw.shape[:-2] + values.shape[1:])
+                if np.ma.isMaskedArray(raw):
+                    rows = np.ma.getmaskarray(ens.q)[..., :1]
+                    mask = np.broadcast_to(
+                        rows.reshape(rows.shape + (1,) * (values.ndim - rows.ndim)), values.shape
+                    )
+                    values = np.ma.masked_array(values, mask.copy())
+                ens.sensitivities[name] = values
+        ens.q_events = [[x[:, :n] for x in e] for e in ens.q_events]
+        ens.qd_events = [[x[:, :n] for x in e] for e in ens.qd_events]
 
 
 def _check_consistent(

@@ -190,6 +190,7 @@ def simulate_many(
     events: Sequence[_EventSpec] = ...,
     event_params: Sequence[Optional[_FloatArray]] = ...,
     backend: str = "native",
+    error_coordinates: Optional[int] = None,
 ) -> Any:
     """An ensemble of runs in Rust on ``workers`` threads (0: every core): (t, q, qd, reached,
     counters, method, choice, choices, failures, status, events); see ``_ensemble.py``."""
@@ -273,6 +274,9 @@ class NativeModel:
         names: Optional[Tuple[str, ...]],
         event_names: Tuple[str, ...],
     ) -> Optional[_S]: ...
+    def variational_model(
+        self, directions: Sequence[Tuple[str, int]], params: Sequence[float]
+    ) -> "NativeModel": ...
     def simulate_sensitivities(
         self,
         q0: Sequence[float],

@@ -1043,6 +1043,8 @@ class Model:
         executor: Any = None,
         chunks: Optional[int] = None,
         timeout: Optional[float] = None,
+        sensitivities: Optional[Sequence[str]] = None,
+        sensitivity_error_control: bool = True,
     ) -> "Ensemble":
         """Integrate many runs at once: initial states and parameter values swept together.
 
@@ -1097,6 +1099,12 @@ class Model:
         timeout : float, optional
             Seconds to wait for each chunk's result from ``executor`` before
             :class:`TimeoutError` (default: no limit).
+        sensitivities, sensitivity_error_control
+            As in :meth:`simulate`, for every run (with its own parameter values): the
+            ensemble's ``sensitivities[name]`` holds them in the layout of ``q`` with 2 dof
+            columns (∂q, ∂q̇) — (k, len(t_eval), 2 dof) with ``t_eval``, (k, 2 dof) with
+            ``final_only``, else a list per run — and a trailing axis of dof for ``"q0"`` and
+            ``"qd0"``. The events' times have no sensitivities here (``simulate`` gives them).
 
         Returns
         -------
@@ -1116,6 +1124,7 @@ class Model:
             self, q0, qd0, t_end, t0=t0, parameters=parameters, t_eval=t_eval, method=method,
             dt=dt, rtol=rtol, atol=atol, max_steps=max_steps, final_only=final_only,
             events=events, workers=workers, executor=executor, chunks=chunks, timeout=timeout,
+            sensitivities=sensitivities, sensitivity_error_control=sensitivity_error_control,
         )
 
     def equilibrium(

@@ -53,12 +53,13 @@ use std::time::Duration;
 /// `events` per run a pair: one (t, q, qd) per event, as `simulate`'s, and the message of the
 /// terminal event that stopped it (else `None`) — an empty list when there are no events;
 /// `residuals` (k,) the worst constraint residual after an accepted step of each run (0 without
-/// constraints).
+/// constraints). `error_coordinates` is [`Options::error_coordinates`](crate::Options) (a
+/// variational system's runs with the sensitivities left out of error control).
 #[pyfunction]
 #[pyo3(signature = (model, q0, qd0, t_end, t0=0.0, params=None, scenes=None, method="auto",
                     dt=None, rtol=1e-6, atol=1e-9, t_eval=None, max_steps=None,
                     final_only=false, workers=0, events=Vec::new(), event_params=Vec::new(),
-                    backend="native"))]
+                    backend="native", error_coordinates=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn simulate_many<'py>(
     py: Python<'py>,
@@ -80,6 +81,7 @@ pub(crate) fn simulate_many<'py>(
     events: Vec<EventSpec>,
     event_params: Vec<Option<PyReadonlyArray2<'py, f64>>>,
     backend: &str,
+    error_coordinates: Option<usize>,
 ) -> PyResult<Bound<'py, PyTuple>> {
     let n = model.model.dof();
     let k = q0.shape()[0];
@@ -102,6 +104,7 @@ pub(crate) fn simulate_many<'py>(
         max_steps,
         (times.clone(), None),
     )?;
+    options.error_coordinates = error_coordinates;
     if final_only {
         if times.is_some() {
             return Err(PyValueError::new_err("give t_eval or final_only, not both"));

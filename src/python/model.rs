@@ -625,6 +625,25 @@ impl CompiledModel {
         crate::statics::input_matrix(graph, parts, params, inputs, lin)
     }
 
+    /// The variational system `v` as a compiled model of its own, to be bound per run as any
+    /// compiled model is (an ensemble with sensitivities).
+    pub(crate) fn of_variational(v: &Variational, params: usize) -> Self {
+        let (kinetic, forces, eom) = v.parts();
+        Self {
+            dof: v.dof() * (1 + v.directions().len()),
+            params,
+            kinetic: Some(kinetic.clone()),
+            potential: None,
+            dissipation: None,
+            forces: Some(forces.clone()),
+            particles: None,
+            eom: Some(eom.clone()),
+            energies: None,
+            constraints: None,
+            variational: Arc::default(),
+        }
+    }
+
     /// The variational system along `directions` ([`Variational`]), compiled on the first
     /// request for these directions and kept.
     ///

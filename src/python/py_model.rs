@@ -843,6 +843,31 @@ impl PyModel {
         self.run(py, run, Some(&sensitivities), &wrap)
     }
 
+    /// The variational system along `directions` (as `simulate_sensitivities` names them) as
+    /// a model of its own, n(1 + m) coordinates, bound to `params` (a scene: none): what an
+    /// ensemble with sensitivities runs, binding it per run to swept parameters.
+    fn variational_model(
+        &self,
+        directions: Vec<(String, usize)>,
+        params: Vec<f64>,
+    ) -> PyResult<Self> {
+        guard(|| {
+            let directions = sensitivity::directions(&directions)?;
+            let variational = self.variational(&directions)?;
+            let count = if self.compiled.is_some() {
+                params.len()
+            } else {
+                0
+            };
+            let compiled = CompiledModel::of_variational(&variational, count);
+            let model = compiled.bind(&params[..count])?;
+            Ok(Self {
+                model: Arc::new(model),
+                compiled: Some(Arc::new(compiled)),
+            })
+        })
+    }
+
     /// An integrator standing at (t0, q0, q̇0) with this method and these options (`dt` a step
     /// size > 0: each call's span gives the direction); see [`integrator::PyIntegrator`].
     #[pyo3(signature = (q0, qd0, t0, method, dt, rtol, atol, max_steps, events, backend))]

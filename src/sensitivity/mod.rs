@@ -107,6 +107,12 @@ impl Variational {
         &self.directions
     }
 
+    /// The kinetic energy ½ |ẋ|² and the forces (q̈, s̈₁, …) of the system as tapes, and its
+    /// eq. 55 program: what a binding holds to bind the system per run.
+    pub(crate) fn parts(&self) -> (&Arc<Tape>, &Arc<Tape>, &EomProgram) {
+        (&self.kinetic, &self.forces, &self.program)
+    }
+
     /// The variational system at these parameter values, a model of n(1 + m) coordinates.
     ///
     /// # Errors
