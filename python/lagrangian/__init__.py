@@ -56,6 +56,7 @@ from ._lagrangian import (
     __version__,
 )
 from ._ensemble import Ensemble
+from ._fit import Fit
 from ._linear import Equilibrium, Linearization, Modes
 from ._model import Model, methods
 from ._solution import Solution
@@ -69,6 +70,7 @@ __all__ = [
     "Equilibrium",
     "Event",
     "Expr",
+    "Fit",
     "Integrator",
     "LagrangianError",
     "Linearization",

@@ -48,6 +48,7 @@ if TYPE_CHECKING:
     from pathlib import Path
 
     from ._ensemble import Ensemble
+    from ._fit import Fit
 
 __all__ = ["Model", "methods"]
 
@@ -1125,6 +1126,92 @@ class Model:
             dt=dt, rtol=rtol, atol=atol, max_steps=max_steps, final_only=final_only,
             events=events, workers=workers, executor=executor, chunks=chunks, timeout=timeout,
             sensitivities=sensitivities, sensitivity_error_control=sensitivity_error_control,
+        )
+
+    def fit(
+        self,
+        t: Any,
+        q_measured: Any,
+        parameters: Mapping[str, float],
+        *,
+        q0: Any = None,
+        qd0: Any = None,
+        fit_initial_state: bool = False,
+        weights: Any = None,
+        bounds: Optional[Mapping[str, Tuple[float, float]]] = None,
+        method: str = "auto",
+        rtol: float = 1e-10,
+        atol: float = 1e-10,
+        max_nfev: Optional[int] = None,
+        tolerance: float = 1e-10,
+    ) -> "Fit":
+        """Fit parameters (and optionally the initial state) to measured coordinates by least
+        squares, with the exact Jacobian from the run's sensitivities (see :meth:`simulate`'s
+        ``sensitivities``); SciPy's ``least_squares`` (trust region, ``x_scale="jac"``) does
+        the iterations. Needs SciPy.
+
+        >>> import numpy as np, lagrangian as lg
+        >>> x, = lg.coordinates("x")
+        >>> k, c = lg.parameters("k c")
+        >>> osc = lg.Model([x], kinetic=0.5 * x.d**2, potential=0.5 * k * x**2,
+        ...                dissipation=0.5 * c * x.d**2, parameters={"k": 4.0, "c": 0.3})
+        >>> t = np.linspace(0.0, 10.0, 200)
+        >>> data = osc.simulate([1.0], [0.0], 10.0, t_eval=t, rtol=1e-10).q
+        >>> fit = osc.fit(t, data, {"k": 3.0, "c": 0.1}, q0=[1.0], qd0=[0.0],
+        ...               bounds={"c": (0.0, np.inf)})
+        >>> round(fit.parameters["k"], 6), round(fit.parameters["c"], 6), fit.success
+        (4.0, 0.3, True)
+
+        Parameters
+        ----------
+        t : array_like, shape (m,)
+            Sample times, strictly increasing; the runs start at ``t[0]``. For several trials,
+            a list of such arrays, one per trial (and lists for ``q_measured``, ``q0``,
+            ``qd0`` and ``weights``).
+        q_measured : array_like, shape (m, dof)
+            The measured coordinates at those times (finite numbers).
+        parameters : mapping of str to float
+            The parameters to fit and their initial guesses; the model's other parameters keep
+            their values.
+        q0, qd0 : array_like, shape (dof,)
+            The state at ``t[0]``: known, or the initial guess with ``fit_initial_state``.
+        fit_initial_state : bool
+            Fit each trial's q0 and qd0 too.
+        weights : float or array_like broadcasting to (m, dof), optional
+            Multiply each residual (1/σ for a sample's standard deviation σ; 0 leaves a sample
+            out).
+        bounds : mapping of str to (low, high), optional
+            Bounds of the fitted parameters (a mass is positive: ``{"m": (0, np.inf)}``); the
+            guess must lie strictly inside.
+        method, rtol, atol
+            The runs' method and tolerances (:meth:`simulate`); the tolerances bound how well
+            the parameters can be determined.
+        max_nfev : int, optional
+            Most runs before giving up (SciPy's default: 100 per unknown).
+        tolerance : float
+            SciPy's ``xtol``, ``ftol`` and ``gtol``.
+
+        Returns
+        -------
+        Fit
+            ``parameters``, ``uncertainties``, ``covariance`` (s²(JᵀJ)⁻¹ with the residual
+            variance s², in the order of ``parameters``, then each trial's q0 and qd0),
+            ``residuals``, ``cost``, ``success``, ``message``, ``initial_states``, ``model``.
+
+        Raises
+        ------
+        ValueError
+            For unknown parameters, non-finite data, shapes that do not match, bad bounds,
+            no more samples than unknowns, or data that do not determine every unknown.
+        ImportError
+            Without SciPy.
+        """
+        from ._fit import fit
+
+        return fit(
+            self, t, q_measured, parameters, q0=q0, qd0=qd0,
+            fit_initial_state=fit_initial_state, weights=weights, bounds=bounds, method=method,
+            rtol=rtol, atol=atol, max_nfev=max_nfev, tolerance=tolerance,
         )
 
     def equilibrium(

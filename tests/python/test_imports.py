@@ -22,7 +22,7 @@ LAYERS: List[Tuple[str, Set[str]]] = [
     ("native module and expressions", {"_lagrangian", "_expr"}),
     ("validation", {"_validate"}),
     ("events, solution, linearization, drawing, sensitivities",
-     {"_events", "_solution", "_linear", "_drawing", "_sensitivity"}),
+     {"_events", "_solution", "_linear", "_drawing", "_sensitivity", "_fit"}),
     ("model, scenes, SymPy bridge", {"_model", "_scene_model", "_constrained_scenes", "scenes", "_sympy"}),
     ("ensembles", {"_ensemble"}),
     ("plotting", {"_plot"}),
