@@ -70,6 +70,7 @@ class Fit:
         "nfev",
         "njev",
         "model",
+        "_trials",
     )
 
     parameters: Dict[str, float]
@@ -83,6 +84,20 @@ class Fit:
     nfev: int
     njev: int
     model: "Model"
+
+    def data(self, trial: int = 0) -> Tuple[FloatArray, FloatArray]:
+        """The sample times and measured coordinates of a trial, as fitted."""
+        tr = self._trials[trial]
+        return tr.t, tr.data
+
+    def plot(self, path: Optional[Any] = None, *, trial: int = 0,
+             title: Optional[str] = None) -> Any:
+        """A figure of a trial: the data and the fitted run against t (the fitted values and
+        their uncertainties in its title), and the weighted residuals below. Needs
+        matplotlib; ``path`` also saves it (the suffix picks the format)."""
+        from ._plot import plot_fit
+
+        return plot_fit(self, path, trial=trial, title=title)
 
     def __repr__(self) -> str:
         values = ", ".join(
@@ -310,6 +325,7 @@ def fit(
         )
     out.nfev, out.njev = int(result.nfev), int(result.njev or 0)
     out.model = model.with_parameters(**values)
+    out._trials = trials
     return out
 
 

@@ -39,6 +39,7 @@ from ._validate import at_least_one, file_suffix, finite_positive
 if TYPE_CHECKING:
     from matplotlib.figure import Figure  # type: ignore[import-not-found, unused-ignore]
 
+    from ._fit import Fit
     from ._model import Model
     from ._solution import Solution
     from ._workprec import WorkPrecision
@@ -47,6 +48,7 @@ __all__ = [
     "Drawing",
     "plot_solution",
     "plot_work_precision",
+    "plot_fit",
     "method_styles",
     "trajectory",
     "evaluate_drawing",
@@ -307,6 +309,58 @@ def plot_solution(
         note = "energy function h (not conserved: the system is forced, damped or time-dependent)"
     ax_h.set_title(note, loc="left", fontsize="small")
     ax_h.set_xlabel("t")
+    if title is not None:
+        fig.suptitle(title)
+    if target is not None:
+        fig.savefig(target, dpi=120)
+    return fig
+
+
+def plot_fit(
+    fit: "Fit",
+    path: Optional[PathLike] = None,
+    *,
+    trial: int = 0,
+    title: Optional[str] = None,
+) -> "Figure":
+    """The figure of :meth:`Fit.plot`: per measured coordinate, the data and the fitted run
+    (a smooth curve through its dense output) above, the residuals below."""
+    if path is not None:
+        target: Optional[Path] = file_suffix(path, _FIGURE_SUFFIXES, "a figure")
+    else:
+        target = None
+    t, data = fit.data(trial)
+    q0, qd0 = fit.initial_states[trial]
+    run = fit.model.simulate(q0, qd0, float(t[-1]), t0=float(t[0]), dense=True, rtol=1e-10,
+                             atol=1e-10)
+    times = _curve_times(t)
+    curve, _ = run(times)
+    residuals = fit.residuals if isinstance(fit.residuals, np.ndarray) else fit.residuals[trial]
+    _require_matplotlib()
+    from matplotlib.figure import Figure
+
+    names = list(fit.model._names)
+    fig = Figure(figsize=(7.5, 6.0), layout="constrained")
+    ax_q, ax_r = fig.subplots(2, 1, sharex=True, height_ratios=(2.0, 1.0))
+    for i, name in enumerate(names):
+        colour = f"C{i % 10}"
+        ax_q.plot(t, data[:, i], linestyle="none", marker=".", markersize=4, color=colour,
+                  alpha=0.6, label=f"{name} measured")
+        ax_q.plot(times, curve[:, i], color=colour, linewidth=1.3, label=f"{name} fitted")
+        ax_r.plot(t, residuals[:, i], linestyle="none", marker=".", markersize=3,
+                  color=colour)
+    ax_r.axhline(0.0, color="black", linewidth=0.8)
+    values = ", ".join(
+        f"{k} = {v:.5g} ± {fit.uncertainties[k]:.2g}" for k, v in fit.parameters.items()
+    )
+    ax_q.set_title(values, loc="left", fontsize="small")
+    ax_q.set_ylabel("q")
+    ax_q.legend(loc="upper right", fontsize="small", frameon=False)
+    ax_r.set_ylabel("weighted residual")
+    ax_r.set_xlabel("t")
+    for ax in (ax_q, ax_r):
+        ax.grid(True, alpha=0.3)
+        _plain_numbers(ax)
     if title is not None:
         fig.suptitle(title)
     if target is not None:

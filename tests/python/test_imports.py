@@ -36,6 +36,7 @@ DELEGATIONS: Set[Tuple[str, str]] = {
     ("_model", "_plot"),  # Model.animate
     ("_model", "_ensemble"),  # Model.simulate_many
     ("_solution", "_plot"),  # Solution.plot
+    ("_fit", "_plot"),  # Fit.plot
 }
 
 
