@@ -16,7 +16,8 @@ import matplotlib
 matplotlib.use("Agg")
 
 HERE = Path(__file__).resolve().parent
-PICTURES = ("pendulum.png", "forced_two_mass.png", "work_precision.png", "double_pendulum.gif")
+PICTURES = ("pendulum.png", "forced_two_mass.png", "fit.png", "work_precision.png",
+            "double_pendulum.gif")
 
 
 def main() -> int:

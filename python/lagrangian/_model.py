@@ -830,9 +830,9 @@ class Model:
         sensitivities : sequence of str, optional
             Also compute how the motion depends on these parameters of the model and on the
             initial state (``"q0"``, ``"qd0"``), exactly: the variational equations are derived
-            on the expression graph and integrated with the state by the same method (every
-            method but ``blanes_moan4``, whose splitting needs a separable system; the
-            explicit symplectic methods need one too). ``sol.sensitivities[name]`` is
+            on the expression graph and integrated with the state by the same method (any
+            method; the explicit symplectic ones where the model is separable, as without
+            sensitivities). ``sol.sensitivities[name]`` is
             ∂(q, q̇)/∂p at each output, shape (len(t), 2 dof), or for ``"q0"`` / ``"qd0"``
             shape (len(t), 2 dof, dof) (column j: ∂(q, q̇)/∂q0[j]); ``sol.event_sensitivities``
             holds, per event, the derivatives of its times, {name: (k,)} or (k, dof). A

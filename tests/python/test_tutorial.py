@@ -14,7 +14,7 @@ TUTORIAL = SITE / "tutorial.rst"
 FLAGS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
 # The reference pages with examples, and how many examples each runs at least.
 PAGES = {"python.rst": 19, "events.rst": 20, "ensembles.rst": 24, "modes.rst": 13,
-         "constraints.rst": 40,
+         "constraints.rst": 40, "sensitivities.rst": 40,
          "report.rst": 8}
 
 
@@ -28,7 +28,7 @@ def test_tutorial_examples_run(tmp_path, monkeypatch):
     assert result.attempted > 50
     assert result.failed == 0
     # The pictures the tutorial shows are the ones it writes.
-    for name in ("pendulum.png", "forced_two_mass.png", "work_precision.png"):
+    for name in ("pendulum.png", "forced_two_mass.png", "fit.png", "work_precision.png"):
         assert (tmp_path / name).read_bytes().startswith(b"\x89PNG")
         assert f"_static/{name}" in TUTORIAL.read_text()
     assert (tmp_path / "double_pendulum.gif").read_bytes().startswith(b"GIF89a")
