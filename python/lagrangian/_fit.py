@@ -84,6 +84,7 @@ class Fit:
     nfev: int
     njev: int
     model: "Model"
+    _trials: List["_Trial"]
 
     def data(self, trial: int = 0) -> Tuple[FloatArray, FloatArray]:
         """The sample times and measured coordinates of a trial, as fitted."""
@@ -194,7 +195,7 @@ def fit(
 ) -> Fit:
     """:meth:`Model.fit` (documented there)."""
     try:
-        from scipy.optimize import least_squares
+        from scipy.optimize import least_squares  # type: ignore[import-untyped]
     except ImportError:  # pragma: no cover - scipy is a test dependency
         raise ImportError("Model.fit needs SciPy: pip install scipy") from None
     fit_initial_state = flag("fit_initial_state", fit_initial_state)
@@ -273,7 +274,7 @@ def fit(
             w = tr.weights
             rs.append((w * (sol.q - tr.data)).ravel())
             jac = np.zeros((len(tr.t) * n, len(x)))
-            sens = sol.sensitivities
+            sens: Dict[str, FloatArray] = sol.sensitivities or {}
             for j, name in enumerate(names):
                 jac[:, j] = (w * sens[name][:, :n]).ravel()
             if fit_initial_state:

@@ -299,6 +299,7 @@ class NativeModel:
         directions: Sequence[Tuple[str, int]],
         params: Sequence[float],
         error_all: bool,
+        event_reads: Sequence[Sequence[int]],
     ) -> _S: ...
     def integrator(
         self,

@@ -875,18 +875,19 @@ class Model:
         )
         event_names: Tuple[str, ...] = ()
         specs: List[Any] = []
+        reads: List[List[str]] = []
         if events is not None and not isinstance(events, Event):
             events = list(events)  # read three times below: a generator would be spent
         if events is not None:
-            specs = event_specs(events, self._coordinates, self._parameters)[0]
+            specs, reads = event_specs(events, self._coordinates, self._parameters)
             event_names = tuple(e.name for e in events)
         if dense is not False and dense is not True:
             flag("dense", dense)
         native, backend = self._native, self._backend
         if sensitivities is not None:
             return self._simulate_sensitivities(
-                q0, qd0, (t0, end), (method, dt, rtol, atol, times, max_steps, every), specs,
-                dense, event_names, sensitivities, sensitivity_error_control,
+                q0, qd0, (t0, end), (method, dt, rtol, atol, times, max_steps, every),
+                (specs, reads, event_names), dense, sensitivities, sensitivity_error_control,
             )
         # The arguments spelled out (a vectorcall): unpacked from a tuple with *, the call went
         # through an argument tuple, 1 000 more instructions (callgrind). A failure during the
@@ -908,16 +909,16 @@ class Model:
         self,
         q0: ArrayLike,
         qd0: ArrayLike,
-        span: Tuple[float, float],
+        span: Tuple[float, Any],
         run: Tuple[Any, ...],
-        specs: List[Any],
+        events: Tuple[List[Any], List[List[str]], Tuple[str, ...]],
         dense: bool,
-        event_names: Tuple[str, ...],
         names: object,
         error_control: object,
     ) -> Solution:
         """``simulate`` with sensitivities (see there): the variational system runs in the
-        model's place and its sensitivities are named here."""
+        model's place and its sensitivities are named here. ``events`` are the specs, the names
+        of the parameters each reads and the events' names."""
         if error_control is not False and error_control is not True:
             flag("sensitivity_error_control", error_control)
         n = self.dof
@@ -925,14 +926,19 @@ class Model:
         wanted, layout = _sensitivity.directions(names, self._parameters, n, scene)
         q0, qd0 = vector("q0", q0, n), vector("qd0", qd0, n)
         (t0, end), (method, dt, rtol, atol, times, max_steps, every) = span, run
+        specs, reads, event_names = events
+        order = list(self._parameters)
+        event_reads = [[order.index(name) for name in r] for r in reads]
         params = [float(v) for v in self._parameters.values()] if scene is None else []
         sol: Solution = self._native.simulate_sensitivities(
             q0, qd0, end, t0, method, dt, rtol, atol, times, max_steps, every, specs, dense,
             self._backend, Solution, self._names, event_names, wanted, params,
-            bool(error_control),
+            bool(error_control), event_reads,
         )
-        sol.sensitivities = _sensitivity.named(sol.sensitivities, layout)
-        sol.event_sensitivities = _sensitivity.named_events(sol.event_sensitivities, layout)
+        raw: Any = sol.sensitivities
+        raw_events: Any = sol.event_sensitivities
+        sol.sensitivities = _sensitivity.named(raw, layout)
+        sol.event_sensitivities = _sensitivity.named_events(raw_events, layout)
         if dense:
             sol._dense = _sensitivity.Leading(sol._dense, n)
         return sol

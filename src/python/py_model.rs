@@ -767,10 +767,10 @@ impl PyModel {
     /// carries `sensitivities` (outputs × directions × 2n) and `event_sensitivities` (per event,
     /// occurrences × directions), which the package names. `params` are the model's parameter
     /// values (a scene has none on its graph); `error_all` controls the sensitivities' error
-    /// too (else only (q, q̇)'s).
+    /// too (else only (q, q̇)'s); `event_reads` the model's indices of each event's parameters.
     #[pyo3(signature = (q0, qd0, t_end, t0, method, dt, rtol, atol, t_eval, max_steps, every,
                         events, dense, backend, solution_type, names, event_names, directions,
-                        params, error_all))]
+                        params, error_all, event_reads))]
     #[allow(clippy::too_many_arguments)]
     fn simulate_sensitivities<'py>(
         &self,
@@ -795,13 +795,14 @@ impl PyModel {
         directions: Vec<(String, usize)>,
         params: Vec<f64>,
         error_all: bool,
+        event_reads: Vec<Vec<usize>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let n = self.model.dof();
         check_vector("q0", &q0, n)?;
         check_vector("qd0", &qd0, n)?;
         let directions = sensitivity::directions(&directions)?;
         let variational = self.variational(&directions)?;
-        let sensitivities = SensitivityRun::new(variational.clone(), &events)?;
+        let sensitivities = SensitivityRun::new(variational.clone(), &events, &event_reads)?;
         let setup = RunSetup {
             span: (t0, t_end),
             method,

@@ -57,15 +57,38 @@ pub(crate) struct SensitivityRun {
 }
 
 impl SensitivityRun {
-    /// For `variational` and the events `specs` of a model of `n` coordinates.
+    /// For `variational` and the events `specs` of a model of `n` coordinates; `reads[e]`
+    /// lists the model's indices of the parameters event e's spec holds, in the spec's order
+    /// (an event's expressions are compiled over the parameters it reads only).
     ///
     /// # Errors
     /// As [`node_ids`], [`tangents`] and [`Tape::new`]; [`Error::InvalidInput`] for an event
-    /// that resets the state (see [`crate::sensitivity::check_no_resets`]).
-    pub(crate) fn new(variational: Arc<Variational>, specs: &[EventSpec]) -> Result<Self> {
+    /// that resets the state (see [`crate::sensitivity::check_no_resets`]) or `reads` that do
+    /// not match the specs.
+    pub(crate) fn new(
+        variational: Arc<Variational>,
+        specs: &[EventSpec],
+        reads: &[Vec<usize>],
+    ) -> Result<Self> {
         let n = variational.dof();
         let mut conditions = Vec::with_capacity(specs.len());
-        for (nodes, condition, targets, _, params, _, _, name, _) in specs {
+        if reads.len() != specs.len() {
+            return Err(Error::DimensionMismatch {
+                what: "event parameters",
+                expected: specs.len(),
+                got: reads.len(),
+            });
+        }
+        for ((nodes, condition, targets, _, params, _, _, name, _), reads) in
+            specs.iter().zip(reads)
+        {
+            if reads.len() != params.len() {
+                return Err(Error::DimensionMismatch {
+                    what: "event parameters",
+                    expected: params.len(),
+                    got: reads.len(),
+                });
+            }
             if !targets.is_empty() {
                 return Err(Error::InvalidInput {
                     what: "sensitivities",
@@ -91,12 +114,17 @@ impl SensitivityRun {
                 outputs.push(tangents(&mut g, &[root], s)?[0].unwrap_or(zero));
             }
             for d in variational.directions() {
-                outputs.push(match *d {
-                    Direction::Parameter(p) if p < params.len() => {
-                        let s = Seeds::new().param(p, one);
+                // The model's parameter p is the spec's parameter `at`, if the event reads it.
+                let at = match *d {
+                    Direction::Parameter(p) => reads.iter().position(|&i| i == p),
+                    Direction::Position(_) | Direction::Velocity(_) => None,
+                };
+                outputs.push(match at {
+                    Some(at) => {
+                        let s = Seeds::new().param(at, one);
                         tangents(&mut g, &[root], &s)?[0].unwrap_or(zero)
                     }
-                    _ => zero,
+                    None => zero,
                 });
             }
             let tape = Tape::new(
