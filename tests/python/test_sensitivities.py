@@ -598,9 +598,13 @@ def test_failure_keeps_finite_partial_results():
     with pytest.raises(lg.LagrangianError) as err:
         double_pendulum().simulate(DP_Q0, DP_QD0, 2.0, method="dop853", rtol=1e-12,
                                    atol=1e-12, max_steps=5, sensitivities=["g"])
+    assert isinstance(err.value, lg.TooManyStepsError)
+    # The partial run is the model's: its two coordinates, not the variational system's.
     part = err.value.solution
-    if part is not None:
-        assert np.all(np.isfinite(part.q)) and np.all(np.isfinite(part.qd))
+    assert part.q.shape == (len(part.t), 2) and part.qd.shape == (len(part.t), 2)
+    assert np.all(np.isfinite(part.q)) and np.all(np.isfinite(part.qd))
+    assert len(err.value.q) == 2 and len(err.value.qd) == 2
+    assert err.value.t == part.t[-1]
 
 
 # More of the same physics from other directions: backwards in time, from t0 ≠ 0, a model
