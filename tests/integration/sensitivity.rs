@@ -149,28 +149,36 @@ fn damped_oscillator_closed_form_by_every_method() {
 }
 
 #[test]
-fn error_coordinates_accepted_by_dop853() {
+fn error_coordinates_accepted_by_the_runge_kutta_methods_and_radau() {
     // Error control on (x, ẋ) alone: no more steps than with every component controlled, and
     // the sensitivities still follow the closed form to a looser tolerance.
     let (k, c, x0, v0) = (4.0, 0.3, 1.0, 0.5);
-    let all = Options::adaptive(1e-10, 1e-10);
-    let leading = Options::adaptive(1e-10, 1e-10).with_error_coordinates(1);
-    let on = run([k, c], (x0, v0), 3.0, Method::Dop853, &all).unwrap();
-    let off = run([k, c], (x0, v0), 3.0, Method::Dop853, &leading).unwrap();
-    assert!(off.solution.stats.accepted_steps <= on.solution.stats.accepted_steps);
-    let last = off.solution.len() - 1;
-    let t = off.solution.t[last];
-    assert_relative_eq!(t, 3.0, epsilon = 1e-14);
-    for j in 0..4 {
-        let exact = damped_derivative(t, [k, c, x0, v0], j);
-        for (a, b) in off.sensitivity(last, j).iter().zip(exact) {
-            assert!((a - b).abs() < 1e-7, "direction {j}: {a} vs {b}");
+    for method in [Method::Dop853, Method::Dopri5, Method::Radau5] {
+        let all = Options::adaptive(1e-10, 1e-10);
+        let leading = Options::adaptive(1e-10, 1e-10).with_error_coordinates(1);
+        let on = run([k, c], (x0, v0), 3.0, method, &all).unwrap();
+        let off = run([k, c], (x0, v0), 3.0, method, &leading).unwrap();
+        assert!(
+            off.solution.stats.accepted_steps <= on.solution.stats.accepted_steps,
+            "{method:?}"
+        );
+        let last = off.solution.len() - 1;
+        let t = off.solution.t[last];
+        assert_relative_eq!(t, 3.0, epsilon = 1e-14);
+        for j in 0..4 {
+            let exact = damped_derivative(t, [k, c, x0, v0], j);
+            for (a, b) in off.sensitivity(last, j).iter().zip(exact) {
+                assert!(
+                    (a - b).abs() < 1e-7,
+                    "{method:?}, direction {j}: {a} vs {b}"
+                );
+            }
         }
+        // Controlling all n(1 + m) = 5 coordinates is the default.
+        let every = Options::adaptive(1e-10, 1e-10).with_error_coordinates(5);
+        let same = run([k, c], (x0, v0), 3.0, method, &every).unwrap();
+        assert_eq!(same.solution.t, on.solution.t, "{method:?}");
     }
-    // Controlling all n(1 + m) = 5 coordinates is the default.
-    let every = Options::adaptive(1e-10, 1e-10).with_error_coordinates(5);
-    let same = run([k, c], (x0, v0), 3.0, Method::Dop853, &every).unwrap();
-    assert_eq!(same.solution.t, on.solution.t);
 }
 
 #[test]

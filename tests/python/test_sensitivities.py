@@ -543,6 +543,18 @@ def test_scene_initial_state_sensitivities():
             assert_allclose(sol.sensitivities[name][i, :, 0], [q[0], qd[0]], rtol=0, atol=1e-10)
 
 
+def test_scene_double_pendulum_matches_the_model():
+    # The Rust scene and the same system stated with lg.Model give the same ∂x/∂x₀ (the scene's
+    # variational system is traced from its Rust energies).
+    scene = lg.scenes.double_pendulum(**DP)
+    opts = dict(method="dop853", rtol=1e-13, atol=1e-13, t_eval=np.linspace(0.0, 2.0, 11))
+    a = scene.simulate(DP_Q0, DP_QD0, 2.0, sensitivities=["q0", "qd0"], **opts)
+    b = double_pendulum().simulate(DP_Q0, DP_QD0, 2.0, sensitivities=["q0", "qd0"], **opts)
+    for name in ("q0", "qd0"):
+        scale = np.max(np.abs(b.sensitivities[name]))
+        assert np.max(np.abs(a.sensitivities[name] - b.sensitivities[name])) < 1e-8 * scale
+
+
 def test_scene_parameter_refused():
     scene = lg.scenes.damped_oscillator()
     with pytest.raises(ValueError, match="q0"):
