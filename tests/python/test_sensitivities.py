@@ -688,3 +688,48 @@ def test_event_on_a_forced_system_central_differences():
         fd = (up.t_events[0][0] - down.t_events[0][0]) / (2 * h)
         assert ev[name][0] == pytest.approx(fd, rel=1e-6, abs=1e-8), name
     assert ev["q0"].shape == (1, 2)
+    for j in range(2):
+        h = 1e-6
+        q_up, q_down = TM_Q0.copy(), TM_Q0.copy()
+        q_up[j] += h
+        q_down[j] -= h
+        fd = (model.simulate(q_up, TM_QD0, 4.0, **opts).t_events[0][0]
+              - model.simulate(q_down, TM_QD0, 4.0, **opts).t_events[0][0]) / (2 * h)
+        assert ev["q0"][0, j] == pytest.approx(fd, rel=1e-6, abs=1e-8), j
+
+
+def test_event_time_backwards():
+    # Backwards from x0 = 1 at rest: x = cos ωt crosses zero at t* = −π/(2√k), so
+    # dt*/dk = +π/(4 k^{3/2}); with ∂x/∂v0 = sin(ωt)/ω and ẋ(t*) = ω,
+    # dt*/dv0 = −(sin(ωt*)/ω)/ω = 1/k.
+    x, _, model = spring()
+    sol = model.simulate([1.0], [0.0], -3.0, method="dop853", rtol=1e-13, atol=1e-13,
+                         events=[lg.Event(x, terminal=True)], sensitivities=["k", "qd0"])
+    w = math.sqrt(K0)
+    t_star = -math.pi / (2 * w)
+    assert sol.t_events[0][0] == pytest.approx(t_star, abs=1e-12)
+    ev = sol.event_sensitivities[0]
+    assert ev["k"][0] == pytest.approx(math.pi / (4 * K0**1.5), rel=1e-9)
+    assert ev["qd0"][0, 0] == pytest.approx(1.0 / K0, rel=1e-9)
+
+
+def test_velocity_dependent_forces_central_differences():
+    # Van der Pol through generalized forces Q = μ (1 − x²) ẋ (not a Rayleigh function):
+    # ∂/∂μ and ∂/∂(x₀, v₀) against central differences.
+    x, = lg.coordinates("x")
+    mu = lg.Parameter("mu")
+    model = lg.Model(coordinates=[x], kinetic=0.5 * x.d**2, potential=0.5 * x**2,
+                     forces=[mu * (1 - x**2) * x.d], parameters={"mu": 1.5})
+    opts = dict(method="dop853", rtol=1e-13, atol=1e-13, t_eval=np.linspace(0.0, 4.0, 9))
+    sol = model.simulate([2.0], [0.0], 4.0, sensitivities=["mu", "q0", "qd0"], **opts)
+    h = 1e-5
+    up = state(model.with_parameters(mu=1.5 + h).simulate([2.0], [0.0], 4.0, **opts))
+    down = state(model.with_parameters(mu=1.5 - h).simulate([2.0], [0.0], 4.0, **opts))
+    fd = (up - down) / (2 * h)
+    assert np.max(np.abs(sol.sensitivities["mu"] - fd)) < 1e-6 * np.max(np.abs(fd))
+    for name, start in (("q0", ([2.0 + h], [0.0], [2.0 - h], [0.0])),
+                        ("qd0", ([2.0], [h], [2.0], [-h]))):
+        fd = (state(model.simulate(start[0], start[1], 4.0, **opts))
+              - state(model.simulate(start[2], start[3], 4.0, **opts))) / (2 * h)
+        got = sol.sensitivities[name][:, :, 0]
+        assert np.max(np.abs(got - fd)) < 1e-6 * np.max(np.abs(fd)), name
