@@ -29,6 +29,7 @@ mod partial;
 mod rattle;
 mod routes;
 mod scenes;
+mod sensitivity;
 mod statics;
 mod step_limit;
 mod tape_speed;
