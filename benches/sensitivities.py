@@ -190,6 +190,11 @@ def heyoka_variational(s: Scene, names: Sequence[str]) -> Any:
     return hy.var_ode_sys(sys_, [hy.par[order.index(k)] for k in names], order=1)
 
 
+def heyoka_plain(s: Scene) -> Any:
+    """The variational system's first 2n equations: heyoka's plain system of `s`."""
+    return heyoka_variational(s, list(s.params)[:1]).sys[: 2 * s.dof]
+
+
 def heyoka_layout(ta: Any, n2: int, m: int) -> List[Tuple[int, int, int]]:
     """(state index, coordinate i of (q, q̇), direction j) of each first-order entry."""
     out = []
@@ -245,6 +250,7 @@ class Runner:
     def __init__(self, s: Scene, model: Any) -> None:
         self.s, self.model = s, model
         self.warmed: Dict[Tuple[Any, ...], float] = {}
+        self.compile: Dict[Tuple[Any, ...], float] = {}
 
     def run(self, method: str, tol: float, names: Optional[Sequence[str]] = None,
             control: bool = True, model: Any = None) -> Any:
@@ -280,17 +286,23 @@ class Runner:
             self.run(method, tol, names, control)
             self.warmed[key] = math.nan
             return math.nan
-        steps, first = 0, math.inf
-        k = 0
-        while steps <= UNROLL_AFTER + 1 and k < 100_000:
+        steps, first, times = 0, math.inf, []
+        while steps <= UNROLL_AFTER + 1 and len(times) < 100_000:
             start = time.perf_counter()
             sol = self.run(method, tol, names, control)
             dt = time.perf_counter() - start
             n = int(sol.stats["accepted_steps"])
-            if k > 0 and steps + n < UNROLL_AFTER:
+            if times and steps + n < UNROLL_AFTER:
                 first = min(first, dt)
+            times.append(dt)
             steps += n
-            k += 1
+        for _ in range(3):
+            start = time.perf_counter()
+            self.run(method, tol, names, control)
+            times.append(time.perf_counter() - start)
+        # The run that compiled the unrolled expansion, less the fastest (the first run, which
+        # compiles the series kernel, excluded).
+        self.compile[key] = max(times[1:]) - min(times[1:])
         self.warmed[key] = first
         return first
 
@@ -384,9 +396,11 @@ def fd_timer(r: Runner, method: str, names: Sequence[str], tol: float, h_rel: fl
 def cost_rows(s: Scene, ref: Dict[str, Any], configs: Sequence[Tuple[str, float]],
               sets: Sequence[Sequence[str]], rounds: int, round_seconds: float
               ) -> List[Dict[str, Any]]:
-    r = Runner(s, our_model(s))
     rows = []
     for method, tol in configs:
+        # A new model per configuration: its Taylor programs have not expanded yet (the
+        # differences' runs at other tolerances would have unrolled the plain one's orders).
+        r = Runner(s, our_model(s))
         pre_plain = r.warm(method, tol)
         plain_sol = r.run(method, tol)
         for names in sets:
@@ -413,16 +427,38 @@ def cost_rows(s: Scene, ref: Dict[str, Any], configs: Sequence[Tuple[str, float]
                     r.warm(method, fd["tol"])  # the models share the plain program
                 go()
                 sides["fd"] = go
+            else:
+                # At the differences' best accuracy instead: our loosest rung reaching it.
+                best = fd["error"]
+
+                def ours_err(i: int) -> float:
+                    sol = r.run(method, LADDER[i], names)
+                    return err(r.result(sol, names)[1], ref_S)
+                io, _ = loosest(ours_err, nearest(best), best)
+                again = fd_search(r, method, names, best * (1 + 1e-9), ref["y"], ref_S)
+                if io is not None and again["reached"]:
+                    go = fd_timer(r, method, names, again["tol"], again["h"])
+                    if method == "taylor":
+                        r.warm(method, again["tol"])
+                    r.warm(method, LADDER[io], names)
+                    go()
+                    sides["fd"] = go
+                    sides["sens_at_fd"] = r.timed(method, LADDER[io], names)
+                    fd["at_best"] = dict(target=best, ours_tol=LADDER[io], fd_tol=again["tol"],
+                                         h=again["h"])
             t = best_of(sides, rounds, round_seconds)
             row.update(plain=t["plain"], sens=t["sens"], ratio=t["sens"] / t["plain"])
             if "sens_off" in t:
                 row.update(off=t["sens_off"], off_ratio=t["sens_off"] / t["plain"])
             if "fd" in t:
                 fd["seconds"] = t["fd"]
-                fd["ratio"] = t["fd"] / t["sens"]
+                fd["ratio"] = t["fd"] / t.get("sens_at_fd", t["sens"])
+                if "sens_at_fd" in t:
+                    fd["at_best"]["ours_seconds"] = t["sens_at_fd"]
             if method == "taylor":
                 row["pre_ratio"] = pre_sens / pre_plain
                 row["pre_plain"], row["pre_sens"] = pre_plain, pre_sens
+                row["unrolled_compile"] = r.compile[(method, tol, tuple(names), True)]
             rows.append(row)
             print(f"  {s.name} {method}@{tol:g} p={len(names)}: ratio {row['ratio']:.2f}",
                   file=sys.stderr, flush=True)
@@ -528,18 +564,36 @@ def heyoka_rows(s: Scene, ref: Dict[str, Any], sets: Sequence[Sequence[str]],
                 row["heyoka"] = dict(tol=LADDER[ih], order=b["order"], steps=b["steps"],
                                      error=b["error"], build=b["build"],
                                      first_result=b["build"] + b["first"])
+                # heyoka's own overhead: its plain system at the same tolerance.
+                start = time.perf_counter()
+                plain = hy.taylor_adaptive(heyoka_plain(s), s.q0 + s.qd0, tol=LADDER[ih],
+                                           pars=list(s.params.values()), compact_mode=False)
+                spent += time.perf_counter() - start
+                px0 = np.array(plain.state)
+
+                def hplain(ta: Any = plain, x0: Any = px0) -> Any:
+                    ta.time = 0.0
+                    ta.state[:] = x0
+                    ta.propagate_until(s.t_end)
+                    return np.array(ta.state)
+                hplain()
+                sides["heyoka_plain"] = hplain
             for label, idx, method in (("taylor", it, "taylor"), ("dop853", idp, "dop853")):
                 if idx is None:
                     continue
                 r.warm(method, LADDER[idx], names)
                 sides[label] = r.timed(method, LADDER[idx], names)
+                r.warm(method, LADDER[idx])
+                sides[label + "_plain"] = r.timed(method, LADDER[idx])
                 sol = r.run(method, LADDER[idx], names)
                 y, S = r.result(sol, names)
                 row[label] = dict(tol=LADDER[idx], steps=steps_of(sol),
                                   error=err(np.concatenate([y, S.ravel()]), ref_all))
             t = best_of(sides, rounds, round_seconds)
-            for label in t:
-                row[label]["seconds"] = t[label]
+            for label in ("heyoka", "taylor", "dop853"):
+                if label in t:
+                    row[label]["seconds"] = t[label]
+                    row[label]["overhead"] = t[label] / t[label + "_plain"]
             # Ours, time to first result: a new model, its first call (which compiles).
             if it is not None:
                 first = math.inf
@@ -643,13 +697,14 @@ def scene_name(name: str) -> str:
 def table_cost(rows: List[Dict[str, Any]]) -> str:
     lines = ["| scene | method @ tol | p | plain: time (steps) | with sensitivities: time (steps) "
              "| ratio | ≤ 1 + p? | errconS off: time (steps), ratio | error of ∂ (on / off) "
-             "| Taylor first runs: ratio |",
+             "| Taylor first runs: ratio (plain, sensitivities; unrolled compile) |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         off = (f"{ms(r['off'])} ({r['off_steps']}), {r['off_ratio']:.2f}×" if "off" in r
                else "—")
         errs = f"{r['error']:.1e}" + (f" / {r['off_error']:.1e}" if "off_error" in r else "")
-        pre = f"{r['pre_ratio']:.2f}×" if "pre_ratio" in r else "—"
+        pre = (f"{r['pre_ratio']:.1f}× ({ms(r['pre_plain'])}, {ms(r['pre_sens'])}; "
+               f"{ms(r['unrolled_compile'])})" if "pre_ratio" in r else "—")
         ok = "yes" if r["ratio"] <= 1 + r["p"] else "**no**"
         if "off_ratio" in r and r["ratio"] > 1 + r["p"] and r["off_ratio"] <= 1 + r["p"]:
             ok += " (errconS off: yes)"
@@ -673,24 +728,31 @@ def table_fd(rows: List[Dict[str, Any]]) -> str:
         else:
             how = (f"not reached (best {fd['error']:.1e} at {fmt_tol(fd.get('best_tol'))}, "
                    f"h/|p| = {fd['h']:.0e})")
-            t, ratio = "—", "∞"
+            t, ratio = "—", "—"
+            b = fd.get("at_best")
+            if b is not None and "ours_seconds" in b:
+                how += (f"; at that error: FD @ {fmt_tol(b['fd_tol'])}, ours @ "
+                        f"{fmt_tol(b['ours_tol'])} {ms(b['ours_seconds'])}")
+                t, ratio = ms(fd.get("seconds")), f"{fd['ratio']:.1f}× (at FD's best)"
         lines.append(f"| {scene_name(r['scene'])} | {r['method']} @ {fmt_tol(r['tol'])} | "
                      f"{r['p']} | {r['error']:.1e} | {ms(r['sens'])} | {how} | {t} | {ratio} |")
     return "\n".join(lines)
 
 
 def table_heyoka(rows: List[Dict[str, Any]]) -> str:
-    lines = ["| p | target | heyoka `var_ode_sys`: time @ tol (order, steps) | ours taylor: "
-             "time @ tol (steps) | heyoka ÷ ours taylor | ours dop853: time @ tol (steps) | "
-             "heyoka ÷ ours dop853 | first result: heyoka (build) | first result: ours |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| p | target | heyoka `var_ode_sys`: time @ tol (order, steps; error) | ours "
+             "taylor: time @ tol (steps; error) | heyoka ÷ ours taylor | ours dop853: time @ tol "
+             "(steps; error) | heyoka ÷ ours dop853 | sensitivities ÷ plain at that tol: heyoka, "
+             "ours taylor, ours dop853 | first result: heyoka (build) | first result: ours |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         h, t, d = r.get("heyoka"), r.get("taylor"), r.get("dop853")
 
         def cell(x: Optional[Dict[str, Any]], extra: str = "") -> str:
             if x is None:
                 return "not reached"
-            return f"{ms(x.get('seconds'))} @ {fmt_tol(x['tol'])} ({extra}{x['steps']})"
+            return (f"{ms(x.get('seconds'))} @ {fmt_tol(x['tol'])} ({extra}{x['steps']}; "
+                    f"{x['error']:.0e})")
 
         def ratio(a: Optional[Dict[str, Any]], b: Optional[Dict[str, Any]]) -> str:
             if a is None or b is None:
@@ -701,9 +763,11 @@ def table_heyoka(rows: List[Dict[str, Any]]) -> str:
                  else r.get("heyoka_stopped", "not reached"))
         first_h = f"{ms(h['first_result'])} ({ms(h['build'])})" if h else "—"
         first_o = ms(t.get("first_result")) if t else "—"
+        over = ", ".join(f"{x['overhead']:.2f}×" if x and "overhead" in x else "—"
+                         for x in (h, t, d))
         lines.append(f"| {r['p']} ({', '.join(r['names'])}) | {r['target']:g} | {hcell} | "
-                     f"{cell(t)} | {ratio(h, t)} | {cell(d)} | {ratio(h, d)} | {first_h} | "
-                     f"{first_o} |")
+                     f"{cell(t)} | {ratio(h, t)} | {cell(d)} | {ratio(h, d)} | {over} | "
+                     f"{first_h} | {first_o} |")
     return "\n".join(lines)
 
 
@@ -723,8 +787,8 @@ def table_fit(f: Dict[str, Any]) -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="a subset, about 1.5 minutes")
-    ap.add_argument("--rounds", type=int, default=None, help="timing rounds (best of); 3, "
-                    "quick 2")
+    ap.add_argument("--rounds", type=int, default=None, help="timing rounds (best of); 5, "
+                    "quick 3")
     ap.add_argument("--round-seconds", type=float, default=0.02,
                     help=f"repeat short runs within a round to about this long (≤ {MAX_INNER})")
     ap.add_argument("--heyoka-budget", type=float, default=90.0,
@@ -732,7 +796,7 @@ def main() -> None:
     ap.add_argument("--markdown", default=None, help="also write the tables here")
     ap.add_argument("--json", default=None, help="also write the raw measurements here")
     args = ap.parse_args()
-    rounds = args.rounds or (2 if args.quick else 3)
+    rounds = args.rounds or (3 if args.quick else 5)
     import heyoka as hy
 
     # Every heyoka build a real one: no compiled code from its caches in memory or on disk.
@@ -766,7 +830,7 @@ def main() -> None:
 
     print("heyoka …", file=sys.stderr, flush=True)
     h_sets = [["l1", "g"]] if args.quick else [["l1", "g"], dp.sets[-1]]
-    targets = [1e-9] if args.quick else [1e-9, 1e-12]
+    targets = [1e-9] if args.quick else [1e-6, 1e-9, 1e-12]
     hey = heyoka_rows(dp, refs[dp.name], h_sets, targets, rounds, args.round_seconds,
                       args.heyoka_budget)
 
