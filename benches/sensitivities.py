@@ -40,7 +40,8 @@ Tables
        against the reference (an oracle's choice of h: generous to the differences). The first
        rung where some h reaches E is timed (the 2p + 1 runs, the models rebound with
        ``with_parameters`` beforehand, not timed). "not reached" when no rung down to 1e-15
-       does: the best error then found is printed.
+       does: the best error E' then found is printed, and both sides are compared at E'
+       instead (our loosest rung reaching E', the differences' first rung reaching it).
     3. Against heyoka.py, double pendulum, p = 2 and 5: ``heyoka.var_ode_sys(sys, [par...],
        order=1)`` integrated by ``heyoka.taylor_adaptive(var_sys, x0, tol=τ, pars=...,
        compact_mode=False)``. Equal accuracy: for each target error (of the end state and the
@@ -52,6 +53,9 @@ Tables
        state; ours the whole ``simulate`` call with its sensitivities read (its fixed cost
        included), Taylor warmed up as in table 1; builds excluded on both sides. heyoka's
        caches of compiled code (memory and disk) are switched off, so every build is real.
+       Each side's own price of the sensitivities is printed too: its time over the time of
+       its plain system at the same tolerance (heyoka's plain system: the first 2n equations
+       of its variational one, built at that tolerance).
        Time to first result: heyoka's ``lagrangian`` + ``var_ode_sys`` + ``taylor_adaptive``
        build + its first propagate, at its rung; ours ``lg.Model(...)`` + the first
        ``simulate`` with the sensitivities (which derives and compiles the variational system
@@ -65,9 +69,10 @@ Run from the repository root, with the Python module and heyoka.py installed:
 
     python3 benches/sensitivities.py [--quick] [--rounds R] [--markdown FILE] [--json FILE]
 
-About 5 minutes on a 2-core machine (most of it heyoka's builds: 4–12 s each); ``--quick``
-(p = 1 and 2 on the double pendulum, Taylor at 1e-12 and the heyoka comparison at 1e-9 and
-p = 2 only) takes about 1.5 minutes. Not a test: timings depend on the machine and its load.
+About 1 minute on a 2-core machine (most of it heyoka's builds: 0.5–9 s each, more under
+load); ``--quick`` (p = 1 and 2 on the double pendulum, no Taylor at 1e-12, the heyoka
+comparison at 1e-9 and p = 2 only, 3 rounds) about 15 s. Not a test: timings depend on the
+machine and its load.
 """
 
 from __future__ import annotations
@@ -286,7 +291,8 @@ class Runner:
             self.run(method, tol, names, control)
             self.warmed[key] = math.nan
             return math.nan
-        steps, first, times = 0, math.inf, []
+        steps, first = 0, math.inf
+        times: List[float] = []
         while steps <= UNROLL_AFTER + 1 and len(times) < 100_000:
             start = time.perf_counter()
             sol = self.run(method, tol, names, control)
@@ -650,7 +656,8 @@ def fit_workload(rounds: int, round_seconds: float) -> Dict[str, Any]:
         return cache[key]
 
     def residual(theta: np.ndarray) -> np.ndarray:
-        return solve(theta).q[:, 0] - data
+        out: np.ndarray = solve(theta).q[:, 0] - data
+        return out
 
     def jacobian(theta: np.ndarray) -> np.ndarray:
         sol = solve(theta)
@@ -786,7 +793,7 @@ def table_fit(f: Dict[str, Any]) -> str:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--quick", action="store_true", help="a subset, about 1.5 minutes")
+    ap.add_argument("--quick", action="store_true", help="a subset, about 15 s")
     ap.add_argument("--rounds", type=int, default=None, help="timing rounds (best of); 5, "
                     "quick 3")
     ap.add_argument("--round-seconds", type=float, default=0.02,
