@@ -146,18 +146,18 @@ impl ExplicitRk {
     ) -> f64 {
         let s = self.tableau.stages();
         let m = ranges.iter().map(ExactSizeIterator::len).sum::<usize>() as f64;
+        // One sum in component order (the same rounding as a sum over all of y).
         let scaled = |e: &[f64], y: &[f64], y1: &[f64]| -> f64 {
             ranges
                 .iter()
-                .map(|r| {
+                .flat_map(|r| {
                     e[r.clone()]
                         .iter()
                         .zip(y[r.clone()].iter().zip(&y1[r.clone()]))
-                        .map(|(e, (a, b))| {
-                            let sk = atol + rtol * a.abs().max(b.abs());
-                            (e / sk) * (e / sk)
-                        })
-                        .sum::<f64>()
+                })
+                .map(|(e, (a, b))| {
+                    let sk = atol + rtol * a.abs().max(b.abs());
+                    (e / sk) * (e / sk)
                 })
                 .sum::<f64>()
         };
@@ -294,15 +294,10 @@ impl ExplicitRk {
         let norm = |v: &[f64], y: &[f64]| -> f64 {
             (ranges
                 .iter()
-                .map(|r| {
-                    v[r.clone()]
-                        .iter()
-                        .zip(&y[r.clone()])
-                        .map(|(v, y)| {
-                            let sk = atol + rtol * y.abs();
-                            (v / sk) * (v / sk)
-                        })
-                        .sum::<f64>()
+                .flat_map(|r| v[r.clone()].iter().zip(&y[r.clone()]))
+                .map(|(v, y)| {
+                    let sk = atol + rtol * y.abs();
+                    (v / sk) * (v / sk)
                 })
                 .sum::<f64>()
                 / m)
