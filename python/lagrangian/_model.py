@@ -836,8 +836,10 @@ class Model:
             ∂(q, q̇)/∂p at each output, shape (len(t), 2 dof), or for ``"q0"`` / ``"qd0"``
             shape (len(t), 2 dof, dof) (column j: ∂(q, q̇)/∂q0[j]); ``sol.event_sensitivities``
             holds, per event, the derivatives of its times, {name: (k,)} or (k, dof). A
-            parameter the model does not depend on gives zeros. Not with events that reset the
-            state, nor with constraints. See :doc:`sensitivities`.
+            parameter the model does not depend on gives zeros. Under constraints the initial
+            sensitivities are projected onto the constraints and the index-1 equations run
+            without projecting the steps. Not with events that reset the state. See
+            :doc:`sensitivities`.
         sensitivity_error_control : bool
             With ``sensitivities``: control the local error of the sensitivities too (the
             default), or of (q, q̇) only (fewer steps; CVODES's ``errconS``; with ``dop853``,

@@ -53,31 +53,7 @@ impl ConstraintProgram {
                 why: "a constraint program needs at least one row and one coordinate".into(),
             });
         }
-        let zero = graph.constant(0.0);
-        let one = graph.constant(1.0);
-        let or_zero = |d: Vec<Option<usize>>| d.into_iter().map(|x| x.unwrap_or(zero)).collect();
-        // G, column by column.
-        let mut g = vec![zero; rows * dof];
-        for j in 0..dof {
-            let hol: Vec<usize> = or_zero(tangents(graph, holonomic, &Seeds::new().coord(j, one))?);
-            let vel: Vec<usize> =
-                or_zero(tangents(graph, velocity, &Seeds::new().velocity(j, one))?);
-            for (i, &d) in hol.iter().chain(&vel).enumerate() {
-                g[i * dof + j] = d;
-            }
-        }
-        // Along the motion with q̈ = 0: q ↦ q̇, t ↦ 1 (or held).
-        let mut along = Seeds::new();
-        for i in 0..dof {
-            let v = graph.velocity(i);
-            along = along.coord(i, v);
-        }
-        if moving {
-            along = along.time(one);
-        }
-        let rate: Vec<usize> = or_zero(tangents(graph, holonomic, &along)?);
-        let mut gamma: Vec<usize> = or_zero(tangents(graph, &rate, &along)?);
-        gamma.extend(or_zero(tangents(graph, velocity, &along)?));
+        let (g, gamma, _) = constraint_graph(graph, dof, holonomic, velocity, moving)?;
         let outputs: Vec<usize> = g.into_iter().chain(gamma).collect();
         let tape = Arc::new(Tape::new(
             graph,
@@ -166,4 +142,46 @@ impl ConstraintRows {
             gamma.copy_from_slice(&out[k * n..]);
         });
     }
+}
+
+/// G (row-major, rows × `dof`) and γ of the rows `holonomic` and `velocity` as nodes of
+/// `graph` (see the module docs), holonomic rows first, and the rows at the velocity level
+/// (ġ of the holonomic rows, then the velocity rows); `moving`: whether a row reads t.
+///
+/// # Errors
+/// As [`tangents`].
+pub(crate) fn constraint_graph(
+    graph: &mut Graph,
+    dof: usize,
+    holonomic: &[usize],
+    velocity: &[usize],
+    moving: bool,
+) -> Result<(Vec<usize>, Vec<usize>, Vec<usize>)> {
+    let rows = holonomic.len() + velocity.len();
+    let zero = graph.constant(0.0);
+    let one = graph.constant(1.0);
+    let or_zero = |d: Vec<Option<usize>>| d.into_iter().map(|x| x.unwrap_or(zero)).collect();
+    // G, column by column.
+    let mut g = vec![zero; rows * dof];
+    for j in 0..dof {
+        let hol: Vec<usize> = or_zero(tangents(graph, holonomic, &Seeds::new().coord(j, one))?);
+        let vel: Vec<usize> = or_zero(tangents(graph, velocity, &Seeds::new().velocity(j, one))?);
+        for (i, &d) in hol.iter().chain(&vel).enumerate() {
+            g[i * dof + j] = d;
+        }
+    }
+    // Along the motion with q̈ = 0: q ↦ q̇, t ↦ 1 (or held).
+    let mut along = Seeds::new();
+    for i in 0..dof {
+        let v = graph.velocity(i);
+        along = along.coord(i, v);
+    }
+    if moving {
+        along = along.time(one);
+    }
+    let rate: Vec<usize> = or_zero(tangents(graph, holonomic, &along)?);
+    let mut gamma: Vec<usize> = or_zero(tangents(graph, &rate, &along)?);
+    gamma.extend(or_zero(tangents(graph, velocity, &along)?));
+    let level1 = rate.into_iter().chain(velocity.iter().copied()).collect();
+    Ok((g, gamma, level1))
 }

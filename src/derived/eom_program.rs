@@ -263,7 +263,15 @@ pub(crate) struct Factors {
 impl Factors {
     pub(crate) fn of(graph: &mut Graph, eom: &EomGraph) -> Result<Self> {
         let n = eom.dof;
-        let m = |i: usize, j: usize| eom.mass[upper(n, i.min(j), i.max(j))];
+        Self::of_matrix(graph, n, |i, j| eom.mass[upper(n, i.min(j), i.max(j))])
+    }
+
+    /// The factors of the symmetric n × n matrix whose entry (i, j) is the node `m(i, j)`.
+    pub(crate) fn of_matrix(
+        graph: &mut Graph,
+        n: usize,
+        m: impl Fn(usize, usize) -> usize,
+    ) -> Result<Self> {
         let one = graph.constant(1.0);
         let mut s = Simplify(graph);
         // l[i][j] = L_ij and w[i][j] = L_ij d_j below the diagonal; d and 1/d on it.

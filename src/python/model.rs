@@ -10,7 +10,7 @@ use crate::program::{compile::Tape, eval::Function, inputs::Inputs};
 use crate::routes::{EnergyModel, ExprConstraints, TapeParticles};
 use crate::scenes::registry::{Arguments, Drawn, Positions, Scene, positions_of, scenes};
 use crate::scenes::*;
-use crate::sensitivity::{Direction, Variational};
+use crate::sensitivity::{ConstraintNodes, Direction, Variational};
 use crate::trace::{TraceEnergies, WithProgram};
 use crate::{
     CartesianForces, Constrained, Dissipation, Dynamics, Error, GeneralizedForces, KineticEnergy,
@@ -354,6 +354,9 @@ pub(crate) struct ConstraintTapes {
     /// G and γ derived on the graph and compiled, for `f64` states; `None` with the
     /// interpreter backend (G and γ then come from dual numbers, the reference).
     rows: Option<ConstraintProgram>,
+    /// The rows as nodes of the model's graph (holonomic, velocity) and whether one reads t:
+    /// what the variational equations derive from.
+    nodes: (Vec<usize>, Vec<usize>, bool),
 }
 
 /// What runs a model's derived eq. 55 program at `f64` states, as Python names it
@@ -648,28 +651,24 @@ impl CompiledModel {
     /// request for these directions and kept.
     ///
     /// # Errors
-    /// [`Error::InvalidInput`] for a constrained model or one without equations of motion on
-    /// the graph; as [`Variational::new`].
+    /// [`Error::InvalidInput`] for a model without equations of motion on the graph; as
+    /// [`Variational::new`].
     pub(crate) fn variational(&self, directions: &[Direction]) -> Result<Arc<Variational>> {
         let mut kept = self.variational.lock().unwrap_or_else(|p| p.into_inner());
         if let Some((_, v)) = kept.iter().find(|(d, _)| d == directions) {
             return Ok(v.clone());
-        }
-        if self.constraints.is_some() {
-            return Err(Error::InvalidInput {
-                what: "sensitivities",
-                why: "the sensitivities of a constrained model are not derived (its \
-                      variational equations need the multipliers' derivatives): state the model \
-                      in minimal coordinates, or fit it without sensitivities"
-                    .into(),
-            });
         }
         let (Some((graph, parts)), Some(eom)) = (&self.energies, &self.eom) else {
             return Err(bad(
                 "the model has no equations of motion to differentiate".into()
             ));
         };
-        let v = Variational::new(graph, self.dof, self.params, parts, directions)?;
+        let constraints = self.constraints.as_ref().map(|c| ConstraintNodes {
+            holonomic: &c.nodes.0,
+            velocity: &c.nodes.1,
+            moving: c.nodes.2,
+        });
+        let v = Variational::new(graph, self.dof, self.params, parts, constraints, directions)?;
         let v = Arc::new(match eom.backend() {
             "native" => v,
             _ => v.interpreted(),
@@ -833,6 +832,7 @@ fn constraint_tapes(
         velocity,
         names: (0..kh + kv).map(name).collect(),
         rows,
+        nodes: (hn, vn, moving),
     }))
 }
 

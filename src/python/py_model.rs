@@ -160,7 +160,7 @@ impl PyModel {
                 let (graph, parts) = self.model.scene_graph()?;
                 let n = self.model.dof();
                 Ok(Arc::new(Variational::new(
-                    &graph, n, 0, &parts, directions,
+                    &graph, n, 0, &parts, None, directions,
                 )?))
             }
         }
@@ -825,8 +825,12 @@ impl PyModel {
         } else {
             &[]
         };
+        // Refused here as a run refuses it: the variational system has no constraints to check.
+        if let Some(c) = self.model.constrained() {
+            c.check_consistent(t0, &q0, &qd0, Some(options.projection_tolerance()))?;
+        }
         let system = Arc::new(AnyModel::Energy(variational.bind(params)?));
-        let (q0, qd0) = variational.initial_state(&q0, &qd0)?;
+        let (q0, qd0) = variational.initial_state(t0, &q0, &qd0, params)?;
         let wrap = solution::Wrap {
             kind: solution_type,
             names,
@@ -853,6 +857,16 @@ impl PyModel {
         params: Vec<f64>,
     ) -> PyResult<Self> {
         guard(|| {
+            if self.model.constrained().is_some() {
+                return Err(Error::InvalidInput {
+                    what: "sensitivities",
+                    why: "an ensemble of a constrained model does not carry sensitivities (each \
+                          run's initial sensitivities are projected onto its constraints): run \
+                          simulate(..., sensitivities=...) per run"
+                        .into(),
+                }
+                .into());
+            }
             let directions = sensitivity::directions(&directions)?;
             let variational = self.variational(&directions)?;
             let count = if self.compiled.is_some() {

@@ -24,10 +24,9 @@
 //! let potential = g.binary(Binary::Mul, half, kx2)?;
 //! let parts = Energies { kinetic, potential: Some(potential), ..Energies::default() };
 //! let wrt = [Direction::Parameter(0), Direction::Position(0)];
-//! let variational = Variational::new(&g, 1, 1, &parts, &wrt)?;
-//! let system = variational.bind(&[4.0])?;
+//! let variational = Variational::new(&g, 1, 1, &parts, None, &wrt)?;
 //! let options = Options::adaptive(1e-12, 1e-12).with_output(lagrangian::Output::Final);
-//! let sol = solve_sensitivities(&variational, &system, &[1.0], &[0.0], (0.0, 1.0),
+//! let sol = solve_sensitivities(&variational, &[4.0], &[1.0], &[0.0], (0.0, 1.0),
 //!                               Method::Dop853, &options)?;
 //! // x = cos(ω t), ω = √k: ∂x/∂k = −t sin(ω t)/(2ω), ∂x/∂x₀ = cos(ω t).
 //! let (w, t) = (2.0_f64, 1.0);
@@ -37,13 +36,16 @@
 //! ```
 
 use crate::derived::eom_program::{Energies, EomProgram};
-pub use crate::derived::variational::Direction;
-use crate::derived::variational::{variational_energies, variational_initial_state};
+pub use crate::derived::variational::{ConstraintNodes, Direction};
+use crate::derived::variational::{
+    projection_outputs, variational_energies, variational_initial_state,
+};
 use crate::error::{Error, Result};
 use crate::expr::graph::Graph;
 use crate::integrators::{Failed, Method, Options, Solution, solve_partial};
 use crate::program::{compile::Tape, eval::Function, inputs::Inputs};
 use crate::routes::EnergyModel;
+use nalgebra::{DMatrix, DVector};
 use std::sync::Arc;
 
 /// The variational system of a model stated on the graph, compiled once: bind it to parameter
@@ -55,11 +57,17 @@ pub struct Variational {
     kinetic: Arc<Tape>,
     forces: Arc<Tape>,
     program: EomProgram,
+    /// For a constrained model: what the initial sensitivities are projected with
+    /// ([`projection_outputs`]), and the number of holonomic and of all rows.
+    projection: Option<(Arc<Tape>, usize, usize)>,
 }
 
 impl Variational {
     /// The variational equations of the model whose energies are `parts` (nodes of `graph`,
-    /// `dof` coordinates, `params` parameters) along `directions`.
+    /// `dof` coordinates, `params` parameters), under `constraints` if it has them, along
+    /// `directions`. A constrained model's variational system runs its index-1 equations (no
+    /// projection during the run); its initial sensitivities are projected onto the
+    /// constraints' tangent space ([`Variational::initial_state`]).
     ///
     /// # Errors
     /// [`Error::InvalidInput`] for a direction outside the model or none; as
@@ -69,16 +77,27 @@ impl Variational {
         dof: usize,
         params: usize,
         parts: &Energies,
+        constraints: Option<ConstraintNodes<'_>>,
         directions: &[Direction],
     ) -> Result<Self> {
         let mut g = graph.clone();
-        let system = variational_energies(&mut g, dof, params, parts, directions)?;
+        let system = variational_energies(&mut g, dof, params, parts, constraints, directions)?;
         let size = dof * (1 + directions.len());
         let inputs = Inputs::kinetic(size, params);
         let what = "the variational equations";
         let kinetic = Arc::new(Tape::new(&g, &[system.kinetic], inputs, what)?);
         let forces = system.forces.as_deref().unwrap_or_default();
         let forces = Arc::new(Tape::new(&g, forces, inputs, what)?);
+        let projection = match constraints {
+            Some(c) => {
+                let outputs = projection_outputs(&mut g, dof, parts, c, directions)?;
+                let inputs = Inputs::kinetic(dof, params);
+                let tape = Tape::new(&g, &outputs, inputs, "the initial sensitivities")?;
+                let rows = c.holonomic.len() + c.velocity.len();
+                Some((Arc::new(tape), c.holonomic.len(), rows))
+            }
+            None => None,
+        };
         let program = EomProgram::new(&mut g, size, params, &system)?;
         Ok(Self {
             dof,
@@ -86,6 +105,7 @@ impl Variational {
             kinetic,
             forces,
             program,
+            projection,
         })
     }
 
@@ -109,6 +129,7 @@ impl Variational {
 
     /// The kinetic energy ½ |ẋ|² and the forces (q̈, s̈₁, …) of the system as tapes, and its
     /// eq. 55 program: what a binding holds to bind the system per run.
+    #[cfg_attr(not(feature = "python"), allow(dead_code))]
     pub(crate) fn parts(&self) -> (&Arc<Tape>, &Arc<Tape>, &EomProgram) {
         (&self.kinetic, &self.forces, &self.program)
     }
@@ -125,12 +146,23 @@ impl Variational {
             .with_program(self.program.bind(params)?)
     }
 
-    /// The variational system's initial state from the model's (q₀, q̇₀): the sensitivities
-    /// start at zero for a parameter and at a unit vector for an initial coordinate or velocity.
+    /// The variational system's initial state from the model's (q₀, q̇₀) at t₀ and the
+    /// parameter values `params`: the sensitivities start at zero for a parameter and at a unit
+    /// vector for an initial coordinate or velocity — for a constrained model projected onto the
+    /// tangent space of the constraints as the parameter or the initial state moves (the
+    /// derivative of [`Constrained::project`](crate::Constrained::project)'s projection in
+    /// the M metric: G s + ∂g/∂p = 0, then the rows at the velocity level likewise).
     ///
     /// # Errors
-    /// [`Error::DimensionMismatch`] when q₀ or q̇₀ has not n entries.
-    pub fn initial_state(&self, q0: &[f64], qd0: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
+    /// [`Error::DimensionMismatch`] when q₀ or q̇₀ has not n entries; [`Error::InvalidInput`]
+    /// where M or the constraints' G M⁻¹ Gᵀ cannot be solved at t₀.
+    pub fn initial_state(
+        &self,
+        t0: f64,
+        q0: &[f64],
+        qd0: &[f64],
+        params: &[f64],
+    ) -> Result<(Vec<f64>, Vec<f64>)> {
         for (what, v) in [("q0", q0), ("qd0", qd0)] {
             if v.len() != self.dof {
                 return Err(Error::DimensionMismatch {
@@ -140,7 +172,70 @@ impl Variational {
                 });
             }
         }
-        Ok(variational_initial_state(q0, qd0, &self.directions))
+        let (mut q, mut qd) = variational_initial_state(q0, qd0, &self.directions);
+        let Some((tape, kh, k)) = &self.projection else {
+            return Ok((q, qd));
+        };
+        let (n, kh, k) = (self.dof, *kh, *k);
+        let f = Function::new(tape.clone(), params)?;
+        let mut out = vec![0.0; tape.outputs()];
+        f.eval_into(t0, q0, qd0, &mut out);
+        let mut at = 0;
+        let mut take = |count: usize| {
+            let part = out[at..at + count].to_vec();
+            at += count;
+            part
+        };
+        let upper = take(n * (n + 1) / 2);
+        let mut m = DMatrix::zeros(n, n);
+        let mut i = 0;
+        for r in 0..n {
+            for c in r..n {
+                m[(r, c)] = upper[i];
+                m[(c, r)] = upper[i];
+                i += 1;
+            }
+        }
+        let gh = DMatrix::from_row_slice(kh, n, &take(kh * n));
+        let vq = DMatrix::from_row_slice(k, n, &take(k * n));
+        let vv = DMatrix::from_row_slice(k, n, &take(k * n));
+        let singular = |what: &str| Error::InvalidInput {
+            what: "sensitivities",
+            why: format!(
+                "{what} cannot be solved at t0 = {t0}: the initial sensitivities of the \
+                 constrained model cannot be projected there"
+            ),
+        };
+        let lu = m.clone().lu();
+        let minv = lu.try_inverse().ok_or_else(|| singular("M"))?;
+        // s − M⁻¹Gᵀ (G M⁻¹ Gᵀ)⁻¹ (G s + r): the M-orthogonal correction onto G s = −r.
+        let project = |g: &DMatrix<f64>, s: &mut DVector<f64>, r: DVector<f64>| -> Result<()> {
+            if g.nrows() == 0 {
+                return Ok(());
+            }
+            let mg = &minv * g.transpose();
+            let schur = g * &mg;
+            let residual = g * &*s + r;
+            let y = schur
+                .lu()
+                .solve(&residual)
+                .ok_or_else(|| singular("G M⁻¹ Gᵀ"))?;
+            *s -= mg * y;
+            Ok(())
+        };
+        for j in 0..self.directions.len() {
+            let gp = DVector::from_vec(take(kh));
+            let vp = DVector::from_vec(take(k));
+            let cols = n + j * n..n + (j + 1) * n;
+            let mut sq = DVector::from_column_slice(&q[cols.clone()]);
+            let mut sv = DVector::from_column_slice(&qd[cols.clone()]);
+            project(&gh, &mut sq, gp)?;
+            let r = &vq * &sq + vp;
+            project(&vv, &mut sv, r)?;
+            q[cols.clone()].copy_from_slice(sq.as_slice());
+            qd[cols].copy_from_slice(sv.as_slice());
+        }
+        Ok((q, qd))
     }
 
     /// Split a run of the variational system into the model's run (its n coordinates, events
@@ -221,17 +316,19 @@ impl SensitivitySolution {
     }
 }
 
-/// Run the variational system `system` (bound from `variational`) from the model's (q₀, q̇₀)
-/// over `span` with `method` and `options`, and split the result ([`Variational::split`]).
+/// Run the variational system of `variational` at the parameter values `params` from the
+/// model's (q₀, q̇₀) over `span` with `method` and `options`, and split the result
+/// ([`Variational::split`]).
 ///
 /// Events that reset the state are refused: a reset moves the sensitivities too (by the
 /// reset's own derivatives), which the variational system does not state.
 ///
 /// # Errors
-/// As [`solve_partial`]; [`Error::InvalidInput`] for an event with a reset.
+/// As [`Variational::bind`], [`Variational::initial_state`] and [`solve_partial`];
+/// [`Error::InvalidInput`] for an event with a reset.
 pub fn solve_sensitivities(
     variational: &Variational,
-    system: &EnergyModel,
+    params: &[f64],
     q0: &[f64],
     qd0: &[f64],
     span: (f64, f64),
@@ -239,8 +336,9 @@ pub fn solve_sensitivities(
     options: &Options,
 ) -> Result<SensitivitySolution> {
     check_no_resets(options)?;
-    let (q, qd) = variational.initial_state(q0, qd0)?;
-    solve_partial(system, &q, &qd, span, method, options, None)
+    let system = variational.bind(params)?;
+    let (q, qd) = variational.initial_state(span.0, q0, qd0, params)?;
+    solve_partial(&system, &q, &qd, span, method, options, None)
         .map(|sol| variational.split(sol))
         .map_err(|failed: Failed| failed.error)
 }

@@ -52,11 +52,10 @@ fn run(
     options: &Options,
 ) -> lagrangian::Result<SensitivitySolution> {
     let (g, parts) = oscillator();
-    let variational = Variational::new(&g, 1, 2, &parts, &ALL)?;
-    let system = variational.bind(&params)?;
+    let variational = Variational::new(&g, 1, 2, &parts, None, &ALL)?;
     solve_sensitivities(
         &variational,
-        &system,
+        &params,
         &[state.0],
         &[state.1],
         (0.0, t_end),
@@ -246,20 +245,20 @@ fn bad_directions_and_states() {
         vec![Direction::Position(1)],
         vec![Direction::Velocity(3)],
     ] {
-        let result = Variational::new(&g, 1, 2, &parts, &wrt);
+        let result = Variational::new(&g, 1, 2, &parts, None, &wrt);
         assert!(
             matches!(result, Err(Error::InvalidInput { .. })),
             "{wrt:?}: {result:?}"
         );
     }
-    let variational = Variational::new(&g, 1, 2, &parts, &ALL).unwrap();
+    let variational = Variational::new(&g, 1, 2, &parts, None, &ALL).unwrap();
     assert_eq!(variational.dof(), 1);
     assert_eq!(variational.directions(), &ALL);
     assert!(matches!(
-        variational.initial_state(&[1.0, 2.0], &[0.0]),
+        variational.initial_state(0.0, &[1.0, 2.0], &[0.0], &[4.0, 0.3]),
         Err(Error::DimensionMismatch { what: "q0", .. })
     ));
-    let (q, qd) = variational.initial_state(&[0.7], &[-0.2]).unwrap();
+    let (q, qd) = variational.initial_state(0.0, &[0.7], &[-0.2], &[4.0, 0.3]).unwrap();
     assert_eq!(q, vec![0.7, 0.0, 0.0, 1.0, 0.0]);
     assert_eq!(qd, vec![-0.2, 0.0, 0.0, 0.0, 1.0]);
 }
@@ -267,14 +266,13 @@ fn bad_directions_and_states() {
 #[test]
 fn interpreted_system_agrees() {
     let (g, parts) = oscillator();
-    let variational = Variational::new(&g, 1, 2, &parts, &ALL)
+    let variational = Variational::new(&g, 1, 2, &parts, None, &ALL)
         .unwrap()
         .interpreted();
-    let system = variational.bind(&[4.0, 0.3]).unwrap();
     let options = Options::adaptive(1e-12, 1e-12).with_output(Output::Times(vec![1.0, 2.5]));
     let sol = solve_sensitivities(
         &variational,
-        &system,
+        &[4.0, 0.3],
         &[1.0],
         &[0.5],
         (0.0, 3.0),

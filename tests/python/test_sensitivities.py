@@ -588,15 +588,66 @@ def test_tuple_of_names_accepted():
     assert set(sol.sensitivities) == {"k", "q0"}
 
 
-def test_constrained_model_refused():
+def _pendulums():
+    """The same pendulum in Cartesian coordinates under its rod x² + y² = l² and in its angle."""
     x, y = lg.coordinates("x y")
-    ln = lg.Parameter("l")
-    model = lg.Model(coordinates=[x, y], kinetic=0.5 * (x.d**2 + y.d**2), potential=9.81 * y,
-                     constraints=[x**2 + y**2 - ln**2], parameters={"l": 1.0})
-    with pytest.raises(ValueError):
-        model.simulate([1.0, 0.0], [0.0, 0.0], 1.0, sensitivities=["l"])
-    with pytest.raises(ValueError):
-        model.simulate([1.0, 0.0], [0.0, 0.0], 1.0, sensitivities=["q0"])
+    m, g, ln = lg.parameters("m g l")
+    values = {"m": 1.0, "g": 9.81, "l": 1.5}
+    cart = lg.Model([x, y], kinetic=0.5 * m * (x.d**2 + y.d**2), potential=m * g * y,
+                    constraints=[x**2 + y**2 - ln**2], parameters=values)
+    th, = lg.coordinates("th")
+    mini = lg.Model([th], kinetic=0.5 * m * ln**2 * th.d**2, potential=-m * g * ln * lg.cos(th),
+                    parameters=values)
+    return cart, mini
+
+
+@pytest.mark.parametrize("method", ["dop853", "radau5", "taylor"])
+def test_constrained_model_against_its_minimal_coordinates(method):
+    # x = l sin θ on the rod: ∂x/∂g = l cos θ ∂θ/∂g from the pendulum in its angle. Along l the
+    # initial state is projected onto the moved rod in the M metric (here radially, θ₀ kept,
+    # the Cartesian velocity kept): ∂x/∂l = sin θ + l cos θ (∂θ/∂l − (θ̇₀/l) ∂θ/∂θ̇₀).
+    cart, mini = _pendulums()
+    th0, w0, l = 0.7, 0.3, 1.5
+    q0 = [l * math.sin(th0), -l * math.cos(th0)]
+    qd0 = [l * math.cos(th0) * w0, l * math.sin(th0) * w0]
+    t = np.linspace(0.0, 3.0, 7)
+    sc = cart.simulate(q0, qd0, 3.0, t_eval=t, rtol=1e-12, atol=1e-12, method=method,
+                       sensitivities=["g", "l", "m"])
+    sm = mini.simulate([th0], [w0], 3.0, t_eval=t, rtol=1e-12, atol=1e-12, method=method,
+                       sensitivities=["g", "l", "qd0"])
+    th = sm.q[:, 0]
+    dx_g = l * np.cos(th) * sm.sensitivities["g"][:, 0]
+    np.testing.assert_allclose(sc.sensitivities["g"][:, 0], dx_g, rtol=0, atol=1e-9)
+    dth_l = sm.sensitivities["l"][:, 0] - (w0 / l) * sm.sensitivities["qd0"][:, 0, 0]
+    dx_l = np.sin(th) + l * np.cos(th) * dth_l
+    np.testing.assert_allclose(sc.sensitivities["l"][:, 0], dx_l, rtol=0, atol=1e-9)
+    # The mass drops out of a pendulum's motion.
+    assert np.abs(sc.sensitivities["m"]).max() < 1e-12
+    # The run stays on the rod to the tolerance and reports its multipliers.
+    assert np.abs(sc.q[:, 0] ** 2 + sc.q[:, 1] ** 2 - l**2).max() < 1e-9
+    assert sc.multipliers.shape == (len(t), 1)
+
+
+def test_constrained_initial_sensitivities_are_tangent():
+    # Along q0 the initial sensitivities are projected onto the rod's tangent: G s = 0 and the
+    # velocity level too, for every column.
+    cart, _ = _pendulums()
+    q0, qd0 = [1.5, 0.0], [0.0, 2.0]
+    s = cart.simulate(q0, qd0, 0.5, rtol=1e-12, atol=1e-12, sensitivities=["q0", "qd0"])
+    for name in ("q0", "qd0"):
+        first = s.sensitivities[name][0]  # (2n, n): rows ∂x, ∂y, ∂ẋ, ∂ẏ
+        sq, sv = first[:2], first[2:]
+        np.testing.assert_allclose(np.array(q0) @ sq, 0.0, atol=1e-14)
+        np.testing.assert_allclose(np.array(q0) @ sv + np.array(qd0) @ sq, 0.0, atol=1e-14)
+
+
+def test_constrained_inconsistent_state_and_ensemble_refused():
+    cart, _ = _pendulums()
+    with pytest.raises(ValueError, match="constraint"):
+        cart.simulate([1.0, 0.0], [0.0, 0.0], 1.0, sensitivities=["l"])
+    with pytest.raises(ValueError, match="ensemble"):
+        cart.simulate_many([1.5, 0.0], [0.0, 1.0], 1.0, parameters={"g": [9.0, 9.81]},
+                           sensitivities=["g"])
 
 
 @pytest.mark.parametrize("q0, qd0", [([math.nan], [0.0]), ([1.0], [math.inf]), ([1.0, 2.0], [0.0])])
