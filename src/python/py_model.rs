@@ -193,9 +193,9 @@ impl PyModel {
             Some(s) => s.variational.split(sol).solution,
             None => sol,
         };
-        let failed_at = |sol: Solution, error: Error| -> Box<(Failed, Along)> {
-            let (sol, h, cut) = with_energy(model, sol);
-            let _ = cut;
+        // A failure after the run (h or an event's sensitivity cannot be evaluated): the
+        // solution as far as it goes (cut where h fails), its last state the one named.
+        let failed_at = |sol: Solution, h: Along, error: Error| -> Box<(Failed, Along)> {
             let last = sol.last().map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
             let failed = Failed {
                 error,
@@ -226,13 +226,16 @@ impl PyModel {
                             let (sol, found) = match sensitivities {
                                 Some(s) => match s.finish(model, sol) {
                                     (sol, Ok(found)) => (sol, Some(found)),
-                                    (sol, Err(error)) => return Err(failed_at(sol, error)),
+                                    (sol, Err(error)) => {
+                                        let (sol, h, _) = with_energy(model, sol);
+                                        return Err(failed_at(sol, h, error));
+                                    }
                                 },
                                 None => (sol, None),
                             };
                             match with_energy(model, sol) {
                                 (sol, h, None) => Ok((sol, h, found)),
-                                (sol, _, Some(error)) => Err(failed_at(sol, error)),
+                                (sol, h, Some(error)) => Err(failed_at(sol, h, error)),
                             }
                         }
                         Err(mut failed) => {
