@@ -109,6 +109,21 @@ pub(crate) enum Flow {
     End,
 }
 
+/// `out = v`, as moves for up to eight components rather than a call of `memcpy`: the copies of
+/// a small system's step are of a few numbers.
+#[inline(always)]
+pub(crate) fn copy(v: &[f64], out: &mut [f64]) {
+    macro_rules! fixed {
+        ($($m:literal)*) => {
+            match out.len() {
+                $($m => out.copy_from_slice(&v[..$m]),)*
+                _ => out.copy_from_slice(v),
+            }
+        };
+    }
+    fixed!(1 2 3 4 5 6 7 8)
+}
+
 impl<'a, S: Dynamics + ?Sized> Run<'a, S> {
     /// A run of `method` over `span` standing at (q₀, q̇₀), recorded and with its events
     /// started; the caller has checked the problem. `choice` is why [`Method::Auto`] chose
@@ -292,7 +307,7 @@ impl<'a, S: Dynamics + ?Sized> Run<'a, S> {
         let n = self.n;
         let (q, qd) = y.split_at(n);
         let (dq, dqd) = dy.split_at_mut(n);
-        dq.copy_from_slice(qd);
+        copy(qd, dq);
         self.system.accelerations_into(t, q, qd, dqd)
     }
 }
