@@ -174,6 +174,22 @@ fn config<'a>(
     g
 }
 
+/// The fastest of `ROUNDS` runs of each side, the sides taking turns: on a shared machine the
+/// other load only adds time, and alternating exposes both sides to the same load (criterion's
+/// medians of one side's samples, taken seconds apart from the other side's, moved by ±20 %
+/// between runs).
+fn paired(mut a: impl FnMut(), mut b: impl FnMut()) -> (f64, f64) {
+    const ROUNDS: usize = 1500;
+    let time = |f: &mut dyn FnMut()| {
+        let start = std::time::Instant::now();
+        f();
+        start.elapsed().as_nanos() as f64
+    };
+    (0..ROUNDS).fold((f64::INFINITY, f64::INFINITY), |(ta, tb), _| {
+        (ta.min(time(&mut a)), tb.min(time(&mut b)))
+    })
+}
+
 fn close(a: &[f64], b: &[f64], tol: f64, what: &str) {
     for (x, y) in a.iter().zip(b) {
         assert!(
@@ -206,8 +222,17 @@ fn loops(c: &mut Criterion) {
             // scale (the pendulum's chaos amplifies the local errors over the span).
             close(&y_ours, y_peer.as_slice(), 1e3 * tol, name);
             let group = format!("loops_{name}_{tol:e}");
+            let (t_peer, t_ours) = paired(
+                || {
+                    black_box(peer(tol));
+                },
+                || {
+                    black_box(ours(&sys, method, &options));
+                },
+            );
             meta.push(format!(
-                "\"{group}\": {{\"ode_solvers\": {n_peer}, \"ours\": {n_ours}}}"
+                "\"{group}\": {{\"rhs\": {{\"ode_solvers\": {n_peer}, \"ours\": {n_ours}}}, \
+                 \"best_ns\": {{\"ode_solvers\": {t_peer}, \"ours\": {t_ours}}}}}"
             ));
             let mut g = config(c, &group);
             g.bench_function("ode_solvers", |b| b.iter(|| black_box(peer(tol))));
@@ -221,8 +246,17 @@ fn loops(c: &mut Criterion) {
     let options = Options::fixed(T_END / steps as f64).with_output(Output::Final);
     let (y_ours, n_ours) = ours(&sys, Method::Rk4, &options);
     close(&y_ours, &hand_rk4(&sys, steps), 1e-12, "rk4");
+    let (t_hand, t_ours) = paired(
+        || {
+            black_box(hand_rk4(&sys, steps));
+        },
+        || {
+            black_box(ours(&sys, Method::Rk4, &options));
+        },
+    );
     meta.push(format!(
-        "\"loops_rk4\": {{\"hand\": {}, \"ours\": {n_ours}}}",
+        "\"loops_rk4\": {{\"rhs\": {{\"hand\": {}, \"ours\": {n_ours}}}, \
+         \"best_ns\": {{\"hand\": {t_hand}, \"ours\": {t_ours}}}}}",
         4 * steps
     ));
     let mut g = config(c, "loops_rk4");

@@ -300,7 +300,9 @@ impl<'a, S: Dynamics + ?Sized> Run<'a, S> {
         Ok(moved)
     }
 
-    /// ẏ = (q̇, q̈) at (t, y), counted.
+    /// ẏ = (q̇, q̈) at (t, y), counted. Inline: a small system's right-hand side is then compiled
+    /// into the stepper's loop, as into a hand-written one.
+    #[inline(always)]
     pub(crate) fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<()> {
         self.stats.rhs_evaluations += 1;
         self.poll(t)?;

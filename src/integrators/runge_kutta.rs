@@ -70,6 +70,7 @@ fn combine(y: &[f64], h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f64]) {
 /// out += h Σⱼ wⱼ kⱼ, skipping zero weights: over vectors of a length known at compile time for
 /// the small systems (the loops unrolled, as over a hand-written `[f64; 4]`), of any length
 /// otherwise; the same operations in the same order either way.
+#[inline]
 fn accumulate(h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f64]) {
     match out.len() {
         2 => accumulate_n::<2>(h, w, k, out),
