@@ -8,8 +8,8 @@ Each row is one pair from the same bench run: the limit (ode_solvers' DOP853 or 
 written out by hand) and this crate's loop on the same hand-written right-hand side. "ratio" is
 time over the limit's time; "per evaluation" divides each side's time by its own evaluation
 count (the two step-size controls take nearly, not exactly, the same steps). Times are the
-fastest of 1 500 runs of each side taking turns (the bench's `paired`), which the other load of
-a shared machine moves least; criterion's medians follow in a second table. All are read from
+fastest of 1 500 runs of each side, in blocks of 25 taking turns (the bench's `paired`), which
+the other load of a shared machine moves least; criterion's medians follow in a second table. All are read from
 $CARGO_TARGET_DIR/criterion (default target/criterion): loops_meta.json and the estimates.
 """
 import json
@@ -40,8 +40,10 @@ rows = [
     ("DOPRI5, 1e-6", "loops_dopri5_1e-6", "ode_solvers"),
     ("DOPRI5, 1e-9", "loops_dopri5_1e-9", "ode_solvers"),
     ("RK4, 1 000 steps", "loops_rk4", "hand"),
+    ("Störmer–Verlet, Kepler, 1 000 steps", "loops_stormer_verlet", "hand"),
+    ("Yoshida 4, Kepler, 1 000 steps", "loops_yoshida4", "hand"),
 ]
-print("| double pendulum to t = 10 | limit | this crate | ratio | per evaluation |")
+print("| to t = 10 (double pendulum unless named) | limit | this crate | ratio | per evaluation |")
 print("|---|---|---|---|---|")
 for label, group, limit in rows:
     t_lim, t_ours = meta[group]["best_ns"][limit], meta[group]["best_ns"]["ours"]

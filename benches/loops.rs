@@ -8,7 +8,10 @@
 //!   and [`Output::Final`];
 //! - `loops_dopri5_<tol>/{ode_solvers,ours}`: the same with DOPRI5;
 //! - `loops_rk4/{hand,ours}`: 1 000 fixed steps of RK4 (dt = 0.01), a loop over `[f64; 4]`
-//!   written out by hand against [`solve`] with [`Method::Rk4`] and [`Options::fixed`].
+//!   written out by hand against [`solve`] with [`Method::Rk4`] and [`Options::fixed`];
+//! - `loops_{stormer_verlet,yoshida4}/{hand,ours}`: the explicit splittings, 1 000 steps on
+//!   Kepler's problem (e = 0.5, a separable system; [`HandKepler`]), a hand-written loop over
+//!   `[f64; 2]` with the same coefficients against [`solve`].
 //!
 //! The two sides of a pair take nearly the same steps, not the same ones (their step-size
 //! controls differ in details); the bench writes each side's evaluation count to
@@ -16,8 +19,8 @@
 //! ratios, of time and of time per evaluation.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use lagrangian::integrators::{Method, Options, Output, solve};
-use lagrangian::scenes::DoublePendulum;
+use lagrangian::integrators::{Method, Options, Output, SymplecticTableau, solve};
+use lagrangian::scenes::{DoublePendulum, Kepler};
 use lagrangian::{Dynamics, Result, Scalar, Structure};
 use std::hint::black_box;
 use std::time::Duration;
@@ -162,6 +165,91 @@ fn hand_rk4(sys: &Hand, steps: usize) -> [f64; 4] {
     y
 }
 
+/// Kepler's problem (m = μ = 1) by hand, for the splittings: T = |q̇|²/2, U = −1/|q|,
+/// ∂U/∂q = q/|q|³, M = I.
+struct HandKepler;
+
+impl Dynamics for HandKepler {
+    fn dof(&self) -> usize {
+        2
+    }
+    fn structure(&self) -> Structure {
+        Structure {
+            dof: 2,
+            time_dependent: false,
+            constant_mass: true,
+            separable: true,
+            dissipative: false,
+            forced: false,
+        }
+    }
+    fn kinetic_energy<D: Scalar>(&self, _t: D, _q: &[D], qd: &[D]) -> D {
+        (qd[0] * qd[0] + qd[1] * qd[1]) * 0.5
+    }
+    fn potential_energy<D: Scalar>(&self, _t: D, q: &[D]) -> D {
+        -(q[0] * q[0] + q[1] * q[1]).sqrt().recip()
+    }
+    fn potential_gradient_into<D: Scalar>(&self, _t: D, q: &[D], out: &mut [D]) {
+        let g = kepler_gradient([q[0], q[1]]);
+        out.copy_from_slice(&g);
+    }
+    fn generalized_forces_into<D: Scalar>(&self, _t: D, _q: &[D], _qd: &[D], out: &mut [D]) {
+        out.fill(D::zero());
+    }
+    fn dissipative_forces_into<D: Scalar>(&self, _t: D, _q: &[D], _qd: &[D], out: &mut [D]) {
+        out.fill(D::zero());
+    }
+    fn momenta_into<D: Scalar>(&self, _t: D, _q: &[D], qd: &[D], out: &mut [D]) {
+        out.copy_from_slice(qd);
+    }
+    fn mass_matrix_into<D: Scalar>(&self, _t: D, _q: &[D], _qd: &[D], out: &mut [D]) {
+        out.copy_from_slice(&[D::one(), D::zero(), D::zero(), D::one()]);
+    }
+    fn accelerations_into<D: Scalar>(
+        &self,
+        _t: D,
+        q: &[D],
+        _qd: &[D],
+        out: &mut [D],
+    ) -> Result<()> {
+        let g = kepler_gradient([q[0], q[1]]);
+        out.copy_from_slice(&[-g[0], -g[1]]);
+        Ok(())
+    }
+}
+
+/// ∂U/∂q = q/|q|³: the force both sides of the splittings' pairs evaluate.
+fn kepler_gradient<D: Scalar>(q: [D; 2]) -> [D; 2] {
+    let r2 = q[0] * q[0] + q[1] * q[1];
+    let s = (r2 * r2.sqrt()).recip();
+    [q[0] * s, q[1] * s]
+}
+
+/// A splitting written out by hand over `[f64; 2]`: `steps` steps of `T_END / steps` of the
+/// kick–drift sequence `tab` (the same coefficients as the library's, in the same order).
+fn hand_splitting(tab: &SymplecticTableau, q0: [f64; 2], v0: [f64; 2], steps: usize) -> [f64; 4] {
+    let h = T_END / steps as f64;
+    let force = |q: &[f64; 2]| {
+        let g = kepler_gradient(*q);
+        [-g[0], -g[1]]
+    };
+    let (mut q, mut v) = (q0, v0);
+    let mut acc = force(&q);
+    let s = tab.a.len();
+    for _ in 0..steps {
+        for j in 0..s {
+            let hb = h * tab.b[j];
+            v = [v[0] + hb * acc[0], v[1] + hb * acc[1]];
+            let ha = h * tab.a[j];
+            q = [q[0] + ha * v[0], q[1] + ha * v[1]];
+            acc = force(&q);
+        }
+        let hb = h * tab.b[s];
+        v = [v[0] + hb * acc[0], v[1] + hb * acc[1]];
+    }
+    [q[0], q[1], v[0], v[1]]
+}
+
 /// Short measurements: the machine is shared.
 fn config<'a>(
     c: &'a mut Criterion,
@@ -174,19 +262,24 @@ fn config<'a>(
     g
 }
 
-/// The fastest of `ROUNDS` runs of each side, the sides taking turns: on a shared machine the
-/// other load only adds time, and alternating exposes both sides to the same load (criterion's
-/// medians of one side's samples, taken seconds apart from the other side's, moved by ±20 %
-/// between runs).
+/// The fastest run of each side over `BLOCKS` blocks of `RUNS` runs, the sides taking turns by
+/// block: on a shared machine the other load only adds time, and taking turns exposes both
+/// sides to the same load (criterion's medians of one side's samples, taken seconds apart from
+/// the other side's, moved by ±20 % between runs), while the runs of a block find the caches
+/// and branch predictors warm as a loop's do (run by run, the larger code of a side paid for
+/// the other's in between).
 fn paired(mut a: impl FnMut(), mut b: impl FnMut()) -> (f64, f64) {
-    const ROUNDS: usize = 1500;
-    let time = |f: &mut dyn FnMut()| {
-        let start = std::time::Instant::now();
-        f();
-        start.elapsed().as_nanos() as f64
+    const BLOCKS: usize = 60;
+    const RUNS: usize = 25;
+    let best = |f: &mut dyn FnMut()| {
+        (0..RUNS).fold(f64::INFINITY, |best, _| {
+            let start = std::time::Instant::now();
+            f();
+            best.min(start.elapsed().as_nanos() as f64)
+        })
     };
-    (0..ROUNDS).fold((f64::INFINITY, f64::INFINITY), |(ta, tb), _| {
-        (ta.min(time(&mut a)), tb.min(time(&mut b)))
+    (0..BLOCKS).fold((f64::INFINITY, f64::INFINITY), |(ta, tb), _| {
+        (ta.min(best(&mut a)), tb.min(best(&mut b)))
     })
 }
 
@@ -265,6 +358,53 @@ fn loops(c: &mut Criterion) {
         b.iter(|| black_box(ours(&sys, Method::Rk4, &options)))
     });
     g.finish();
+    let kepler = HandKepler;
+    closed_forms::check(
+        "Kepler",
+        &kepler,
+        &Kepler::new(1.0, 1.0).system(),
+        &closed_forms::states(2, 2.0),
+    );
+    let (q0, v0) = Kepler::new(1.0, 1.0).periapsis_state(1.0, 0.5).unwrap();
+    let splittings = [
+        (Method::StormerVerlet, SymplecticTableau::stormer_verlet()),
+        (Method::Yoshida4, SymplecticTableau::yoshida4()),
+    ];
+    for (method, tab) in &splittings {
+        let method = *method;
+        let run = |options: &Options| {
+            let sol = solve(&kepler, &q0, &v0, (0.0, T_END), method, options).unwrap();
+            let (_, q, qd) = sol.last().unwrap();
+            ([q[0], q[1], qd[0], qd[1]], sol.stats.rhs_evaluations)
+        };
+        let (y_ours, n_ours) = run(&options);
+        close(
+            &y_ours,
+            &hand_splitting(tab, q0, v0, steps),
+            1e-12,
+            tab.name,
+        );
+        let group = format!("loops_{}", tab.name);
+        let (t_hand, t_ours) = paired(
+            || {
+                black_box(hand_splitting(tab, q0, v0, steps));
+            },
+            || {
+                black_box(run(&options));
+            },
+        );
+        meta.push(format!(
+            "\"{group}\": {{\"rhs\": {{\"hand\": {}, \"ours\": {n_ours}}}, \
+             \"best_ns\": {{\"hand\": {t_hand}, \"ours\": {t_ours}}}}}",
+            1 + (tab.b.len() - 1) * steps
+        ));
+        let mut g = config(c, &group);
+        g.bench_function("hand", |b| {
+            b.iter(|| black_box(hand_splitting(tab, q0, v0, steps)))
+        });
+        g.bench_function("ours", |b| b.iter(|| black_box(run(&options))));
+        g.finish();
+    }
     let dir = std::env::var("CARGO_TARGET_DIR").unwrap_or_else(|_| "target".into());
     let path = std::path::Path::new(&dir)
         .join("criterion")
