@@ -261,7 +261,7 @@ impl Kick {
         if self.diagonal {
             let n = run.n;
             for (i, o) in out.iter_mut().enumerate() {
-                *o = *o * self.factor[i * n + i];
+                *o *= self.factor[i * n + i];
             }
             if out.iter().all(|v| v.is_finite()) {
                 return Ok(());

@@ -260,6 +260,7 @@ fn runge_kutta_runs_keeping_fewer_steps_take_the_same_steps() {
                 &options(output),
                 None,
             )
+            .map_err(Box::new)
         };
         // A finished run.
         let all = run(Output::Steps, 2.0).unwrap();
