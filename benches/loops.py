@@ -21,11 +21,13 @@ from pathlib import Path
 root = Path(os.environ.get("CARGO_TARGET_DIR", "target")) / "criterion"
 
 if "--read" not in sys.argv:
-    subprocess.run(
+    bench = subprocess.run(
         ["cargo", "bench", "-p", "lagrangian-benches", "--bench", "loops"],
-        check=True,
-        stdout=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
     )
+    if bench.returncode != 0:
+        sys.exit(bench.stderr)
 
 
 def median_ns(group, name):
