@@ -24,7 +24,7 @@
 
 use super::dense::{Ends, Interpolant};
 use super::rattle::{Manifold, holonomic_only};
-use super::run::{Flow, Integrator, Run, SegmentStepper, copy};
+use super::run::{Flow, Integrator, Run, SegmentStepper, axpy, copy};
 use crate::dynamics::Dynamics;
 use crate::eom;
 use crate::error::{Error, Result};
@@ -483,9 +483,7 @@ impl SplittingStepper {
         let last_drift = a.len() - 1;
         for j in 0..a.len() {
             let hb = h * b[j];
-            for (vi, ai) in v.iter_mut().zip(acc.iter()) {
-                *vi += hb * ai;
-            }
+            axpy(hb, acc, v);
             let ha = h * a[j];
             let tj = if j == last_drift {
                 t_new
@@ -511,18 +509,12 @@ impl SplittingStepper {
                         },
                         e => e,
                     })?,
-                None => {
-                    for (qi, vi) in q.iter_mut().zip(v.iter()) {
-                        *qi += ha * vi;
-                    }
-                }
+                None => axpy(ha, v, q),
             }
             kick.accelerations(run, tj, q, v, acc)?;
         }
         let hb = h * b[a.len()];
-        for (vi, ai) in v.iter_mut().zip(acc.iter()) {
-            *vi += hb * ai;
-        }
+        axpy(hb, acc, v);
         if let Some((c, m)) = constraints {
             let residual = m.project_velocity(c, t_new, q, v)?;
             run.stats.constraint_residual = run.stats.constraint_residual.max(residual);
