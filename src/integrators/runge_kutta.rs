@@ -4,7 +4,7 @@
 //! `dop853.f`).
 
 use super::dense::{Ends, Interpolant};
-use super::run::{Flow, Integrator, Run, SegmentStepper};
+use super::run::{Flow, Integrator, Run, SegmentStepper, copy};
 use super::tableau::{ErrorEstimate, Tableau};
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
@@ -63,17 +63,47 @@ impl Cache {
 
 /// out = y + h Σⱼ wⱼ kⱼ, skipping zero weights.
 fn combine(y: &[f64], h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f64]) {
-    out.copy_from_slice(y);
+    copy(y, out);
     accumulate(h, w, k, out);
 }
 
-/// out += h Σⱼ wⱼ kⱼ, skipping zero weights.
+/// out += h Σⱼ wⱼ kⱼ, skipping zero weights: over vectors of a length known at compile time for
+/// the small systems (the loops unrolled, as over a hand-written `[f64; 4]`), of any length
+/// otherwise; the same operations in the same order either way.
+#[inline]
 fn accumulate(h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f64]) {
-    for (wj, kj) in w.iter().zip(k) {
-        if *wj != 0.0 {
-            let hw = h * wj;
-            for (o, v) in out.iter_mut().zip(kj) {
-                *o += hw * v;
+    match out.len() {
+        2 => accumulate_n::<2>(h, w, k, out),
+        4 => accumulate_n::<4>(h, w, k, out),
+        6 => accumulate_n::<6>(h, w, k, out),
+        8 => accumulate_n::<8>(h, w, k, out),
+        _ => accumulate_n::<0>(h, w, k, out),
+    }
+}
+
+/// [`accumulate`] over `M` components (`M = 0`: as many as `out` has).
+#[inline(always)]
+fn accumulate_n<const M: usize>(h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f64]) {
+    if M > 0 {
+        let out: &mut [f64; M] = out.try_into().expect("M components");
+        let mut acc = *out;
+        for (wj, kj) in w.iter().zip(k) {
+            if *wj != 0.0 {
+                let hw = h * wj;
+                let kj: &[f64; M] = kj[..M].try_into().expect("M components");
+                for (o, v) in acc.iter_mut().zip(kj) {
+                    *o += hw * v;
+                }
+            }
+        }
+        *out = acc;
+    } else {
+        for (wj, kj) in w.iter().zip(k) {
+            if *wj != 0.0 {
+                let hw = h * wj;
+                for (o, v) in out.iter_mut().zip(kj) {
+                    *o += hw * v;
+                }
             }
         }
     }
@@ -96,13 +126,32 @@ impl ExplicitRk {
         t: f64,
         h: f64,
     ) -> Result<()> {
+        // One instance per small length: its combinations unrolled inline.
+        match c.y.len() {
+            2 => self.stages_n::<S, 2>(run, c, t, h),
+            4 => self.stages_n::<S, 4>(run, c, t, h),
+            6 => self.stages_n::<S, 6>(run, c, t, h),
+            8 => self.stages_n::<S, 8>(run, c, t, h),
+            _ => self.stages_n::<S, 0>(run, c, t, h),
+        }
+    }
+
+    /// [`ExplicitRk::stages`] over `M` components (`M = 0`: any number).
+    fn stages_n<S: Dynamics + ?Sized, const M: usize>(
+        &self,
+        run: &mut Run<'_, S>,
+        c: &mut Cache,
+        t: f64,
+        h: f64,
+    ) -> Result<()> {
         let tab = &self.tableau;
         let s = tab.stages();
         let probe = tab.stiffness.map(|p| p.stage);
         for i in 1..s {
-            combine(&c.y, h, &tab.a[i], &c.k[..i], &mut c.stage);
+            copy(&c.y, &mut c.stage);
+            accumulate_n::<M>(h, &tab.a[i], &c.k[..i], &mut c.stage);
             if probe == Some(i) {
-                c.probe.copy_from_slice(&c.stage);
+                copy(&c.stage, &mut c.probe);
             }
             let ti = if tab.c[i] == 1.0 {
                 t + h
@@ -112,11 +161,13 @@ impl ExplicitRk {
             run.rhs(ti, &c.stage, &mut c.k[i])?;
         }
         if tab.fsal {
-            c.y_new.copy_from_slice(&c.stage);
+            // The last stage's argument is y₁ (the stage buffer is free until the next step).
+            std::mem::swap(&mut c.y_new, &mut c.stage);
             let (lo, hi) = c.k.split_at_mut(s);
-            hi[0].copy_from_slice(&lo[s - 1]);
+            copy(&lo[s - 1], &mut hi[0]);
         } else {
-            combine(&c.y, h, &tab.b, &c.k[..s], &mut c.y_new);
+            copy(&c.y, &mut c.y_new);
+            accumulate_n::<M>(h, &tab.b, &c.k[..s], &mut c.y_new);
         }
         Ok(())
     }
@@ -187,7 +238,8 @@ impl ExplicitRk {
 
     /// Accept the step (t, t + h): build its interpolant when the run needs it — Hairer's
     /// continuous extension when the tableau has one (its extra stages are evaluated here, only
-    /// then), quintic Hermite in q otherwise — hand it to the run, and make y₁ the new y.
+    /// then), quintic Hermite in q otherwise — hand it to the run, and make y₁ the new y. A
+    /// `quiet` step that does not end the span is only counted ([`Run::quiet_steps`]).
     fn advance<S: Dynamics + ?Sized>(
         &self,
         run: &mut Run<'_, S>,
@@ -195,6 +247,7 @@ impl ExplicitRk {
         t: f64,
         t_new: f64,
         last: bool,
+        quiet: bool,
     ) -> Result<Flow> {
         run.stats.accepted_steps += 1;
         let h = t_new - t;
@@ -204,6 +257,12 @@ impl ExplicitRk {
             // The end moved onto the constraints: its derivative anew (the interpolant's end
             // and, first same as last, the next step's first stage).
             run.rhs(t_new, &c.y_new, &mut c.k[s])?;
+        }
+        if quiet && !last {
+            run.out.skip(1);
+            std::mem::swap(&mut c.y, &mut c.y_new);
+            c.k.swap(0, s);
+            return Ok(Flow::Continue);
         }
         let hermite = Interpolant::Hermite {
             t,
@@ -259,13 +318,14 @@ impl ExplicitRk {
         Ok(flow)
     }
 
-    /// Step `i` of `steps` equal steps.
+    /// Step `i` of `steps` equal steps; `quiet` as in [`ExplicitRk::advance`].
     fn fixed_step<S: Dynamics + ?Sized>(
         &self,
         run: &mut Run<'_, S>,
         c: &mut Cache,
         i: usize,
         steps: usize,
+        quiet: bool,
     ) -> Result<Flow> {
         let t = run.grid_time(i, steps);
         let t_new = run.grid_time(i + 1, steps);
@@ -277,7 +337,7 @@ impl ExplicitRk {
             });
         }
         self.f_new(run, c, t_new)?;
-        self.advance(run, c, t, t_new, i + 1 == steps)
+        self.advance(run, c, t, t_new, i + 1 == steps, quiet)
     }
 
     /// Hairer's initial step (`HINIT`): h such that h^order · max(‖f₀‖, ‖f′‖) = 0.01 in the
@@ -356,12 +416,14 @@ impl ExplicitRk {
         })
     }
 
-    /// One accepted step of error-controlled size from `state.t`, rejected trials retried.
+    /// One accepted step of error-controlled size from `state.t`, rejected trials retried;
+    /// `quiet` as in [`ExplicitRk::advance`].
     fn adaptive_step<S: Dynamics + ?Sized>(
         &self,
         run: &mut Run<'_, S>,
         c: &mut Cache,
         state: &mut Control,
+        quiet: bool,
     ) -> Result<Flow> {
         let tab = &self.tableau;
         let ctl = tab.control;
@@ -478,7 +540,7 @@ impl ExplicitRk {
                         }
                     }
                 }
-                let flow = self.advance(run, c, t, t_new, last)?;
+                let flow = self.advance(run, c, t, t_new, last, quiet)?;
                 if h_new.abs() > h_max {
                     h_new = dir * h_max;
                 }
@@ -569,14 +631,47 @@ struct Control {
 }
 
 impl<S: Dynamics + ?Sized> SegmentStepper<S> for RkStepper {
+    /// The steps that nothing watches go in a row inside one call, only counted: without the
+    /// solver's round trip, the recorder and the interpolant per step, as a hand-written loop.
     fn step(&mut self, run: &mut Run<'_, S>) -> Result<Flow> {
-        match &mut self.mode {
-            Mode::Fixed { i, steps } => {
-                let flow = self.rk.fixed_step(run, &mut self.c, *i, *steps)?;
-                *i += 1;
-                Ok(flow)
+        let mut quiet = run.quiet_steps();
+        let mut stepped = false;
+        loop {
+            let flow = match &mut self.mode {
+                Mode::Fixed { i, steps } => {
+                    let flow = self.rk.fixed_step(run, &mut self.c, *i, *steps, quiet > 0);
+                    if flow.is_ok() {
+                        *i += 1;
+                    }
+                    flow
+                }
+                Mode::Adaptive(control) => {
+                    self.rk.adaptive_step(run, &mut self.c, control, quiet > 0)
+                }
+            };
+            match flow {
+                // A quiet step (a step that ends the span is not).
+                Ok(Flow::Continue) if quiet > 0 => {
+                    quiet -= 1;
+                    stepped = true;
+                }
+                Err(e) if stepped => {
+                    // The failure names the last accepted state, from which this step started.
+                    run.out.reached(self.t(run), &self.c.y);
+                    return Err(e);
+                }
+                flow => return flow,
             }
-            Mode::Adaptive(control) => self.rk.adaptive_step(run, &mut self.c, control),
+        }
+    }
+}
+
+impl RkStepper {
+    /// The time of the current state.
+    fn t<S: Dynamics + ?Sized>(&self, run: &Run<'_, S>) -> f64 {
+        match &self.mode {
+            Mode::Fixed { i, steps } => run.grid_time(*i, *steps),
+            Mode::Adaptive(control) => control.t,
         }
     }
 }

@@ -24,7 +24,7 @@
 
 use super::dense::{Ends, Interpolant};
 use super::rattle::{Manifold, holonomic_only};
-use super::run::{Flow, Integrator, Run, SegmentStepper};
+use super::run::{Flow, Integrator, Run, SegmentStepper, axpy, copy};
 use crate::dynamics::Dynamics;
 use crate::eom;
 use crate::error::{Error, Result};
@@ -228,11 +228,16 @@ fn forces_depend_on_velocity<S: Dynamics + ?Sized>(
 /// The kick's acceleration M⁻¹(Q″ − ∂U/∂q) with M factored once.
 struct Kick {
     factor: Vec<f64>,
+    /// Whether M is diagonal (its factor's L the identity): the solve is then one product per
+    /// coordinate, with the bits of the full solve (whose terms with L's zeros add nothing).
+    diagonal: bool,
     forced: bool,
     buf: Vec<f64>,
 }
 
 impl Kick {
+    /// Inline: a small system's force is then compiled into the step, as in a hand-written loop.
+    #[inline]
     fn accelerations<S: Dynamics + ?Sized>(
         &mut self,
         run: &mut Run<'_, S>,
@@ -252,6 +257,19 @@ impl Kick {
             for (o, f) in out.iter_mut().zip(&self.buf) {
                 *o += f;
             }
+        }
+        if self.diagonal {
+            let n = run.n;
+            for (i, o) in out.iter_mut().enumerate() {
+                *o *= self.factor[i * n + i];
+            }
+            if out.iter().all(|v| v.is_finite()) {
+                return Ok(());
+            }
+            return Err(Error::NonFinite {
+                what: "accelerations",
+                t,
+            });
         }
         eom::solve(&self.factor, run.n, t, out)
     }
@@ -328,8 +346,11 @@ impl Integrator for Splitting {
         run.system.mass_matrix_into(t0, q0, qd0, &mut factor);
         eom::factor(&mut factor, n, t0, q0)?;
         run.stats.factorizations += 1;
+        // L is the factor's strict lower triangle (its upper one is the factorization's scratch).
+        let diagonal = (0..n).all(|i| (0..i).all(|j| factor[i * n + j] == 0.0));
         let mut kick = Kick {
             factor,
+            diagonal,
             forced: run.system.structure().forced,
             buf: vec![0.0; n],
         };
@@ -395,7 +416,38 @@ struct SplittingStepper {
 }
 
 impl<S: Dynamics + ?Sized> SegmentStepper<S> for SplittingStepper {
+    /// The steps that nothing watches go in a row inside one call, only counted, as in the
+    /// Runge–Kutta stepper.
     fn step(&mut self, run: &mut Run<'_, S>) -> Result<Flow> {
+        let mut quiet = run.quiet_steps();
+        let mut stepped = false;
+        loop {
+            match self.step_once(run, quiet > 0) {
+                Ok(Flow::Continue) if quiet > 0 => {
+                    quiet -= 1;
+                    stepped = true;
+                }
+                Err(e) if stepped => {
+                    // The failure names the last accepted state, from which this step started
+                    // (`y` holds it: the step may have moved q and v).
+                    run.out
+                        .reached(run.grid_time(self.i - 1, self.steps), &self.y);
+                    return Err(e);
+                }
+                flow => return flow,
+            }
+        }
+    }
+}
+
+impl SplittingStepper {
+    /// Step `i` of `steps`; a `quiet` step that does not end the span is only counted
+    /// ([`Run::quiet_steps`]).
+    fn step_once<S: Dynamics + ?Sized>(
+        &mut self,
+        run: &mut Run<'_, S>,
+        quiet: bool,
+    ) -> Result<Flow> {
         let Self {
             split,
             manifold,
@@ -431,9 +483,7 @@ impl<S: Dynamics + ?Sized> SegmentStepper<S> for SplittingStepper {
         let last_drift = a.len() - 1;
         for j in 0..a.len() {
             let hb = h * b[j];
-            for (vi, ai) in v.iter_mut().zip(acc.iter()) {
-                *vi += hb * ai;
-            }
+            axpy(hb, acc, v);
             let ha = h * a[j];
             let tj = if j == last_drift {
                 t_new
@@ -459,18 +509,12 @@ impl<S: Dynamics + ?Sized> SegmentStepper<S> for SplittingStepper {
                         },
                         e => e,
                     })?,
-                None => {
-                    for (qi, vi) in q.iter_mut().zip(v.iter()) {
-                        *qi += ha * vi;
-                    }
-                }
+                None => axpy(ha, v, q),
             }
             kick.accelerations(run, tj, q, v, acc)?;
         }
         let hb = h * b[a.len()];
-        for (vi, ai) in v.iter_mut().zip(acc.iter()) {
-            *vi += hb * ai;
-        }
+        axpy(hb, acc, v);
         if let Some((c, m)) = constraints {
             let residual = m.project_velocity(c, t_new, q, v)?;
             run.stats.constraint_residual = run.stats.constraint_residual.max(residual);
@@ -485,8 +529,12 @@ impl<S: Dynamics + ?Sized> SegmentStepper<S> for SplittingStepper {
         if dense && manifold.is_some() {
             constrained_accelerations(run, t_new, q, v, a_end)?;
         }
-        y[..n].copy_from_slice(q);
-        y[n..].copy_from_slice(v);
+        copy(q, &mut y[..n]);
+        copy(v, &mut y[n..]);
+        if quiet && i + 1 < steps {
+            run.out.skip(1);
+            return Ok(Flow::Continue);
+        }
         let step = dense.then(|| Interpolant::Hermite {
             t,
             h,

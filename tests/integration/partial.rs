@@ -230,3 +230,72 @@ fn non_finite_inside_an_implicit_step_is_reported_as_non_finite() {
         assert!(q_last[0] > 0.0 && q_last[0].is_finite());
     }
 }
+
+/// The explicit Runge–Kutta methods take the steps that nothing watches in a row, only counted
+/// (issue 43): kept every 7th step or at the end only, a run takes the same steps, bit for bit,
+/// as one keeping every step — on ẍ = x² up to t = 2 and, over (0, 5), up to its blow-up, where
+/// the failure names the same last accepted state and the same work.
+#[test]
+fn runge_kutta_runs_keeping_fewer_steps_take_the_same_steps() {
+    let system = System::new(1, UnitMass).with_potential(Cubic);
+    let (q0, qd0) = start();
+    let row = |sol: &lagrangian::integrators::Solution, i: usize| {
+        [sol.t[i], sol.q_at(i)[0], sol.qd_at(i)[0]].map(f64::to_bits)
+    };
+    for method in [Method::Rk4, Method::Dopri5, Method::Dop853] {
+        let options = |output: Output| {
+            match method {
+                Method::Rk4 => Options::fixed(1e-3),
+                _ => Options::adaptive(1e-10, 1e-10),
+            }
+            .with_output(output)
+        };
+        let run = |output: Output, t_end: f64| {
+            solve_partial(
+                &system,
+                &q0,
+                &qd0,
+                (0.0, t_end),
+                method,
+                &options(output),
+                None,
+            )
+            .map_err(Box::new)
+        };
+        // A finished run.
+        let all = run(Output::Steps, 2.0).unwrap();
+        let steps = all.stats.accepted_steps;
+        assert!(steps > 20, "{method}: {steps} steps");
+        for (output, kept) in [
+            (
+                Output::Every(7),
+                (0..=steps)
+                    .filter(|i| i % 7 == 0 || *i == steps)
+                    .collect::<Vec<_>>(),
+            ),
+            (Output::Final, vec![steps]),
+        ] {
+            let some = run(output.clone(), 2.0).unwrap();
+            assert_eq!(some.stats, all.stats, "{method} {output:?}");
+            assert_eq!(some.len(), kept.len(), "{method} {output:?}");
+            for (i, &k) in kept.iter().enumerate() {
+                assert_eq!(row(&some, i), row(&all, k), "{method} {output:?} row {i}");
+            }
+        }
+        // A failed run: the same last state and work.
+        let all = run(Output::Steps, 5.0).unwrap_err();
+        let sol = all.partial.as_ref().unwrap();
+        for output in [Output::Every(7), Output::Final] {
+            let some = run(output.clone(), 5.0).unwrap_err();
+            assert_eq!(some.error, all.error, "{method} {output:?}");
+            assert_eq!(some.last, all.last, "{method} {output:?}");
+            let partial = some.partial.as_ref().unwrap();
+            assert_eq!(partial.stats, sol.stats, "{method} {output:?}");
+            assert_eq!(
+                row(partial, partial.len() - 1),
+                row(sol, sol.len() - 1),
+                "{method} {output:?}"
+            );
+        }
+    }
+}
