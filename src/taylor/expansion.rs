@@ -114,6 +114,24 @@ impl TaylorProgram {
         self.compile_unrolled(order)
     }
 
+    /// A run about to expand to `order` about `more` times: compile the unrolled expansion now
+    /// if the expansions counted so far and these reach `UNROLL_AFTER`, the count after which it
+    /// would be compiled anyway (within this run, then): the run's steps before that count then
+    /// run the unrolled code too. Whether expansions to `order` are unrolled from now on.
+    #[cfg(feature = "jit")]
+    fn plan(&self, order: usize, more: usize) -> bool {
+        let Some(count) = self.expansions.get(order) else {
+            return false;
+        };
+        if let Some(kernel) = self.unrolled[order].get() {
+            return kernel.is_some();
+        }
+        if count.load(Ordering::Relaxed).saturating_add(more) < kernel::UNROLL_AFTER {
+            return false;
+        }
+        self.compile_unrolled(order).is_some()
+    }
+
     /// The expansion to `order` unrolled, if it is compiled (not counted as an expansion).
     #[cfg(feature = "jit")]
     fn compiled(&self, order: usize) -> Option<&kernel::ExpansionKernel> {
@@ -344,6 +362,20 @@ impl Drop for Expansion {
 }
 
 impl Expansion {
+    /// The run expanding will expand about `more` times again: compile its unrolled expansion
+    /// now if its program would compile it within those anyway (after `UNROLL_AFTER`
+    /// expansions to this order). Whether the expansions are unrolled from now on (false
+    /// without the `jit` feature).
+    pub fn plan(&self, more: usize) -> bool {
+        #[cfg(feature = "jit")]
+        return self.program.plan(self.work.order, more);
+        #[cfg(not(feature = "jit"))]
+        {
+            let _ = more;
+            false
+        }
+    }
+
     /// The highest order computed.
     pub fn order(&self) -> usize {
         self.work.order
