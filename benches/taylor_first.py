@@ -11,6 +11,9 @@ For each case (scene of ``benches/taylor.py``, tolerance) and each round, on a n
                 of them: the per-run cost before the unrolled expansion is compiled
     steady      after the model has expanded 10⁴ + 1 times to the run's order (the unrolled
                 expansion compiled): best of 20 runs
+    compile     the unrolled expansion's compile: the slowest of the runs up to it less the
+                fastest; and the expansions that repay it, compile / ((next − steady) / steps)
+                (`UNROLL_AFTER` = 10⁴ in src/taylor/kernel.rs is meant to be about this)
 
 heyoka.py: ``taylor_adaptive(heyoka.lagrangian(...), tol=τ)`` built with its caches of compiled
 code switched off (build), then ``propagate_until`` after resetting time and state (best of 20:
@@ -21,7 +24,7 @@ Run from the repository root with the module installed and heyoka.py in the envi
 
     python3 benches/taylor_first.py [--rounds R] [--cases dp12,dp9,forced9]
 
-About 30 s with the default 3 rounds. Not a test: timings depend on the machine and its load.
+About a minute with the default 3 rounds. Not a test: timings depend on the machine and its load.
 """
 
 from __future__ import annotations
@@ -69,9 +72,12 @@ def ours(scene: tb.Scene, tol: float) -> dict:
     out["next"] = best
     # Past the unrolled compile at this order (one expansion a step).
     runs = tb.UNROLL_AFTER // max(1, steps) + 2
+    times = []
     for _ in range(runs):
         ig.t, ig.q, ig.qd = 0.0, scene.q0, scene.qd0
+        start = time.perf_counter()
         ig.propagate_until(scene.t_end)
+        times.append(time.perf_counter() - start)
     best = math.inf
     for _ in range(20):
         ig.t, ig.q, ig.qd = 0.0, scene.q0, scene.qd0
@@ -80,6 +86,8 @@ def ours(scene: tb.Scene, tol: float) -> dict:
         ig.q, ig.qd
         best = min(best, time.perf_counter() - start)
     out["steady"] = best
+    # The run that compiled the unrolled expansion, less a run without the compile.
+    out["compile"] = max(times) - min(times)
     return out
 
 
@@ -113,7 +121,7 @@ def main() -> None:
     print("ms, medians over rounds; ratios to heyoka's steady state")
     print(f"{'case':9} {'model':>8} {'1st run':>8} {'next':>8} {'steady':>8} | "
           f"{'hy build':>8} {'hy 1st':>8} {'hy stdy':>8} | {'1st/hy':>6} {'next/hy':>7} "
-          f"{'stdy/hy':>7} steps")
+          f"{'stdy/hy':>7} steps {'compile':>8} {'repaid':>7}")
     for name in args.cases.split(","):
         scene, tol = tb.SCENES[CASES[name][0]], CASES[name][1]
         rows_o, rows_h = [], []
@@ -126,7 +134,9 @@ def main() -> None:
               f"{ms(med(rows_o, 'next'))} {ms(med(rows_o, 'steady'))} | "
               f"{ms(med(rows_h, 'build'))} {ms(med(rows_h, 'first'))} {ms(hs)} | "
               f"{med(rows_o, 'first') / hs:6.2f} {med(rows_o, 'next') / hs:7.2f} "
-              f"{med(rows_o, 'steady') / hs:7.2f} {rows_o[0]['steps']}")
+              f"{med(rows_o, 'steady') / hs:7.2f} {rows_o[0]['steps']:5} "
+              f"{ms(med(rows_o, 'compile'))} "
+              f"{med(rows_o, 'compile') / ((med(rows_o, 'next') - med(rows_o, 'steady')) / rows_o[0]['steps']):7.0f}")
 
 
 if __name__ == "__main__":
