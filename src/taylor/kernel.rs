@@ -188,7 +188,12 @@ const UNROLL_UP_TO: usize = 120_000;
 /// 0.67 µs (6 000–6 500), Kepler in 10–14 ms, 0.40 against 1.12 µs (13 000–19 000; before its
 /// squares summed half their terms, which took 6 % off the instructions of its unrolled step).
 /// Waiting for the break-even keeps a short run from paying for code it would not repay (at
-/// worst a run then costs about twice what the better choice in hindsight would have).
+/// worst a run then costs about twice what the better choice in hindsight would have). A run
+/// whose first step says it will take the count past this compiles at its start instead
+/// (`Expansion::plan`): the compile is paid within the run either way. Measured again through
+/// Python (`benches/taylor_first.py`, ci wheel, 2026-11-28, runs of 110–310 steps): the double
+/// pendulum's compile 21 ms at order 15 (1e-12) and 14 ms at 12, repaid after 23 000–25 000
+/// expansions; the forced two-mass's 4.1 ms at order 12, after 10 600.
 pub(crate) const UNROLL_AFTER: usize = 10_000;
 
 /// The entry of an [`ExpansionKernel`]: the table, the coefficients of q and of q̇ (order k of
