@@ -92,7 +92,7 @@ impl TaylorProgram {
         }
         self.native
             .get_or_init(|| {
-                kernel::SeriesKernel::compile(&self.recurrences.varying, self.recurrences.rows).ok()
+                kernel::SeriesKernel::compile(&self.recurrences).ok()
             })
             .as_ref()
     }
@@ -621,6 +621,24 @@ impl Expansion {
     /// factored, order by order: what the unrolled kernel computes, in the same operations and
     /// order.
     fn orders(&mut self) {
+        #[cfg(feature = "jit")]
+        if let Some(kernel) = self.program.kernel()
+            && kernel.whole_orders()
+        {
+            let (order, w) = (self.work.order, self.work.order + 1);
+            let Workspace {
+                series,
+                q,
+                v,
+                qdd,
+                m0,
+                ..
+            } = &mut self.work;
+            for k in 0..order {
+                kernel.order(k, w, [series, q, v, qdd], m0);
+            }
+            return;
+        }
         let program = self.program.clone();
         let (n, w) = (program.recurrences.dof, self.work.order + 1);
         for k in 0..self.work.order {
