@@ -91,9 +91,7 @@ impl TaylorProgram {
             return None;
         }
         self.native
-            .get_or_init(|| {
-                kernel::SeriesKernel::compile(&self.recurrences).ok()
-            })
+            .get_or_init(|| kernel::SeriesKernel::compile(&self.recurrences).ok())
             .as_ref()
     }
 
@@ -416,7 +414,9 @@ impl Expansion {
     fn recurrences(&mut self, k: usize) {
         let w = self.work.order + 1;
         #[cfg(feature = "jit")]
-        if let Some(kernel) = self.program.kernel() {
+        if let Some(kernel) = self.program.kernel()
+            && !kernel.whole_orders()
+        {
             kernel.run(&mut self.work.series, w, k);
             return;
         }

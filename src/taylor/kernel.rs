@@ -7,7 +7,9 @@
 //! - [`SeriesKernel`]: for any program, coefficient k ≥ 1 of every row that varies, for any
 //!   order k and row width w given at the call. Each convolution is a loop in the code (small
 //!   programs) or a call of the interpreter's own sum (large ones, [`INLINE_UP_TO`]), so the
-//!   code grows with the graph and not with the order.
+//!   code grows with the graph and not with the order. For a small program the function is a
+//!   whole order of the expansion (the recurrences, fₖ − Σⱼ Mⱼ q̈ₖ₋ⱼ, the solve with M₀, the
+//!   coefficients of q and q̇): a model's first runs, before its [`ExpansionKernel`].
 //!
 //! The operations and their order are those of [`SeriesOp::apply`] and `Expansion::expand` (the same
 //! four lanes per sum, no fused multiply–add), so the coefficients are bit-identical to the
@@ -54,12 +56,14 @@ type Entry = unsafe extern "C" fn(i64, i64, *mut f64);
 /// The compiled order ([`SeriesKernel::order`]): order k, row width w, the table, the
 /// coefficients of q and of q̇ (order k of coordinate i at k·n + i), of q̈ (at i·w + k), M₀
 /// factored.
-type OrderEntry = unsafe extern "C" fn(i64, i64, *mut f64, *mut f64, *mut f64, *mut f64, *const f64);
+type OrderEntry =
+    unsafe extern "C" fn(i64, i64, *mut f64, *mut f64, *mut f64, *mut f64, *const f64);
 
 /// The recurrences of one [`Recurrences`](super::Recurrences) as machine code, and for a small
 /// program the whole of an order of the expansion around them.
 pub(crate) struct SeriesKernel {
-    code: Code<(Entry, Option<OrderEntry>)>,
+    /// The recurrences alone, or (small programs) the whole order around them: one of the two.
+    code: Code<(Option<Entry>, Option<OrderEntry>)>,
     rows: usize,
     dof: usize,
 }
@@ -113,25 +117,25 @@ impl SeriesKernel {
             &symbols(),
         )?;
         // The whole order in the code where the recurrences' sums are loops in it (the Rust
-        // around each order's call was as long as the call: perf, the double pendulum).
+        // around each order's call was as long as the call: perf, the double pendulum), in
+        // place of the recurrences alone (compiling both took half as long again).
         let read = (program.force.iter().chain(&program.mass_full))
             .chain(program.coords.iter().chain(&program.velocities).flatten());
         let fused = inline
             && read.copied().all(|r| r < rows)
             && i32::try_from(8 * (n * n).max(2 * n + 2)).is_ok();
         let code = Code::new(module, |m| {
-            let series = define(m, ops, inline)?;
-            let order = fused.then(|| define_order(m, program)).transpose()?;
-            Ok((series, order))
+            if fused {
+                Ok((None, Some(define_order(m, program)?)))
+            } else {
+                Ok((Some(define(m, ops, inline)?), None))
+            }
         })?;
-        Ok(Self {
-            code,
-            rows,
-            dof: n,
-        })
+        Ok(Self { code, rows, dof: n })
     }
 
-    /// Whether [`SeriesKernel::order`] runs (a small program's).
+    /// Whether [`SeriesKernel::order`] runs (a small program's), and not
+    /// [`SeriesKernel::run`].
     pub(crate) fn whole_orders(&self) -> bool {
         self.code.entry().1.is_some()
     }
@@ -144,13 +148,7 @@ impl SeriesKernel {
     /// # Panics
     /// If the kernel has no whole orders, k + 1 is not below w, or a buffer is shorter than
     /// the expansion's layout.
-    pub(crate) fn order(
-        &self,
-        k: usize,
-        w: usize,
-        [s, q, v, qdd]: [&mut [f64]; 4],
-        m0: &[f64],
-    ) {
+    pub(crate) fn order(&self, k: usize, w: usize, [s, q, v, qdd]: [&mut [f64]; 4], m0: &[f64]) {
         let n = self.dof;
         let entry = self.code.entry().1.expect("a kernel with whole orders");
         assert!(
@@ -183,8 +181,14 @@ impl SeriesKernel {
     /// Coefficient k of every row the recurrences write, in the table `s` of row width `w`.
     ///
     /// # Panics
-    /// If `s` has fewer than rows · w entries, or k is not in 1..w.
+    /// If `s` has fewer than rows · w entries, k is not in 1..w, or the kernel has whole orders
+    /// instead.
     pub(crate) fn run(&self, s: &mut [f64], w: usize, k: usize) {
+        let entry = self
+            .code
+            .entry()
+            .0
+            .expect("a kernel of the recurrences alone");
         assert!(
             k >= 1 && k < w && s.len() >= self.rows * w,
             "order {k} of a table of {} rows of {w} in {} entries",
@@ -193,7 +197,7 @@ impl SeriesKernel {
         );
         // SAFETY: the code reads and writes entries r·w + j of rows r < `rows` (checked at
         // compilation) and j ≤ k < w, all inside `s` by the assert; `self` keeps the code alive.
-        unsafe { (self.code.entry().0)(k as i64, w as i64, s.as_mut_ptr()) }
+        unsafe { entry(k as i64, w as i64, s.as_mut_ptr()) }
     }
 }
 
