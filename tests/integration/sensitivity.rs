@@ -258,9 +258,7 @@ fn bad_directions_and_states() {
         variational.initial_state(0.0, &[1.0, 2.0], &[0.0], &[4.0, 0.3]),
         Err(Error::DimensionMismatch { what: "q0", .. })
     ));
-    let (q, qd) = variational
-        .initial_state(0.0, &[0.7], &[-0.2], &[4.0, 0.3])
-        .unwrap();
+    let (q, qd) = variational.initial_state(0.0, &[0.7], &[-0.2], &[4.0, 0.3]).unwrap();
     assert_eq!(q, vec![0.7, 0.0, 0.0, 1.0, 0.0]);
     assert_eq!(qd, vec![-0.2, 0.0, 0.0, 0.0, 1.0]);
 }
