@@ -610,6 +610,15 @@ impl Expansion {
 
     /// Order 0 of every row the state sets: what the unrolled kernel's order 0 computes.
     fn order0(&mut self) {
+        #[cfg(feature = "jit")]
+        if let Some(kernel) = self.program.kernel()
+            && kernel.whole_orders()
+        {
+            let (n, w) = (self.program.recurrences.dof, self.work.order + 1);
+            let Workspace { series, q, v, .. } = &mut self.work;
+            kernel.order0(series, w, &q[..n], &v[..n]);
+            return;
+        }
         self.leaves(0);
         let w = self.work.order + 1;
         for op in &self.program.recurrences.order0 {

@@ -59,11 +59,14 @@ type Entry = unsafe extern "C" fn(i64, i64, *mut f64);
 type OrderEntry =
     unsafe extern "C" fn(i64, i64, *mut f64, *mut f64, *mut f64, *mut f64, *const f64);
 
+/// A [`SeriesKernel`]'s order 0 ([`SeriesKernel::order0`]): row width w, the table, q₀, q̇₀.
+type SeriesOrder0Entry = unsafe extern "C" fn(i64, *mut f64, *const f64, *const f64);
+
 /// The recurrences of one [`Recurrences`](super::Recurrences) as machine code, and for a small
 /// program the whole of an order of the expansion around them.
 pub(crate) struct SeriesKernel {
     /// The recurrences alone, or (small programs) the whole order around them: one of the two.
-    code: Code<(Option<Entry>, Option<OrderEntry>)>,
+    code: Code<(Option<Entry>, Option<(OrderEntry, SeriesOrder0Entry)>)>,
     rows: usize,
     dof: usize,
 }
@@ -123,10 +126,12 @@ impl SeriesKernel {
             .chain(program.coords.iter().chain(&program.velocities).flatten());
         let fused = inline
             && read.copied().all(|r| r < rows)
+            && program.order0.iter().flat_map(rows_of).all(|r| r < rows)
             && i32::try_from(8 * (n * n).max(2 * n + 2)).is_ok();
         let code = Code::new(module, |m| {
             if fused {
-                Ok((None, Some(define_order(m, program)?)))
+                let order = define_order(m, program)?;
+                Ok((None, Some((order, define_series_order0(m, program)?))))
             } else {
                 Ok((Some(define(m, ops, inline)?), None))
             }
@@ -140,6 +145,25 @@ impl SeriesKernel {
         self.code.entry().1.is_some()
     }
 
+    /// Order 0 of every row the state sets, from q₀ and q̇₀, as `Expansion::order0` computes
+    /// it (`s` holds t₀ in t's row and the rows fixed by the parameters).
+    ///
+    /// # Panics
+    /// If the kernel has no whole orders, w is 0, or a buffer is too short.
+    pub(crate) fn order0(&self, s: &mut [f64], w: usize, q0: &[f64], qd0: &[f64]) {
+        let n = self.dof;
+        let (_, entry) = self.code.entry().1.expect("a kernel with whole orders");
+        assert!(
+            w >= 1 && s.len() >= self.rows * w && q0.len() >= n && qd0.len() >= n,
+            "order 0 of {n} coordinates and {} rows of {w}",
+            self.rows
+        );
+        // SAFETY: the code writes and reads table entries r·w with rows r < `rows` (checked at
+        // compilation) and reads q₀ and q̇₀ entries below n, all inside the buffers by the
+        // assert; `self` keeps the code alive.
+        unsafe { entry(w as i64, s.as_mut_ptr(), q0.as_ptr(), qd0.as_ptr()) }
+    }
+
     /// Order k of the expansion as `Expansion::orders` computes it, given order 0 of every row
     /// and M₀ factored (`m0`): for k ≥ 1 the leaves' coefficient k and the recurrences, then
     /// q̈ₖ (from fₖ − Σⱼ Mⱼ q̈ₖ₋ⱼ and the solve with M₀) and q and q̇'s coefficient k + 1, in
@@ -150,7 +174,7 @@ impl SeriesKernel {
     /// the expansion's layout.
     pub(crate) fn order(&self, k: usize, w: usize, [s, q, v, qdd]: [&mut [f64]; 4], m0: &[f64]) {
         let n = self.dof;
-        let entry = self.code.entry().1.expect("a kernel with whole orders");
+        let (entry, _) = self.code.entry().1.expect("a kernel with whole orders");
         assert!(
             k + 1 < w
                 && s.len() >= self.rows * w
@@ -712,30 +736,7 @@ fn define_order0(
     let config = module.target_config();
     let ptr = config.pointer_type();
     let (id, mut ctx) = declare(module, "order0", &[ptr; 5])?;
-    // The maths library's functions order 0 calls, imported.
-    let mut names: Vec<&'static str> = program
-        .order0
-        .iter()
-        .flat_map(|op| op.libm().iter().copied())
-        .collect();
-    names.sort_unstable();
-    names.dedup();
-    let mut imports = Vec::with_capacity(names.len());
-    for name in names {
-        let mut sig = module.make_signature();
-        let second = match name {
-            "lagrangian_atan2" => Some(types::F64),
-            "lagrangian_sin_cos" => Some(ptr),
-            _ => None,
-        };
-        sig.params.push(AbiParam::new(types::F64));
-        sig.params.extend(second.map(AbiParam::new));
-        sig.returns.push(AbiParam::new(types::F64));
-        let id = module
-            .declare_function(name, Linkage::Import, &sig)
-            .map_err(fail)?;
-        imports.push((name, module.declare_func_in_func(id, &mut ctx.func)));
-    }
+    let imports = import_libm(module, program, &mut ctx.func)?;
     let mut fctx = FunctionBuilderContext::new();
     {
         let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
@@ -762,6 +763,77 @@ fn define_order0(
     // SAFETY: `code` is the function just defined with the signature of `Order0Entry` in the
     // host's default calling convention, which is `extern "C"`.
     Ok(unsafe { std::mem::transmute::<*const u8, Order0Entry>(code) })
+}
+
+/// [`define_order0`] for any row width w (read at run time): the leaves' rows from q₀ and q̇₀
+/// (the coefficient buffers are the caller's to fill), then `order0`'s recurrences at k = 0.
+/// Its entry: w, the table, q₀, q̇₀.
+fn define_series_order0(
+    module: &mut JITModule,
+    program: &Recurrences,
+) -> Result<SeriesOrder0Entry> {
+    let config = module.target_config();
+    let ptr = config.pointer_type();
+    let (id, mut ctx) = declare(module, "order0", &[types::I64, ptr, ptr, ptr])?;
+    let imports = import_libm(module, program, &mut ctx.func)?;
+    let mut fctx = FunctionBuilderContext::new();
+    {
+        let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
+        let p = enter(&mut b);
+        let (w, table, q0, qd0) = (p[0], p[1], p[2], p[3]);
+        let mut g = SeriesEmitter::new(b, table, Ix::Var(w), None);
+        g.libm = imports;
+        for (from, leaf) in [(q0, &program.coords), (qd0, &program.velocities)] {
+            for (i, r) in leaf.iter().enumerate() {
+                if let Some(r) = *r {
+                    let x = g.load_at(from, i);
+                    g.store(r, Ix::Fixed(0), x);
+                }
+            }
+        }
+        for op in &program.order0 {
+            g.op0(op, ptr);
+        }
+        g.b.ins().return_(&[]);
+        g.b.finalize(config);
+    }
+    let code = link(module, id, &mut ctx)?;
+    // SAFETY: `code` is the function just defined with the signature of `SeriesOrder0Entry` in
+    // the host's default calling convention, which is `extern "C"`.
+    Ok(unsafe { std::mem::transmute::<*const u8, SeriesOrder0Entry>(code) })
+}
+
+/// The maths library's functions `program`'s order 0 calls, imported into `module` for `func`.
+fn import_libm(
+    module: &mut JITModule,
+    program: &Recurrences,
+    func: &mut cranelift_codegen::ir::Function,
+) -> Result<Vec<(&'static str, FuncRef)>> {
+    let ptr = module.target_config().pointer_type();
+    let mut names: Vec<&'static str> = program
+        .order0
+        .iter()
+        .flat_map(|op| op.libm().iter().copied())
+        .collect();
+    names.sort_unstable();
+    names.dedup();
+    let mut imports = Vec::with_capacity(names.len());
+    for name in names {
+        let mut sig = module.make_signature();
+        let second = match name {
+            "lagrangian_atan2" => Some(types::F64),
+            "lagrangian_sin_cos" => Some(ptr),
+            _ => None,
+        };
+        sig.params.push(AbiParam::new(types::F64));
+        sig.params.extend(second.map(AbiParam::new));
+        sig.returns.push(AbiParam::new(types::F64));
+        let id = module
+            .declare_function(name, Linkage::Import, &sig)
+            .map_err(fail)?;
+        imports.push((name, module.declare_func_in_func(id, func)));
+    }
+    Ok(imports)
 }
 
 /// Generate, compile and link the unrolled expansion and step; also the length of the buffer of
