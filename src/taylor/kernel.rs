@@ -7,9 +7,10 @@
 //! - [`SeriesKernel`]: for any program, coefficient k ≥ 1 of every row that varies, for any
 //!   order k and row width w given at the call. Each convolution is a loop in the code (small
 //!   programs) or a call of the interpreter's own sum (large ones, [`INLINE_UP_TO`]), so the
-//!   code grows with the graph and not with the order. For a small program the function is a
-//!   whole order of the expansion (the recurrences, fₖ − Σⱼ Mⱼ q̈ₖ₋ⱼ, the solve with M₀, the
-//!   coefficients of q and q̇): a model's first runs, before its [`ExpansionKernel`].
+//!   code grows with the graph and not with the order. For a small program the functions are
+//!   order 0 and a whole order of the expansion (the recurrences, fₖ − Σⱼ Mⱼ q̈ₖ₋ⱼ, the solve
+//!   with M₀, the coefficients of q and q̇): a model's first runs, before its
+//!   [`ExpansionKernel`].
 //!
 //! The operations and their order are those of [`SeriesOp::apply`] and `Expansion::expand` (the same
 //! four lanes per sum, no fused multiply–add), so the coefficients are bit-identical to the
@@ -62,11 +63,14 @@ type OrderEntry =
 /// A [`SeriesKernel`]'s order 0 ([`SeriesKernel::order0`]): row width w, the table, q₀, q̇₀.
 type SeriesOrder0Entry = unsafe extern "C" fn(i64, *mut f64, *const f64, *const f64);
 
+/// A small program's [`SeriesKernel`]: its order k and its order 0.
+type WholeOrders = (OrderEntry, SeriesOrder0Entry);
+
 /// The recurrences of one [`Recurrences`](super::Recurrences) as machine code, and for a small
 /// program the whole of an order of the expansion around them.
 pub(crate) struct SeriesKernel {
     /// The recurrences alone, or (small programs) the whole order around them: one of the two.
-    code: Code<(Option<Entry>, Option<(OrderEntry, SeriesOrder0Entry)>)>,
+    code: Code<(Option<Entry>, Option<WholeOrders>)>,
     rows: usize,
     dof: usize,
 }
