@@ -104,6 +104,7 @@ impl Integrator for Taylor {
                 t_end: run.t_end,
                 dir: run.dir(),
             },
+            planned: false,
             t: run.t0,
             y: run.y0.clone(),
             y_new: vec![0.0; run.y0.len()],
@@ -116,6 +117,8 @@ impl Integrator for Taylor {
 struct TaylorStepper {
     expansion: Expansion,
     rule: StepRule,
+    /// Whether the run's length was estimated (after its first step, [`Expansion::plan`]).
+    planned: bool,
     t: f64,
     y: Vec<f64>,
     y_new: Vec<f64>,
@@ -189,7 +192,24 @@ impl TaylorStepper {
         let end =
             (self.expansion).step(self.t, &self.y, &self.rule, &mut self.lost, &mut self.y_new)?;
         self.count(run, 1);
+        if !self.planned {
+            self.planned = true;
+            self.plan(end.0);
+        }
         Ok(Some(end))
+    }
+
+    /// After the run's first step, which ended at `t_new`: the steps still to go estimated at
+    /// that step's size (the span left over h), and the unrolled expansion compiled now if they
+    /// would take the program past `UNROLL_AFTER` expansions (it would be compiled during the
+    /// run anyway; now, the steps before that run it too).
+    fn plan(&self, t_new: f64) {
+        let h = (t_new - self.t).abs();
+        let left = (self.rule.t_end - t_new).abs();
+        if h > 0.0 && left.is_finite() {
+            // A ratio past usize::MAX saturates: a very long run, as it should read.
+            self.expansion.plan((left / h).ceil() as usize);
+        }
     }
 }
 

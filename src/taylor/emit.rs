@@ -809,6 +809,20 @@ impl<'a> SeriesEmitter<'a> {
         weighted: bool,
     ) -> Value {
         let (pa, pb) = (self.row(a), self.row(b));
+        self.conv_loop_at(pa, pb, lo, hi, kk, weighted)
+    }
+
+    /// [`SeriesEmitter::conv_loop`] on two series from their coefficient 0 at `pa` and `pb`
+    /// (rows of the table or of q̈).
+    pub(crate) fn conv_loop_at(
+        &mut self,
+        pa: Value,
+        pb: Value,
+        lo: i64,
+        hi: Value,
+        kk: Value,
+        weighted: bool,
+    ) -> Value {
         let pa = self.b.ins().iadd_imm_s(pa, 8 * lo);
         let kk8 = self.b.ins().ishl_imm_s(kk, 3);
         let pb = self.b.ins().iadd(pb, kk8);

@@ -91,9 +91,7 @@ impl TaylorProgram {
             return None;
         }
         self.native
-            .get_or_init(|| {
-                kernel::SeriesKernel::compile(&self.recurrences.varying, self.recurrences.rows).ok()
-            })
+            .get_or_init(|| kernel::SeriesKernel::compile(&self.recurrences).ok())
             .as_ref()
     }
 
@@ -112,6 +110,24 @@ impl TaylorProgram {
             return None;
         }
         self.compile_unrolled(order)
+    }
+
+    /// A run about to expand to `order` about `more` times: compile the unrolled expansion now
+    /// if the expansions counted so far and these reach `UNROLL_AFTER`, the count after which it
+    /// would be compiled anyway (within this run, then): the run's steps before that count then
+    /// run the unrolled code too. Whether expansions to `order` are unrolled from now on.
+    #[cfg(feature = "jit")]
+    fn plan(&self, order: usize, more: usize) -> bool {
+        let Some(count) = self.expansions.get(order) else {
+            return false;
+        };
+        if let Some(kernel) = self.unrolled[order].get() {
+            return kernel.is_some();
+        }
+        if count.load(Ordering::Relaxed).saturating_add(more) < kernel::UNROLL_AFTER {
+            return false;
+        }
+        self.compile_unrolled(order).is_some()
     }
 
     /// The expansion to `order` unrolled, if it is compiled (not counted as an expansion).
@@ -344,6 +360,20 @@ impl Drop for Expansion {
 }
 
 impl Expansion {
+    /// The run expanding will expand about `more` times again: compile its unrolled expansion
+    /// now if its program would compile it within those anyway (after `UNROLL_AFTER`
+    /// expansions to this order). Whether the expansions are unrolled from now on (false
+    /// without the `jit` feature).
+    pub fn plan(&self, more: usize) -> bool {
+        #[cfg(feature = "jit")]
+        return self.program.plan(self.work.order, more);
+        #[cfg(not(feature = "jit"))]
+        {
+            let _ = more;
+            false
+        }
+    }
+
     /// The highest order computed.
     pub fn order(&self) -> usize {
         self.work.order
@@ -384,7 +414,9 @@ impl Expansion {
     fn recurrences(&mut self, k: usize) {
         let w = self.work.order + 1;
         #[cfg(feature = "jit")]
-        if let Some(kernel) = self.program.kernel() {
+        if let Some(kernel) = self.program.kernel()
+            && !kernel.whole_orders()
+        {
             kernel.run(&mut self.work.series, w, k);
             return;
         }
@@ -578,6 +610,15 @@ impl Expansion {
 
     /// Order 0 of every row the state sets: what the unrolled kernel's order 0 computes.
     fn order0(&mut self) {
+        #[cfg(feature = "jit")]
+        if let Some(kernel) = self.program.kernel()
+            && kernel.whole_orders()
+        {
+            let (n, w) = (self.program.recurrences.dof, self.work.order + 1);
+            let Workspace { series, q, v, .. } = &mut self.work;
+            kernel.order0(series, w, &q[..n], &v[..n]);
+            return;
+        }
         self.leaves(0);
         let w = self.work.order + 1;
         for op in &self.program.recurrences.order0 {
@@ -589,6 +630,24 @@ impl Expansion {
     /// factored, order by order: what the unrolled kernel computes, in the same operations and
     /// order.
     fn orders(&mut self) {
+        #[cfg(feature = "jit")]
+        if let Some(kernel) = self.program.kernel()
+            && kernel.whole_orders()
+        {
+            let (order, w) = (self.work.order, self.work.order + 1);
+            let Workspace {
+                series,
+                q,
+                v,
+                qdd,
+                m0,
+                ..
+            } = &mut self.work;
+            for k in 0..order {
+                kernel.order(k, w, [series, q, v, qdd], m0);
+            }
+            return;
+        }
         let program = self.program.clone();
         let (n, w) = (program.recurrences.dof, self.work.order + 1);
         for k in 0..self.work.order {

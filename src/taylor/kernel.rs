@@ -7,7 +7,10 @@
 //! - [`SeriesKernel`]: for any program, coefficient k ≥ 1 of every row that varies, for any
 //!   order k and row width w given at the call. Each convolution is a loop in the code (small
 //!   programs) or a call of the interpreter's own sum (large ones, [`INLINE_UP_TO`]), so the
-//!   code grows with the graph and not with the order.
+//!   code grows with the graph and not with the order. For a small program the functions are
+//!   order 0 and a whole order of the expansion (the recurrences, fₖ − Σⱼ Mⱼ q̈ₖ₋ⱼ, the solve
+//!   with M₀, the coefficients of q and q̇): a model's first runs, before its
+//!   [`ExpansionKernel`].
 //!
 //! The operations and their order are those of [`SeriesOp::apply`] and `Expansion::expand` (the same
 //! four lanes per sum, no fused multiply–add), so the coefficients are bit-identical to the
@@ -51,10 +54,25 @@ const INLINE_UP_TO: usize = 400;
 /// The compiled function: order k, row width w, the table.
 type Entry = unsafe extern "C" fn(i64, i64, *mut f64);
 
-/// The recurrences of one [`Recurrences`](super::Recurrences) as machine code.
+/// The compiled order ([`SeriesKernel::order`]): order k, row width w, the table, the
+/// coefficients of q and of q̇ (order k of coordinate i at k·n + i), of q̈ (at i·w + k), M₀
+/// factored.
+type OrderEntry =
+    unsafe extern "C" fn(i64, i64, *mut f64, *mut f64, *mut f64, *mut f64, *const f64);
+
+/// A [`SeriesKernel`]'s order 0 ([`SeriesKernel::order0`]): row width w, the table, q₀, q̇₀.
+type SeriesOrder0Entry = unsafe extern "C" fn(i64, *mut f64, *const f64, *const f64);
+
+/// A small program's [`SeriesKernel`]: its order k and its order 0.
+type WholeOrders = (OrderEntry, SeriesOrder0Entry);
+
+/// The recurrences of one [`Recurrences`](super::Recurrences) as machine code, and for a small
+/// program the whole of an order of the expansion around them.
 pub(crate) struct SeriesKernel {
-    code: Code<Entry>,
+    /// The recurrences alone, or (small programs) the whole order around them: one of the two.
+    code: Code<(Option<Entry>, Option<WholeOrders>)>,
     rows: usize,
+    dof: usize,
 }
 
 impl std::fmt::Debug for SeriesKernel {
@@ -94,7 +112,8 @@ impl SeriesKernel {
     /// # Errors
     /// [`Error::InvalidInput`](crate::Error::InvalidInput) when a row is out of range, Cranelift
     /// has no backend for the host or fails: the interpreter runs the recurrences instead.
-    pub(crate) fn compile(ops: &[SeriesOp], rows: usize) -> Result<Self> {
+    pub(crate) fn compile(program: &Recurrences) -> Result<Self> {
+        let (ops, rows, n) = (&program.varying, program.rows, program.dof);
         if let Some(r) = ops.iter().flat_map(rows_of).find(|&r| r >= rows) {
             return Err(fail(format!("row {r} of a table of {rows}")));
         }
@@ -104,15 +123,100 @@ impl SeriesKernel {
             if inline { 20 } else { 4 } * ops.len() <= BACKTRACKING_UP_TO,
             &symbols(),
         )?;
-        let code = Code::new(module, |m| define(m, ops, inline))?;
-        Ok(Self { code, rows })
+        // The whole order in the code where the recurrences' sums are loops in it (the Rust
+        // around each order's call was as long as the call: perf, the double pendulum), in
+        // place of the recurrences alone (compiling both took half as long again).
+        let read = (program.force.iter().chain(&program.mass_full))
+            .chain(program.coords.iter().chain(&program.velocities).flatten());
+        let fused = inline
+            && read.copied().all(|r| r < rows)
+            && program.order0.iter().flat_map(rows_of).all(|r| r < rows)
+            && i32::try_from(8 * (n * n).max(2 * n + 2)).is_ok();
+        let code = Code::new(module, |m| {
+            if fused {
+                let order = define_order(m, program)?;
+                Ok((None, Some((order, define_series_order0(m, program)?))))
+            } else {
+                Ok((Some(define(m, ops, inline)?), None))
+            }
+        })?;
+        Ok(Self { code, rows, dof: n })
+    }
+
+    /// Whether [`SeriesKernel::order`] runs (a small program's), and not
+    /// [`SeriesKernel::run`].
+    pub(crate) fn whole_orders(&self) -> bool {
+        self.code.entry().1.is_some()
+    }
+
+    /// Order 0 of every row the state sets, from q₀ and q̇₀, as `Expansion::order0` computes
+    /// it (`s` holds t₀ in t's row and the rows fixed by the parameters).
+    ///
+    /// # Panics
+    /// If the kernel has no whole orders, w is 0, or a buffer is too short.
+    pub(crate) fn order0(&self, s: &mut [f64], w: usize, q0: &[f64], qd0: &[f64]) {
+        let n = self.dof;
+        let (_, entry) = self.code.entry().1.expect("a kernel with whole orders");
+        assert!(
+            w >= 1 && s.len() >= self.rows * w && q0.len() >= n && qd0.len() >= n,
+            "order 0 of {n} coordinates and {} rows of {w}",
+            self.rows
+        );
+        // SAFETY: the code writes and reads table entries r·w with rows r < `rows` (checked at
+        // compilation) and reads q₀ and q̇₀ entries below n, all inside the buffers by the
+        // assert; `self` keeps the code alive.
+        unsafe { entry(w as i64, s.as_mut_ptr(), q0.as_ptr(), qd0.as_ptr()) }
+    }
+
+    /// Order k of the expansion as `Expansion::orders` computes it, given order 0 of every row
+    /// and M₀ factored (`m0`): for k ≥ 1 the leaves' coefficient k and the recurrences, then
+    /// q̈ₖ (from fₖ − Σⱼ Mⱼ q̈ₖ₋ⱼ and the solve with M₀) and q and q̇'s coefficient k + 1, in
+    /// the table `s` of row width `w` and the coefficient buffers `q`, `v` and `qdd`.
+    ///
+    /// # Panics
+    /// If the kernel has no whole orders, k + 1 is not below w, or a buffer is shorter than
+    /// the expansion's layout.
+    pub(crate) fn order(&self, k: usize, w: usize, [s, q, v, qdd]: [&mut [f64]; 4], m0: &[f64]) {
+        let n = self.dof;
+        let (entry, _) = self.code.entry().1.expect("a kernel with whole orders");
+        assert!(
+            k + 1 < w
+                && s.len() >= self.rows * w
+                && q.len() >= n * (w + 1)
+                && v.len() >= n * (w + 1)
+                && qdd.len() >= n * w
+                && m0.len() >= n * n,
+            "order {k} of an expansion of {n} coordinates and {} rows of {w}",
+            self.rows
+        );
+        // SAFETY: the code reads and writes table entries r·w + j of rows r < `rows` (checked
+        // at compilation) and j ≤ k < w, q and q̇ entries below (k + 2)·n ≤ (w + 1)·n, q̈ entries
+        // i·w + j with i < n and j ≤ k, and M₀'s n² entries, all inside the buffers by the
+        // assert; `self` keeps the code alive.
+        unsafe {
+            entry(
+                k as i64,
+                w as i64,
+                s.as_mut_ptr(),
+                q.as_mut_ptr(),
+                v.as_mut_ptr(),
+                qdd.as_mut_ptr(),
+                m0.as_ptr(),
+            )
+        }
     }
 
     /// Coefficient k of every row the recurrences write, in the table `s` of row width `w`.
     ///
     /// # Panics
-    /// If `s` has fewer than rows · w entries, or k is not in 1..w.
+    /// If `s` has fewer than rows · w entries, k is not in 1..w, or the kernel has whole orders
+    /// instead.
     pub(crate) fn run(&self, s: &mut [f64], w: usize, k: usize) {
+        let entry = self
+            .code
+            .entry()
+            .0
+            .expect("a kernel of the recurrences alone");
         assert!(
             k >= 1 && k < w && s.len() >= self.rows * w,
             "order {k} of a table of {} rows of {w} in {} entries",
@@ -121,7 +225,7 @@ impl SeriesKernel {
         );
         // SAFETY: the code reads and writes entries r·w + j of rows r < `rows` (checked at
         // compilation) and j ≤ k < w, all inside `s` by the assert; `self` keeps the code alive.
-        unsafe { (self.code.entry())(k as i64, w as i64, s.as_mut_ptr()) }
+        unsafe { entry(k as i64, w as i64, s.as_mut_ptr()) }
     }
 }
 
@@ -167,6 +271,129 @@ fn define(module: &mut JITModule, ops: &[SeriesOp], inline: bool) -> Result<Entr
     Ok(unsafe { std::mem::transmute::<*const u8, Entry>(code) })
 }
 
+/// Generate, compile and link one whole order of the expansion for any order k and row width
+/// w (read at run time): `Expansion::orders`' body, in its operations and order — for k ≥ 1
+/// the leaves and the recurrences; fₖ − Σ_c (Σⱼ₌₁..ₖ₋₁ M_rc,ⱼ q̈_c,ₖ₋ⱼ in the lanes, then j = k)
+/// from +0 over the entries of M that vary (as `conv_rows`; fₖ alone at k = 0); the solve
+/// with M₀ as the unrolled expansion emits it; q̈ₖ, qₖ₊₁ = q̇ₖ · 1/(k + 1) and q̇ₖ₊₁ = q̈ₖ ·
+/// 1/(k + 1).
+fn define_order(module: &mut JITModule, program: &Recurrences) -> Result<OrderEntry> {
+    let config = module.target_config();
+    let ptr = config.pointer_type();
+    let params = [types::I64, types::I64, ptr, ptr, ptr, ptr, ptr];
+    let (id, mut ctx) = declare(module, "order", &params)?;
+    let mut fctx = FunctionBuilderContext::new();
+    {
+        let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
+        let p = enter(&mut b);
+        let (k, w, table, qp, vp, qddp, m0p) = (p[0], p[1], p[2], p[3], p[4], p[5], p[6]);
+        let n = program.dof;
+        let mut g = SeriesEmitter::new(b, table, Ix::Var(w), None);
+        g.k = Ix::Var(k);
+        // q's and q̇'s coefficient k, at k·n.
+        let kn8 = g.b.ins().imul_imm_s(k, 8 * n as i64);
+        let qk = g.b.ins().iadd(qp, kn8);
+        let vk = g.b.ins().iadd(vp, kn8);
+        let one = g.f64(1.0);
+        // Orders k ≥ 1: the leaves and the recurrences (order 0 is set before the first call).
+        let (recurrences, after) = (g.b.create_block(), g.b.create_block());
+        g.b.ins().brif(k, recurrences, &[], after, &[]);
+        g.b.switch_to_block(recurrences);
+        g.b.seal_block(recurrences);
+        for (base, leaf) in [(qk, &program.coords), (vk, &program.velocities)] {
+            for (i, r) in leaf.iter().enumerate() {
+                if let Some(r) = *r {
+                    let x = g.load_at(base, i);
+                    g.store(r, Ix::Var(k), x);
+                }
+            }
+        }
+        let kf = g.b.ins().fcvt_from_sint(types::F64, k);
+        g.inv_k = g.b.ins().fdiv(one, kf);
+        for op in &program.varying {
+            g.op(op);
+        }
+        g.b.ins().jump(after, &[]);
+        g.b.switch_to_block(after);
+        g.b.seal_block(after);
+        let first = g.b.ins().icmp_imm_s(condcodes::IntCC::Equal, k, 0);
+        let km1 = g.b.ins().iadd_imm_s(k, -1);
+        let w8 = g.w8;
+        let mut rhs = Vec::with_capacity(n);
+        for r in 0..n {
+            let f = g.load(program.force[r], Ix::Var(k));
+            let varying = &program.mass_varying[r * n..(r + 1) * n];
+            if !varying.contains(&true) {
+                rhs.push(f);
+                continue;
+            }
+            let mut s = g.f64(0.0);
+            for c in (0..n).filter(|&c| varying[c]) {
+                let m = program.mass_full[r * n + c];
+                let off = g.b.ins().imul_imm_s(w8, c as i64);
+                let qdd_c = g.b.ins().iadd(qddp, off);
+                let pm = g.row(m);
+                let t = g.conv_loop_at(pm, qdd_c, 1, km1, k, false);
+                let (mk, q0) = (g.load(m, Ix::Var(k)), g.load_at(qdd_c, 0));
+                let last = g.b.ins().fmul(mk, q0);
+                let t = g.b.ins().fadd(t, last);
+                s = g.b.ins().fadd(s, t);
+            }
+            // At k = 0 the sums read q̈ of the last expansion: fₖ alone.
+            let d = g.b.ins().fsub(f, s);
+            rhs.push(g.b.ins().select(first, f, d));
+        }
+        // M₀ q̈ₖ = rhs as `emit_expansion` solves it (`linalg::ldlt_solve`'s operations).
+        let nonzero = |e: usize| program.factor_nonzero.as_ref().is_none_or(|p| p[e]);
+        for i in 1..n {
+            let terms: Vec<Value> = (0..i)
+                .filter(|&j| nonzero(i * n + j))
+                .map(|j| {
+                    let l = g.load_at(m0p, i * n + j);
+                    g.b.ins().fmul(rhs[j], l)
+                })
+                .collect();
+            if !terms.is_empty() {
+                let d = g.lanes(terms);
+                rhs[i] = g.b.ins().fsub(rhs[i], d);
+            }
+        }
+        for i in 0..n {
+            let d = g.load_at(m0p, i * n + i);
+            rhs[i] = g.b.ins().fmul(rhs[i], d);
+        }
+        for i in (1..n).rev() {
+            let x = rhs[i];
+            for j in (0..i).filter(|&j| nonzero(i * n + j)) {
+                let l = g.load_at(m0p, i * n + j);
+                let xl = g.b.ins().fmul(x, l);
+                rhs[j] = g.b.ins().fsub(rhs[j], xl);
+            }
+        }
+        let k1 = g.b.ins().iadd_imm_s(k, 1);
+        let k1f = g.b.ins().fcvt_from_sint(types::F64, k1);
+        let next = g.b.ins().fdiv(one, k1f);
+        let k8 = g.b.ins().ishl_imm_s(k, 3);
+        for (i, &a) in rhs.iter().enumerate() {
+            let off = g.b.ins().imul_imm_s(w8, i as i64);
+            let row = g.b.ins().iadd(qddp, off);
+            let at = g.b.ins().iadd(row, k8);
+            g.store_at(at, 0, a);
+            let vki = g.load_at(vk, i);
+            let qn = g.b.ins().fmul(vki, next);
+            g.store_at(qk, n + i, qn);
+            let vn = g.b.ins().fmul(a, next);
+            g.store_at(vk, n + i, vn);
+        }
+        g.b.ins().return_(&[]);
+        g.b.finalize(config);
+    }
+    let code = link(module, id, &mut ctx)?;
+    // SAFETY: `code` is the function just defined with the signature of `OrderEntry` in the
+    // host's default calling convention, which is `extern "C"`.
+    Ok(unsafe { std::mem::transmute::<*const u8, OrderEntry>(code) })
+}
+
 /// Programs whose whole expansion ([`ExpansionKernel`]) comes to at most this many instructions
 /// (estimated by [`Recurrences::expansion_instructions`]) may get it compiled, unrolled;
 /// larger ones run the recurrences of [`SeriesKernel`] order by order, with the rest of the
@@ -188,7 +415,12 @@ const UNROLL_UP_TO: usize = 120_000;
 /// 0.67 µs (6 000–6 500), Kepler in 10–14 ms, 0.40 against 1.12 µs (13 000–19 000; before its
 /// squares summed half their terms, which took 6 % off the instructions of its unrolled step).
 /// Waiting for the break-even keeps a short run from paying for code it would not repay (at
-/// worst a run then costs about twice what the better choice in hindsight would have).
+/// worst a run then costs about twice what the better choice in hindsight would have). A run
+/// whose first step says it will take the count past this compiles at its start instead
+/// (`Expansion::plan`): the compile is paid within the run either way. Measured again through
+/// Python (`benches/taylor_first.py`, ci wheel, 2026-11-28, runs of 110–310 steps): the double
+/// pendulum's compile 21 ms at order 15 (1e-12) and 14 ms at 12, repaid after 23 000–25 000
+/// expansions; the forced two-mass's 4.1 ms at order 12, after 10 600.
 pub(crate) const UNROLL_AFTER: usize = 10_000;
 
 /// The entry of an [`ExpansionKernel`]: the table, the coefficients of q and of q̇ (order k of
@@ -508,30 +740,7 @@ fn define_order0(
     let config = module.target_config();
     let ptr = config.pointer_type();
     let (id, mut ctx) = declare(module, "order0", &[ptr; 5])?;
-    // The maths library's functions order 0 calls, imported.
-    let mut names: Vec<&'static str> = program
-        .order0
-        .iter()
-        .flat_map(|op| op.libm().iter().copied())
-        .collect();
-    names.sort_unstable();
-    names.dedup();
-    let mut imports = Vec::with_capacity(names.len());
-    for name in names {
-        let mut sig = module.make_signature();
-        let second = match name {
-            "lagrangian_atan2" => Some(types::F64),
-            "lagrangian_sin_cos" => Some(ptr),
-            _ => None,
-        };
-        sig.params.push(AbiParam::new(types::F64));
-        sig.params.extend(second.map(AbiParam::new));
-        sig.returns.push(AbiParam::new(types::F64));
-        let id = module
-            .declare_function(name, Linkage::Import, &sig)
-            .map_err(fail)?;
-        imports.push((name, module.declare_func_in_func(id, &mut ctx.func)));
-    }
+    let imports = import_libm(module, program, &mut ctx.func)?;
     let mut fctx = FunctionBuilderContext::new();
     {
         let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
@@ -558,6 +767,77 @@ fn define_order0(
     // SAFETY: `code` is the function just defined with the signature of `Order0Entry` in the
     // host's default calling convention, which is `extern "C"`.
     Ok(unsafe { std::mem::transmute::<*const u8, Order0Entry>(code) })
+}
+
+/// [`define_order0`] for any row width w (read at run time): the leaves' rows from q₀ and q̇₀
+/// (the coefficient buffers are the caller's to fill), then `order0`'s recurrences at k = 0.
+/// Its entry: w, the table, q₀, q̇₀.
+fn define_series_order0(
+    module: &mut JITModule,
+    program: &Recurrences,
+) -> Result<SeriesOrder0Entry> {
+    let config = module.target_config();
+    let ptr = config.pointer_type();
+    let (id, mut ctx) = declare(module, "order0", &[types::I64, ptr, ptr, ptr])?;
+    let imports = import_libm(module, program, &mut ctx.func)?;
+    let mut fctx = FunctionBuilderContext::new();
+    {
+        let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
+        let p = enter(&mut b);
+        let (w, table, q0, qd0) = (p[0], p[1], p[2], p[3]);
+        let mut g = SeriesEmitter::new(b, table, Ix::Var(w), None);
+        g.libm = imports;
+        for (from, leaf) in [(q0, &program.coords), (qd0, &program.velocities)] {
+            for (i, r) in leaf.iter().enumerate() {
+                if let Some(r) = *r {
+                    let x = g.load_at(from, i);
+                    g.store(r, Ix::Fixed(0), x);
+                }
+            }
+        }
+        for op in &program.order0 {
+            g.op0(op, ptr);
+        }
+        g.b.ins().return_(&[]);
+        g.b.finalize(config);
+    }
+    let code = link(module, id, &mut ctx)?;
+    // SAFETY: `code` is the function just defined with the signature of `SeriesOrder0Entry` in
+    // the host's default calling convention, which is `extern "C"`.
+    Ok(unsafe { std::mem::transmute::<*const u8, SeriesOrder0Entry>(code) })
+}
+
+/// The maths library's functions `program`'s order 0 calls, imported into `module` for `func`.
+fn import_libm(
+    module: &mut JITModule,
+    program: &Recurrences,
+    func: &mut cranelift_codegen::ir::Function,
+) -> Result<Vec<(&'static str, FuncRef)>> {
+    let ptr = module.target_config().pointer_type();
+    let mut names: Vec<&'static str> = program
+        .order0
+        .iter()
+        .flat_map(|op| op.libm().iter().copied())
+        .collect();
+    names.sort_unstable();
+    names.dedup();
+    let mut imports = Vec::with_capacity(names.len());
+    for name in names {
+        let mut sig = module.make_signature();
+        let second = match name {
+            "lagrangian_atan2" => Some(types::F64),
+            "lagrangian_sin_cos" => Some(ptr),
+            _ => None,
+        };
+        sig.params.push(AbiParam::new(types::F64));
+        sig.params.extend(second.map(AbiParam::new));
+        sig.returns.push(AbiParam::new(types::F64));
+        let id = module
+            .declare_function(name, Linkage::Import, &sig)
+            .map_err(fail)?;
+        imports.push((name, module.declare_func_in_func(id, func)));
+    }
+    Ok(imports)
 }
 
 /// Generate, compile and link the unrolled expansion and step; also the length of the buffer of

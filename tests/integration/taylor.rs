@@ -206,6 +206,37 @@ fn long_run_switches_to_the_unrolled_expansion_bit_for_bit() {
     assert!(de < 1e-5 && dh < 1e-5, "{de:e} {dh:e}");
 }
 
+/// A run whose first step says it will take past 10⁴ steps compiles the unrolled expansion
+/// then, not after 10⁴ expansions (it would be compiled within the run anyway): 300 Kepler
+/// orbits at tol 1e-6 stopped after 20 steps leave the expansion unrolled; a short run (an
+/// orbit, about 60 steps) leaves it to the series kernel.
+#[test]
+fn long_run_compiles_the_unrolled_expansion_at_its_start() {
+    let e: f64 = 0.6;
+    let q0 = [1.0 - e, 0.0];
+    let v0 = [0.0, (1.0 - e * e).sqrt() / ((1.0 - e) * (1.0 - e))];
+    let orbit = 2.0 * std::f64::consts::PI;
+    let model = kepler();
+    let program = model.derived_program().unwrap().taylor().0;
+    let (_, steps) = end_state(&model, &q0, &v0, orbit, 1e-6);
+    assert!(steps < 1_000, "{steps} steps");
+    assert!(!program.is_unrolled(8));
+    let options = Options::adaptive(1e-6, 1e-6).with_max_steps(20);
+    let stopped = solve(
+        &model,
+        &q0,
+        &v0,
+        (0.0, 300.0 * orbit),
+        Method::Taylor,
+        &options,
+    );
+    assert!(
+        matches!(stopped, Err(Error::TooManySteps { .. })),
+        "{stopped:?}"
+    );
+    assert_eq!(program.is_unrolled(8), cfg!(feature = "jit"));
+}
+
 /// Seed eq. 41–44 as expressions: T = ½ m₁ẋ₁² + ½ m₂ẋ₂², U = ½ k₁x₁² + ½ k₂(x₂ − x₁)², Q″ =
 /// F cos Ωt, with the parameters (m₁, m₂, k₁, k₂, F₁, F₂, Ω).
 fn forced_two_mass(params: [f64; 7]) -> EnergyModel {
