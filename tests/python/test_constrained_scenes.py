@@ -214,10 +214,17 @@ def test_seed_example_constrained_section_meets_the_closed_forms():
     done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
                           timeout=300)
     assert done.returncode == 0, done.stderr
-    section = done.stdout.split("Constrained:", 1)[1].splitlines()[3:]
-    rows = [line for line in section if line.strip()]
+    constrained, identified = done.stdout.split("Constrained:", 1)[1].split(
+        "Parameters from measurements", 1)
+    rows = [line for line in constrained.splitlines()[3:] if line.strip()]
     assert len(rows) == 8, rows
     for line in rows:
         # The error column follows the 34 + 1 + 34 characters of the two text columns.
         error = float(line[70:79])
         assert error < 1e-9, line
+    # The last section: k and c identified within four of their reported standard errors.
+    fitted = [line.split() for line in identified.splitlines() if " ± " in line]
+    assert [f[0] for f in fitted] == ["k", "c"], identified
+    for name, _, value, _, sigma, *_ in fitted:
+        truth = {"k": 25.0, "c": 0.8}[name]
+        assert abs(float(value) - truth) < 4 * float(sigma), identified
