@@ -27,7 +27,7 @@ Tables
     1. Cost of the sensitivities. Each scene and p, DOP853 at 1e-9 and Taylor at 1e-9 and 1e-12
        (rtol = atol): the time of ``simulate`` with the sensitivities over the time of the same
        call without them (same method, same tolerance), with both runs' steps. The target is
-       ≤ 1 + p. DOP853 also with ``sensitivity_error_control=False`` (the step controlled on
+       ≤ 1 + p. Both also with ``sensitivity_error_control=False`` (the step controlled on
        (q, q̇) only). Taylor is timed in its steady state: each program is warmed up past the
        10⁴ expansions after which its expansion is compiled unrolled (src/taylor/kernel.rs,
        ``UNROLL_AFTER``); the ratio before that compile is printed too ("first runs": the best
@@ -418,7 +418,7 @@ def cost_rows(s: Scene, ref: Dict[str, Any], configs: Sequence[Tuple[str, float]
             sol = r.run(method, tol, names)
             row["sens_steps"] = steps_of(sol)
             row["error"] = err(r.result(sol, names)[1], ref_S)
-            if method in ("dop853", "dopri5", "radau5"):
+            if method in ("dop853", "dopri5", "radau5", "taylor"):
                 r.warm(method, tol, names, False)
                 sides["sens_off"] = r.timed(method, tol, names, False)
                 sol_off = r.run(method, tol, names, False)

@@ -68,7 +68,8 @@ pub struct Options {
     /// state anywhere in the span. Off by default: nothing extra is stored.
     pub dense: bool,
     /// Only the first k coordinates and their velocities enter the error norm of the adaptive
-    /// methods (DOPRI5, DOP853, Radau IIA); `None`: every component. A run of the variational
+    /// methods (DOPRI5, DOP853, Radau IIA; the Taylor method's step-size norms); `None`: every
+    /// component. A run of the variational
     /// equations ([`crate::sensitivity::Variational`]) sets it to leave the sensitivities out of error
     /// control, as CVODES's `errconS = false` does.
     pub error_coordinates: Option<usize>,
@@ -328,20 +329,12 @@ impl Options {
         Ok(())
     }
 
-    /// Check [`Options::error_coordinates`] against a system of `n` coordinates and the method:
-    /// the Taylor method sizes its steps from every component's series, so it controls them all.
-    pub(crate) fn check_error_coordinates(&self, method: Method, n: usize) -> Result<()> {
+    /// Check [`Options::error_coordinates`] against a system of `n` coordinates.
+    pub(crate) fn check_error_coordinates(&self, n: usize) -> Result<()> {
         match self.error_coordinates {
             Some(k) if k > n => bad(
                 "error_coordinates",
                 format!("error_coordinates = {k}, but the system has {n} coordinates"),
-            ),
-            Some(k) if k < n && self.dt.is_none() && method == Method::Taylor => bad(
-                "error_coordinates",
-                "taylor sizes its steps from the series of every component, so it cannot leave \
-                 some out of error control: use dop853, dopri5 or radau5, or control every \
-                 component"
-                    .into(),
             ),
             _ => Ok(()),
         }

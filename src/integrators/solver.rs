@@ -232,7 +232,7 @@ impl<'a, S: Dynamics + ?Sized> Solver<'a, S> {
         };
         method.check_fits(system, t0, q0, qd0)?;
         options.check_method(method)?;
-        options.check_error_coordinates(method, n)?;
+        options.check_error_coordinates(n)?;
         if let Some(constraints) = system.constraints() {
             constraints.check_state(t0, q0, qd0, options.projection_tolerance())?;
         }

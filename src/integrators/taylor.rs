@@ -103,6 +103,10 @@ impl Integrator for Taylor {
                 min_step: run.options.min_step,
                 t_end: run.t_end,
                 dir: run.dir(),
+                controlled: run
+                    .options
+                    .error_coordinates
+                    .map_or(f64::INFINITY, |k| k as f64),
             },
             planned: false,
             t: run.t0,

@@ -5,7 +5,7 @@
 /// What a Taylor step needs besides the expansion and the state (`Expansion::step`); the
 /// compiled step reads it at the offsets of this layout.
 #[repr(C)]
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StepRule {
     /// The relative tolerance: the error is held to atol + rtol |yᵢ| per component.
     pub rtol: f64,
@@ -19,6 +19,26 @@ pub struct StepRule {
     pub t_end: f64,
     /// The direction of the run, ±1.
     pub dir: f64,
+    /// How many leading coordinates (with their velocities) size the step: all of them when
+    /// this is at least the number of coordinates (∞ by default); fewer leave the others out
+    /// of error control, as a variational system's sensitivities can be
+    /// ([`Options::error_coordinates`](crate::Options)). A float, read as the others are.
+    pub controlled: f64,
+}
+
+impl Default for StepRule {
+    /// Zero tolerances and span, every coordinate controlled.
+    fn default() -> Self {
+        Self {
+            rtol: 0.0,
+            atol: 0.0,
+            h_max: 0.0,
+            min_step: 0.0,
+            t_end: 0.0,
+            dir: 0.0,
+            controlled: f64::INFINITY,
+        }
+    }
 }
 
 /// What a step needs besides the expansion and the state, read and written by the compiled

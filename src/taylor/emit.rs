@@ -530,7 +530,9 @@ impl<'a> SeriesEmitter<'a> {
         let min_step = get(self, offset_of!(StepControl, rule.min_step));
         let t_end = get(self, offset_of!(StepControl, rule.t_end));
         let dir = get(self, offset_of!(StepControl, rule.dir));
-        // The norms: each component's coefficients p − 1 and p over its tolerance.
+        let controlled = get(self, offset_of!(StepControl, rule.controlled));
+        // The norms: each component's coefficients p − 1 and p over its tolerance; a
+        // coordinate at or past `controlled` (and its velocity) scaled by 0, left out.
         let eps = self.min(rtol, atol);
         let zero = self.f64(0.0);
         let (mut below, mut top) = (zero, zero);
@@ -541,6 +543,12 @@ impl<'a> SeriesEmitter<'a> {
                 let d = self.b.ins().fmul(rtol, y);
                 let d = self.b.ins().fadd(atol, d);
                 let scale = self.b.ins().fdiv(eps, d);
+                let index = self.f64(i as f64);
+                let kept = self
+                    .b
+                    .ins()
+                    .fcmp(condcodes::FloatCC::LessThan, index, controlled);
+                let scale = self.b.ins().select(kept, scale, zero);
                 for (k, norm) in [(order - 1, &mut below), (order, &mut top)] {
                     let x = self.load_at(base, k * n + i);
                     let x = self.b.ins().fabs(x);

@@ -538,7 +538,7 @@ impl Expansion {
         }
         self.expand_interpreted(t, q0, qd0)?;
         let p = self.work.order;
-        let (below, top) = self.norms(y, rule.rtol, rule.atol);
+        let (below, top) = self.norms(y, rule);
         // ln ρ = min(−ln ‖xₚ₋₁‖ / (p − 1), −ln ‖xₚ‖ / p), and h = ρ e^(−2 − 0.7/(p−1)) as one
         // exponential (a zero norm gives ρ = ∞: a polynomial solution, capped by h_max).
         let (p1, p) = ((p - 1) as f64, p as f64);
@@ -687,14 +687,16 @@ impl Expansion {
     }
 
     /// The scaled sup norms of the last two coefficients that Jorba and Zou's step size reads:
-    /// (maxᵢ |xₚ₋₁,ᵢ| sᵢ, maxᵢ |xₚ,ᵢ| sᵢ) over the components i of y = (q, q̇), with sᵢ = ε /
-    /// (atol + rtol |yᵢ|) and ε = min(rtol, atol), the tolerance the order is chosen for (each
-    /// component measured against its own tolerance).
+    /// (maxᵢ |xₚ₋₁,ᵢ| sᵢ, maxᵢ |xₚ,ᵢ| sᵢ) over the components i of y = (q, q̇) that `rule`
+    /// controls (`StepRule::controlled`), with sᵢ = ε / (atol + rtol |yᵢ|) and
+    /// ε = min(rtol, atol), the tolerance the order is chosen for (each component measured
+    /// against its own tolerance).
     ///
     /// # Panics
     /// If `y` has fewer than 2 · dof entries.
-    pub fn norms(&self, y: &[f64], rtol: f64, atol: f64) -> (f64, f64) {
+    pub fn norms(&self, y: &[f64], rule: &StepRule) -> (f64, f64) {
         let (n, p) = (self.program.recurrences.dof, self.work.order);
+        let (rtol, atol) = (rule.rtol, rule.atol);
         let eps = rtol.min(atol);
         let (mut below, mut top) = (0.0_f64, 0.0_f64);
         let (q, qd) = y[..2 * n].split_at(n);
@@ -702,7 +704,7 @@ impl Expansion {
             (q, self.q(p - 1), self.q(p)),
             (qd, self.qd(p - 1), self.qd(p)),
         ] {
-            for i in 0..n {
+            for i in (0..n).take_while(|&i| (i as f64) < rule.controlled) {
                 let scale = eps / (atol + rtol * y[i].abs());
                 below = below.max(x[i].abs() * scale);
                 top = top.max(z[i].abs() * scale);

@@ -470,6 +470,12 @@ fn taylor_kernel_matches_interpreter_on_random_models() {
                 min_step: 0.0,
                 t_end: t + rng.uniform(-1.0, 1.0),
                 dir: if rng.below(2) == 0 { 1.0 } else { -1.0 },
+                // Every coordinate, or the first few only (a variational system's own).
+                controlled: if rng.below(2) == 0 {
+                    f64::INFINITY
+                } else {
+                    (1 + rng.below(n)) as f64
+                },
             };
             let lost: Vec<f64> = (0..2 * n).map(|_| rng.uniform(-1e-17, 1e-17)).collect();
             let (mut la, mut lb) = (lost.clone(), lost);

@@ -315,7 +315,7 @@ def test_forced_two_mass_closed_form(method, options, tol):
 def test_error_control_off_takes_fewer_steps():
     model = double_pendulum()
     opts = dict(rtol=1e-10, atol=1e-10, t_eval=np.linspace(0.0, 2.0, 11))
-    for method in ("dop853", "dopri5", "radau5"):
+    for method in ("dop853", "dopri5", "radau5", "taylor"):
         on = model.simulate(DP_Q0, DP_QD0, 2.0, method=method, sensitivities=["g", "q0"], **opts)
         off = model.simulate(DP_Q0, DP_QD0, 2.0, method=method, sensitivities=["g", "q0"],
                              sensitivity_error_control=False, **opts)
@@ -344,12 +344,16 @@ def test_error_control_off_at_a_fixed_step_changes_nothing():
             assert np.array_equal(on.sensitivities[name], off.sensitivities[name])
 
 
-def test_error_control_off_refused_by_taylor():
-    # Taylor sizes its steps from every component's series: it says so and names the methods
-    # that can leave the sensitivities out.
-    with pytest.raises(ValueError, match="dop853"):
-        damped().simulate([X0], [V0], T_END, method="taylor", rtol=1e-10, atol=1e-10,
-                          sensitivities=["k"], sensitivity_error_control=False)
+def test_error_control_off_with_taylor_takes_the_plain_runs_steps():
+    # Taylor's step size from the norms of (q, q̇) alone: the steps of the run without
+    # sensitivities (the same series of the model's own coordinates, to rounding: the
+    # variational system solves with M's factors on the graph, the plain run with M₀'s).
+    model = double_pendulum()
+    plain = model.simulate(DP_Q0, DP_QD0, 2.0, method="taylor", rtol=1e-10, atol=1e-10)
+    off = model.simulate(DP_Q0, DP_QD0, 2.0, method="taylor", rtol=1e-10, atol=1e-10,
+                         sensitivities=["g"], sensitivity_error_control=False)
+    assert off.stats["accepted_steps"] == plain.stats["accepted_steps"]
+    np.testing.assert_allclose(off.t, plain.t, rtol=0, atol=1e-12)
 
 
 def test_error_control_flag_type():
