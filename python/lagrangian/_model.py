@@ -843,7 +843,7 @@ class Model:
         sensitivity_error_control : bool
             With ``sensitivities``: control the local error of the sensitivities too (the
             default), or of (q, q̇) only (fewer steps; CVODES's ``errconS``; with ``dop853``,
-            ``dopri5`` and ``radau5``).
+            ``dopri5``, ``radau5`` and ``taylor``).
 
         Returns
         -------
