@@ -344,32 +344,7 @@ fn define_order(module: &mut JITModule, program: &Recurrences) -> Result<OrderEn
             rhs.push(g.b.ins().select(first, f, d));
         }
         // M₀ q̈ₖ = rhs as `emit_expansion` solves it (`linalg::ldlt_solve`'s operations).
-        let nonzero = |e: usize| program.factor_nonzero.as_ref().is_none_or(|p| p[e]);
-        for i in 1..n {
-            let terms: Vec<Value> = (0..i)
-                .filter(|&j| nonzero(i * n + j))
-                .map(|j| {
-                    let l = g.load_at(m0p, i * n + j);
-                    g.b.ins().fmul(rhs[j], l)
-                })
-                .collect();
-            if !terms.is_empty() {
-                let d = g.lanes(terms);
-                rhs[i] = g.b.ins().fsub(rhs[i], d);
-            }
-        }
-        for i in 0..n {
-            let d = g.load_at(m0p, i * n + i);
-            rhs[i] = g.b.ins().fmul(rhs[i], d);
-        }
-        for i in (1..n).rev() {
-            let x = rhs[i];
-            for j in (0..i).filter(|&j| nonzero(i * n + j)) {
-                let l = g.load_at(m0p, i * n + j);
-                let xl = g.b.ins().fmul(x, l);
-                rhs[j] = g.b.ins().fsub(rhs[j], xl);
-            }
-        }
+        emit_solve(&mut g, program, m0p, &mut rhs);
         let k1 = g.b.ins().iadd_imm_s(k, 1);
         let k1f = g.b.ins().fcvt_from_sint(types::F64, k1);
         let next = g.b.ins().fdiv(one, k1f);
@@ -1152,34 +1127,8 @@ fn emit_expansion(
                     f
                 });
             }
-            // M₀ q̈ₖ = rhs as `linalg::ldlt_solve` (`ldlt_solve_pattern` without the entries of
-            // L that are zero by structure): L y = b, D z = y, Lᵀ x = z.
-            let nonzero = |e: usize| program.factor_nonzero.as_ref().is_none_or(|p| p[e]);
-            for i in 1..n {
-                let terms: Vec<Value> = (0..i)
-                    .filter(|&j| nonzero(i * n + j))
-                    .map(|j| {
-                        let l = g.load_at(m0p, i * n + j);
-                        g.b.ins().fmul(rhs[j], l)
-                    })
-                    .collect();
-                if !terms.is_empty() {
-                    let d = g.lanes(terms);
-                    rhs[i] = g.b.ins().fsub(rhs[i], d);
-                }
-            }
-            for i in 0..n {
-                let d = g.load_at(m0p, i * n + i);
-                rhs[i] = g.b.ins().fmul(rhs[i], d);
-            }
-            for i in (1..n).rev() {
-                let x = rhs[i];
-                for j in (0..i).filter(|&j| nonzero(i * n + j)) {
-                    let l = g.load_at(m0p, i * n + j);
-                    let xl = g.b.ins().fmul(x, l);
-                    rhs[j] = g.b.ins().fsub(rhs[j], xl);
-                }
-            }
+            // M₀ q̈ₖ = rhs (see `emit_solve`).
+            emit_solve(&mut g, program, m0p, &mut rhs);
             // This order's values are read from memory by later orders (forwarded to all of
             // them, they ran the double pendulum 1.2× slower: the registers ran out); what the
             // next order starts from is forwarded.
@@ -1206,5 +1155,39 @@ fn emit_expansion(
         g.b.finalize(config);
         let computed = |x| matches!(x, Operand::Qdd(_)) || g.computed.contains(&x);
         slots.into_iter().map(|(x, _)| (x, computed(x))).collect()
+    }
+}
+
+/// M₀ q̈ₖ = `rhs` in place, with M₀'s LDLᵀ factors at `m0p` (L below the diagonal, D's
+/// reciprocals on it), as `linalg::ldlt_solve` (`ldlt_solve_pattern` without the entries of L
+/// that are zero by structure): L y = b, D z = y, Lᵀ x = z — the one solve of the order-by-order
+/// kernel and the unrolled expansion.
+fn emit_solve(g: &mut SeriesEmitter<'_>, program: &Recurrences, m0p: Value, rhs: &mut [Value]) {
+    let n = rhs.len();
+    let nonzero = |e: usize| program.factor_nonzero.as_ref().is_none_or(|p| p[e]);
+    for i in 1..n {
+        let terms: Vec<Value> = (0..i)
+            .filter(|&j| nonzero(i * n + j))
+            .map(|j| {
+                let l = g.load_at(m0p, i * n + j);
+                g.b.ins().fmul(rhs[j], l)
+            })
+            .collect();
+        if !terms.is_empty() {
+            let d = g.lanes(terms);
+            rhs[i] = g.b.ins().fsub(rhs[i], d);
+        }
+    }
+    for i in 0..n {
+        let d = g.load_at(m0p, i * n + i);
+        rhs[i] = g.b.ins().fmul(rhs[i], d);
+    }
+    for i in (1..n).rev() {
+        let x = rhs[i];
+        for j in (0..i).filter(|&j| nonzero(i * n + j)) {
+            let l = g.load_at(m0p, i * n + j);
+            let xl = g.b.ins().fmul(x, l);
+            rhs[j] = g.b.ins().fsub(rhs[j], xl);
+        }
     }
 }
