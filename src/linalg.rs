@@ -9,6 +9,7 @@
 //! the checks (and the errors they return) are the same.
 
 use crate::Scalar;
+use std::ops::{Add, Mul, Sub};
 
 /// Why a symmetric matrix could not be factored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -195,7 +196,13 @@ pub(crate) fn ldlt_pattern(n: usize, zero: impl Fn(usize) -> bool) -> Vec<bool> 
 /// rank among the terms kept (so the roundings may differ from `ldlt_solve`'s where a row is
 /// partly zero; with every entry nonzero it is `ldlt_solve` bit for bit). Unrolled Taylor
 /// expansions solve as this does (`taylor/kernel.rs`).
-pub(crate) fn ldlt_solve_pattern(f: &[f64], n: usize, nonzero: &[bool], b: &mut [f64]) {
+/// Generic over the entries, so that the batch expansions (`taylor/batch.rs`) solve several
+/// runs' systems at once, lane by lane, in the same operations.
+#[inline(always)]
+pub(crate) fn ldlt_solve_pattern<T>(f: &[T], n: usize, nonzero: &[bool], b: &mut [T])
+where
+    T: Copy + Default + Add<Output = T> + Sub<Output = T> + Mul<Output = T>,
+{
     for i in 1..n {
         let row = &nonzero[i * n..i * n + i];
         let count = row.iter().filter(|&&x| x).count();
@@ -204,19 +211,20 @@ pub(crate) fn ldlt_solve_pattern(f: &[f64], n: usize, nonzero: &[bool], b: &mut 
         }
         // `dot`'s lanes over the terms kept: chunks of four, the rest into the first lane.
         let full = count / 4 * 4;
-        let mut s = [0.0; 4];
+        let mut s = [T::default(); 4];
         for (m, j) in (0..i).filter(|&j| row[j]).enumerate() {
-            s[if m < full { m % 4 } else { 0 }] += b[j] * f[i * n + j];
+            let lane = if m < full { m % 4 } else { 0 };
+            s[lane] = s[lane] + b[j] * f[i * n + j];
         }
-        b[i] -= (s[0] + s[1]) + (s[2] + s[3]);
+        b[i] = b[i] - ((s[0] + s[1]) + (s[2] + s[3]));
     }
     for i in 0..n {
-        b[i] *= f[i * n + i];
+        b[i] = b[i] * f[i * n + i];
     }
     for k in (1..n).rev() {
         let x = b[k];
         for j in (0..k).filter(|&j| nonzero[k * n + j]) {
-            b[j] -= x * f[k * n + j];
+            b[j] = b[j] - x * f[k * n + j];
         }
     }
 }

@@ -3,9 +3,12 @@
 //!
 //! Each run is exactly the [`solve_partial`] of its system and initial state — the same
 //! arithmetic in the same order, so the results are bit for bit those of a serial loop, whatever
-//! the number of threads — and the results come back in input order. A run that fails keeps its
+//! the number of threads — and the results come back in input order. Taylor runs to their final
+//! states are taken several at a time per thread, in the lanes of the machine's vectors
+//! (`batch.rs`), with the same steps and bits. A run that fails keeps its
 //! [`Failed`] (with what it had computed) and does not stop the others.
 
+use super::batch::solve_in_lanes;
 use super::{Event, Failed, Method, Options, Solution, solve_partial};
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
@@ -81,8 +84,16 @@ pub fn solve_many<S: Dynamics + Sync>(
             what: "workers",
             why: format!("cannot start {workers} threads: {e}"),
         })?;
+    // Taylor runs to their final states go in the lanes of the machine's vectors, several per
+    // thread (`batch.rs`); the runs the lanes did not finish run alone below.
+    let threads = pool.current_num_threads();
+    let lanes = pool
+        .install(|| solve_in_lanes(systems, initial, span, method, options, threads, interrupt));
     let run = |i: usize| -> RunResult {
         let (q0, qd0) = initial[i];
+        if let Some(Some(finished)) = lanes.as_ref().map(|runs| &runs[i]) {
+            return Ok(finished.solution(q0.len()));
+        }
         let stop = interrupt.map(|f| f as &dyn Fn(f64) -> bool);
         if stop.is_some_and(|f| f(span.0)) {
             return Err(Failed::from(Error::Interrupted { t: span.0 }));

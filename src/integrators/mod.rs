@@ -92,6 +92,8 @@
 // the `registry` of the methods, the tests on the linearization (`stiffness`, `step_limit`), the
 // choice of `auto`, and the `solver` with `ensemble` on top.
 mod auto;
+#[cfg(feature = "parallel")]
+mod batch;
 mod dense;
 #[cfg(feature = "parallel")]
 mod ensemble;

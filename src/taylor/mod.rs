@@ -28,6 +28,7 @@
 //! [`Expansion`]: the one place that chooses compiled or interpreted expansion).
 
 mod abi;
+pub(crate) mod batch;
 #[cfg(feature = "jit")]
 mod emit;
 mod expansion;

@@ -4,6 +4,135 @@
 //! the convolution every compiled kernel calls so that both sum in the same order.
 
 use crate::expr::graph::sign;
+use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
+
+/// A Taylor coefficient as the recurrences compute it: an `f64`, or the same coefficient of
+/// several runs side by side ([`Lanes`], the batch expansions of `batch.rs`). Every operation
+/// is the `f64` one lane by lane, so a run in a lane gets its coefficients bit for bit.
+pub(crate) trait Coefficient:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+    + AddAssign
+{
+    /// x in every lane.
+    fn splat(x: f64) -> Self;
+    /// f of each lane.
+    fn map(self, f: impl Fn(f64) -> f64) -> Self;
+    /// (f(x).0, f(x).1) of each lane x.
+    fn map2(self, f: impl Fn(f64) -> (f64, f64)) -> (Self, Self);
+    /// f(x, y) of each lane x of `self` and y of `other`.
+    fn zip_map(self, other: Self, f: impl Fn(f64, f64) -> f64) -> Self;
+    /// Lane by lane: `a` where `self > 0`, else `b`.
+    fn positive_then(self, a: Self, b: Self) -> Self;
+}
+
+impl Coefficient for f64 {
+    #[inline(always)]
+    fn splat(x: f64) -> Self {
+        x
+    }
+    #[inline(always)]
+    fn map(self, f: impl Fn(f64) -> f64) -> Self {
+        f(self)
+    }
+    #[inline(always)]
+    fn map2(self, f: impl Fn(f64) -> (f64, f64)) -> (Self, Self) {
+        f(self)
+    }
+    #[inline(always)]
+    fn zip_map(self, other: Self, f: impl Fn(f64, f64) -> f64) -> Self {
+        f(self, other)
+    }
+    #[inline(always)]
+    fn positive_then(self, a: Self, b: Self) -> Self {
+        if self > 0.0 { a } else { b }
+    }
+}
+
+/// The coefficients of `L` runs side by side: one vector register at L = 8 with AVX-512
+/// (aligned to its 64 bytes), operated on lane by lane as `f64`s.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(C, align(64))]
+pub(crate) struct Lanes<const L: usize>(pub [f64; L]);
+
+impl<const L: usize> Default for Lanes<L> {
+    fn default() -> Self {
+        Self([0.0; L])
+    }
+}
+
+macro_rules! lanewise {
+    ($($trait:ident $method:ident $op:tt),*) => {$(
+        impl<const L: usize> $trait for Lanes<L> {
+            type Output = Self;
+            #[inline(always)]
+            fn $method(self, o: Self) -> Self {
+                let mut out = self;
+                for (x, y) in out.0.iter_mut().zip(o.0) {
+                    *x $op y;
+                }
+                out
+            }
+        }
+    )*};
+}
+lanewise!(Add add +=, Sub sub -=, Mul mul *=, Div div /=);
+
+impl<const L: usize> Neg for Lanes<L> {
+    type Output = Self;
+    #[inline(always)]
+    fn neg(self) -> Self {
+        Self(self.0.map(|x| -x))
+    }
+}
+
+impl<const L: usize> AddAssign for Lanes<L> {
+    #[inline(always)]
+    fn add_assign(&mut self, o: Self) {
+        *self = *self + o;
+    }
+}
+
+impl<const L: usize> Coefficient for Lanes<L> {
+    #[inline(always)]
+    fn splat(x: f64) -> Self {
+        Self([x; L])
+    }
+    #[inline(always)]
+    fn map(self, f: impl Fn(f64) -> f64) -> Self {
+        Self(self.0.map(f))
+    }
+    #[inline(always)]
+    fn map2(self, f: impl Fn(f64) -> (f64, f64)) -> (Self, Self) {
+        let (mut a, mut b) = (self, self);
+        for (i, &x) in self.0.iter().enumerate() {
+            (a.0[i], b.0[i]) = f(x);
+        }
+        (a, b)
+    }
+    #[inline(always)]
+    fn zip_map(self, other: Self, f: impl Fn(f64, f64) -> f64) -> Self {
+        let mut out = self;
+        for (x, y) in out.0.iter_mut().zip(other.0) {
+            *x = f(*x, y);
+        }
+        out
+    }
+    #[inline(always)]
+    fn positive_then(self, a: Self, b: Self) -> Self {
+        let mut out = b;
+        for i in 0..L {
+            if self.0[i] > 0.0 {
+                out.0[i] = a.0[i];
+            }
+        }
+        out
+    }
+}
 
 /// One recurrence: coefficient k of row `out` (and of its partner rows) from the coefficients
 /// of its operands up to k and its own below k. Rows hold series; row r's coefficient j is at
@@ -95,8 +224,8 @@ pub(crate) const LANES: usize = 4;
 /// give the same bits.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn conv(
-    s: &[f64],
+pub(crate) fn conv<C: Coefficient>(
+    s: &[C],
     w: usize,
     a: usize,
     b: usize,
@@ -105,7 +234,7 @@ pub(crate) fn conv(
     kk: usize,
     k: usize,
     weighted: bool,
-) -> f64 {
+) -> C {
     conv_rows(
         &s[a * w..(a + 1) * w],
         &s[b * w..(b + 1) * w],
@@ -128,40 +257,47 @@ pub(crate) fn fresh_ends(lo: usize, hi: usize, kk: usize, k: usize) -> (bool, bo
 
 /// [`conv`] on two rows.
 #[inline(always)]
-pub(crate) fn conv_rows(
-    a: &[f64],
-    b: &[f64],
+pub(crate) fn conv_rows<C: Coefficient>(
+    a: &[C],
+    b: &[C],
     lo: usize,
     hi: usize,
     kk: usize,
     k: usize,
     weighted: bool,
-) -> f64 {
-    let term = |j: usize| {
-        let x = a[j];
-        let x = if weighted { j as f64 * x } else { x };
-        x * b[kk - j]
-    };
+) -> C {
     let (first, last) = fresh_ends(lo, hi, kk, k);
-    let mut lanes = [0.0; LANES];
-    let mut j = lo + usize::from(first);
-    let end = hi + 1 - usize::from(last);
-    while j + LANES <= end {
-        for (i, lane) in lanes.iter_mut().enumerate() {
-            *lane += term(j + i);
+    let weight = |j: usize, x: C| if weighted { C::splat(j as f64) * x } else { x };
+    let zero = C::splat(0.0);
+    let mut lanes = [zero; LANES];
+    let (start, end) = (lo + usize::from(first), hi + 1 - usize::from(last));
+    if start < end {
+        // Terms j = start..end: aⱼ against b read backwards from b_(kk − start), as slices
+        // (no bounds check per term).
+        let (a_run, b_run) = (&a[start..end], &b[kk + 1 - end..=kk - start]);
+        let whole = a_run.len() / LANES * LANES;
+        let mut j = start;
+        for (x, y) in a_run[..whole]
+            .chunks_exact(LANES)
+            .zip(b_run[b_run.len() - whole..].rchunks_exact(LANES))
+        {
+            for i in 0..LANES {
+                lanes[i] += weight(j + i, x[i]) * y[LANES - 1 - i];
+            }
+            j += LANES;
         }
-        j += LANES;
-    }
-    while j < end {
-        lanes[0] += term(j);
-        j += 1;
+        let rest = b_run.len() - whole;
+        for (x, y) in a_run[whole..].iter().zip(b_run[..rest].iter().rev()) {
+            lanes[0] += weight(j, *x) * *y;
+            j += 1;
+        }
     }
     let mut sum = (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]);
     if first {
-        sum += term(0);
+        sum += weight(0, a[0]) * b[kk];
     }
     if last {
-        sum += term(k);
+        sum += weight(k, a[k]) * b[kk - k];
     }
     sum
 }
@@ -343,11 +479,13 @@ impl SeriesOp {
     }
 
     /// Coefficient k of the rows this recurrence writes, in the table `s` of row width `w`.
-    pub(crate) fn apply(&self, s: &mut [f64], w: usize, k: usize) {
-        let at = |s: &[f64], r: usize, j: usize| s[r * w + j];
+    #[inline(always)]
+    pub(crate) fn apply<C: Coefficient>(&self, s: &mut [C], w: usize, k: usize) {
+        let at = |s: &[C], r: usize, j: usize| s[r * w + j];
+        let c = C::splat;
         // 1/k: the recurrences scale by it (a product, not a quotient, on the path from one
         // order to the next).
-        let inv_k = 1.0 / k as f64;
+        let inv_k = c(1.0 / k as f64);
         let value = match *self {
             SeriesOp::Copy { a, .. } => at(s, a, k),
             SeriesOp::Neg { a, .. } => -at(s, a, k),
@@ -372,31 +510,31 @@ impl SeriesOp {
             }
             SeriesOp::Recip { out, b } => {
                 if k == 0 {
-                    1.0 / at(s, b, 0)
+                    c(1.0) / at(s, b, 0)
                 } else {
                     -conv(s, w, b, out, 1, k, k, k, false) / at(s, b, 0)
                 }
             }
             SeriesOp::Exp { out, a } => {
                 if k == 0 {
-                    at(s, a, 0).exp()
+                    at(s, a, 0).map(f64::exp)
                 } else {
                     conv(s, w, a, out, 1, k, k, k, true) * inv_k
                 }
             }
             SeriesOp::Ln { out, a } => {
                 if k == 0 {
-                    at(s, a, 0).ln()
+                    at(s, a, 0).map(f64::ln)
                 } else {
                     (at(s, a, k) - conv(s, w, out, a, 1, k - 1, k, k, true) * inv_k) / at(s, a, 0)
                 }
             }
             SeriesOp::Sqrt { out, a } => {
                 if k == 0 {
-                    at(s, a, 0).sqrt()
+                    at(s, a, 0).map(f64::sqrt)
                 } else {
                     (at(s, a, k) - conv(s, w, out, out, 1, k - 1, k, k, false))
-                        / (2.0 * at(s, out, 0))
+                        / (c(2.0) * at(s, out, 0))
                 }
             }
             SeriesOp::SinCos {
@@ -410,9 +548,9 @@ impl SeriesOp {
                 let (sv, cv) = if k == 0 {
                     let x = at(s, a, 0);
                     if hyperbolic {
-                        (x.sinh(), x.cosh())
+                        (x.map(f64::sinh), x.map(f64::cosh))
                     } else {
-                        x.sin_cos()
+                        x.map2(f64::sin_cos)
                     }
                 } else if let Some(da) = da {
                     let hi = degree.map_or(k - 1, |d| d.saturating_sub(1).min(k - 1));
@@ -437,38 +575,40 @@ impl SeriesOp {
             } => {
                 let t = if k == 0 {
                     let x = at(s, a, 0);
-                    if hyperbolic { x.tanh() } else { x.tan() }
+                    if hyperbolic {
+                        x.map(f64::tanh)
+                    } else {
+                        x.map(f64::tan)
+                    }
                 } else {
                     conv(s, w, a, wr, 1, k, k, k, true) * inv_k
                 };
                 s[out * w + k] = t;
                 let sq = conv(s, w, out, out, 0, k, k, k, false);
                 let sq = if hyperbolic { -sq } else { sq };
-                s[wr * w + k] = if k == 0 { 1.0 + sq } else { sq };
+                s[wr * w + k] = if k == 0 { c(1.0) + sq } else { sq };
                 return;
             }
             SeriesOp::Abs { a, .. } => {
                 let x = at(s, a, k);
                 if k == 0 {
-                    x.abs()
-                } else if at(s, a, 0) > 0.0 {
-                    x
+                    x.map(f64::abs)
                 } else {
-                    -x
+                    at(s, a, 0).positive_then(x, -x)
                 }
             }
             SeriesOp::Sign { a, .. } => {
                 if k == 0 {
-                    sign(at(s, a, 0))
+                    at(s, a, 0).map(sign)
                 } else {
-                    0.0
+                    c(0.0)
                 }
             }
             SeriesOp::Atan2 { y, x, d, r, .. } => {
                 let dk = conv(s, w, x, x, 0, k, k, k, false) + conv(s, w, y, y, 0, k, k, k, false);
                 s[d * w + k] = dk;
                 if k == 0 {
-                    at(s, y, 0).atan2(at(s, x, 0))
+                    at(s, y, 0).zip_map(at(s, x, 0), f64::atan2)
                 } else {
                     let n = conv(s, w, y, x, 1, k, k, k, true) - conv(s, w, x, y, 1, k, k, k, true);
                     let rk = (n - conv(s, w, d, r, 1, k - 1, k - 1, k, false)) / at(s, d, 0);

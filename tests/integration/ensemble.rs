@@ -9,7 +9,11 @@ use lagrangian::integrators::{
     Event, Method, Options, Output, RunResult, Status, Systems, solve_many, solve_partial,
 };
 use lagrangian::scenes::{DampedOscillator, SimplePendulum, elliptic_k};
+use lagrangian::tape::{
+    Binary, EnergyModel, EomProgram, Function, Graph, Inputs, Tape, Unary, models,
+};
 use lagrangian::{Error, Result};
+use std::sync::Arc;
 
 const G: f64 = 9.81;
 
@@ -325,5 +329,141 @@ fn interrupt_stops_every_run() {
     assert!(
         runs.iter()
             .all(|r| matches!(r, Err(f) if matches!(f.error, Error::Interrupted { .. })))
+    );
+}
+
+/// The double pendulum's energies on a graph ([`models::double_pendulum`]), with the
+/// forcing `forcing` cos(t) on θ₁ when it is not 0 (a time-dependent model): its tapes and its
+/// compiled program, unbound, and a model of them bound to `params` (m₁, m₂, l₁, l₂, g).
+struct Pendulums {
+    dof: usize,
+    tapes: (Arc<Tape>, Arc<Tape>, Option<Arc<Tape>>),
+    program: EomProgram,
+}
+
+impl Pendulums {
+    fn new(forcing: f64) -> Self {
+        let mut g = Graph::new();
+        let mut parts = models::double_pendulum(&mut g).unwrap();
+        if forcing != 0.0 {
+            let (f, t, zero) = (g.constant(forcing), g.time(), g.constant(0.0));
+            let cos = g.unary(Unary::Cos, t).unwrap();
+            let q1 = g.binary(Binary::Mul, f, cos).unwrap();
+            parts.forces = Some(vec![q1, zero]);
+        }
+        let program = EomProgram::new(&mut g, 2, 5, &parts).unwrap();
+        let all = Inputs::kinetic(2, 5);
+        let tape =
+            |nodes: &[usize], inputs| Arc::new(Tape::new(&g, nodes, inputs, "part").unwrap());
+        let tapes = (
+            tape(&[parts.kinetic], all),
+            tape(&[parts.potential.unwrap()], Inputs::potential(2, 5)),
+            parts.forces.as_ref().map(|q| tape(q, all)),
+        );
+        Self {
+            dof: 2,
+            tapes,
+            program,
+        }
+    }
+
+    fn bind(&self, params: &[f64]) -> Result<EnergyModel> {
+        let f = |tape: &Arc<Tape>| Function::new(tape.clone(), params);
+        EnergyModel::new(
+            self.dof,
+            f(&self.tapes.0)?,
+            Some(f(&self.tapes.1)?),
+            None,
+            self.tapes.2.as_ref().map(f).transpose()?,
+        )?
+        .with_program(self.program.bind(params)?)
+    }
+}
+
+/// Taylor ensembles to their final states run in the lanes of the machine's vectors
+/// (`integrators/batch.rs`): each run is still the serial run bit for bit — its final state,
+/// counters and status — on 1 and 2 threads, with a number of runs that leaves lanes empty at
+/// the end; for one model, for one model bound to each run's parameters (lanes of different
+/// g, masses and lengths side by side), and for a forced (time-dependent) model. Runs the lanes
+/// give up run alone and fail as they fail alone: one that passes `max_steps`, one whose
+/// initial state is not finite.
+#[test]
+fn taylor_runs_in_lanes_are_the_serial_runs_bit_for_bit() {
+    let pendulums = Pendulums::new(0.0);
+    let forced = Pendulums::new(0.7);
+    let nominal = [1.0, 1.5, 1.0, 0.8, G];
+    let model = pendulums.bind(&nominal).unwrap();
+    let forced_model = forced.bind(&nominal).unwrap();
+    let k = 37;
+    let mut states: Vec<_> = (0..k)
+        .map(|i| {
+            let a = -2.0 + 4.0 * (i as f64 + 0.5) / k as f64;
+            (vec![a, 0.5 * a], vec![0.1 * a, 0.0])
+        })
+        .collect();
+    states[5].0[1] = f64::NAN;
+    let initial = slices(&states);
+    let params: Vec<[f64; 5]> = (0..k)
+        .map(|i| {
+            let s = 1.0 + 0.02 * i as f64;
+            [1.0, 1.5 * s, 1.0 / s, 0.8, G * s]
+        })
+        .collect();
+    let build = |i: usize| pendulums.bind(&params[i]);
+    let span = (0.0, 6.0);
+    let options = Options::adaptive(1e-10, 1e-10).with_output(Output::Final);
+    let serial = |system: &dyn Fn(usize) -> EnergyModel, options: &Options| -> Vec<RunResult> {
+        (initial.iter().enumerate())
+            .map(|(i, (q0, qd0))| {
+                solve_partial(&system(i), q0, qd0, span, Method::Taylor, options, None)
+            })
+            .collect()
+    };
+    let one = |_: usize| model.clone();
+    // The median run's steps: the longer runs fail with TooManySteps.
+    let mut steps: Vec<usize> = (serial(&one, &options).iter().flatten())
+        .map(|s| s.stats.accepted_steps)
+        .collect();
+    steps.sort();
+    let mut limited = options.clone();
+    limited.max_steps = steps[steps.len() / 2];
+    let each = |i: usize| build(i).unwrap();
+    let forced_one = |_: usize| forced_model.clone();
+    for (name, systems, alone, options) in [
+        (
+            "one model",
+            Systems::One(&model),
+            &one as &dyn Fn(usize) -> _,
+            &options,
+        ),
+        ("one model, max_steps", Systems::One(&model), &one, &limited),
+        ("a parameter sweep", Systems::Each(&build), &each, &options),
+        ("forced", Systems::One(&forced_model), &forced_one, &options),
+    ] {
+        let want = serial(alone, options);
+        let failed = want.iter().filter(|r| r.is_err()).count();
+        assert!(failed >= 1 && failed < k / 2 + 2, "{name}: {failed} failed");
+        for workers in [1, 2] {
+            let runs = solve_many(
+                systems,
+                &initial,
+                span,
+                Method::Taylor,
+                options,
+                workers,
+                None,
+            )
+            .unwrap();
+            assert_eq!(runs, want, "{name} on {workers} threads");
+        }
+    }
+    let too_many =
+        |r: &RunResult| matches!(r, Err(f) if matches!(f.error, Error::TooManySteps { .. }));
+    assert!(
+        serial(&one, &limited)
+            .iter()
+            .filter(|r| too_many(r))
+            .count()
+            >= k / 3
     );
 }

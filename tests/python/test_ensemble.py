@@ -235,6 +235,38 @@ def test_every_run_is_simulate_bit_for_bit(hundred, workers):
     assert dense.stats["choice"][0] is not None
 
 
+@pytest.mark.parametrize("workers", [1, 2])
+def test_taylor_runs_in_lanes_are_simulate_bit_for_bit(hundred, workers):
+    # Taylor runs to their final states go several at a time through the lanes of the
+    # machine's vectors: each run still ends where `simulate` ends it, bit for bit, with the
+    # same counters — in a parameter sweep too (lanes of different g side by side), and a run
+    # stopped by max_steps fails as it fails alone.
+    model, q0, qd0 = hundred
+    g = np.linspace(1.0, 20.0, 100)
+    plain = model.simulate_many(q0, qd0, 4.0, method="taylor", rtol=1e-10, atol=1e-10,
+                                final_only=True, workers=workers)
+    sweep = model.simulate_many(q0, qd0, 4.0, method="taylor", rtol=1e-10, atol=1e-10,
+                                parameters={"g": g}, final_only=True, workers=workers)
+    steps = np.sort(plain.stats["accepted_steps"])
+    limit = int(steps[50])
+    limited = model.simulate_many(q0, qd0, 4.0, method="taylor", rtol=1e-10, atol=1e-10,
+                                  max_steps=limit, final_only=True, workers=workers)
+    for i in range(100):
+        for ens, m in ((plain, model), (sweep, model.with_parameters(g=g[i]))):
+            sol = m.simulate(q0[i], qd0[i], 4.0, method="taylor", rtol=1e-10, atol=1e-10)
+            assert ens.t[i] == sol.t[-1] == 4.0
+            assert np.array_equal(ens.q[i], sol.q[-1]), i
+            assert np.array_equal(ens.qd[i], sol.qd[-1]), i
+            assert ens.run_stats(i) == sol.stats, i
+        assert limited.ok[i] == (plain.stats["accepted_steps"][i] <= limit), i
+    assert 30 <= (~limited.ok).sum() <= 60
+    failed = int(np.flatnonzero(~limited.ok)[0])
+    with pytest.raises(lg.TooManyStepsError) as alone:
+        model.simulate(q0[failed], qd0[failed], 4.0, method="taylor", rtol=1e-10, atol=1e-10,
+                       max_steps=limit)
+    assert str(limited.error(failed)) == str(alone.value)
+
+
 def test_parameter_sweeps_bind_each_run(hundred):
     # A compiled model rebound per run and a scene built per run: each run as with_parameters
     # would make it, bit for bit.
