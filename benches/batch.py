@@ -10,7 +10,7 @@ The ensemble
 Variants
     ours, taylor lanes        ``model.simulate_many(q0, qd0, 10, method="taylor", rtol=τ,
                               atol=τ, final_only=True, workers=1)``: final-only Taylor runs go
-                              through SIMD lanes (8 runs per vector).
+                              through SIMD lanes (16 runs at once per thread).
     ours, taylor per task     the same with ``t_eval=[10]`` instead of ``final_only`` (the lanes
                               take final-only runs only): one run per task, no lanes.
     ours, dop853              ``method="dop853"``, final_only, workers=1.

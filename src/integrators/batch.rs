@@ -12,11 +12,11 @@
 //! shares (one model, or one compiled model bound to each run's parameters); other ensembles
 //! run one run per task.
 
-use super::ensemble::Systems;
 use super::taylor::order_for;
 use super::{Method, Options, Output, Solution, Statistics, Status};
 use crate::checks::check_state;
 use crate::dynamics::Dynamics;
+use crate::error::Result;
 use crate::taylor::StepRule;
 use crate::taylor::TaylorProgram;
 use crate::taylor::batch::{BatchExpansion, LANES, LaneStates, LaneStep};
@@ -56,9 +56,12 @@ const POLL_EVERY: usize = 64;
 
 /// The runs of an ensemble taken in lanes, when it can be ([`self`]'s conditions): per run,
 /// `Some` when the lanes finished it, `None` when it is to run alone. `None` when the ensemble
-/// is not one the lanes take.
+/// is not one the lanes take. Every run integrates `first`, or with `each`, the system
+/// `each(i)` builds (`first` is `each(0)`: it gives the program and the checks the runs share).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn solve_in_lanes<S: Dynamics + Sync>(
-    systems: Systems<'_, S>,
+    first: &S,
+    each: Option<&(dyn Fn(usize) -> Result<S> + Sync)>,
     initial: &[(&[f64], &[f64])],
     span: (f64, f64),
     method: Method,
@@ -79,16 +82,7 @@ pub(super) fn solve_in_lanes<S: Dynamics + Sync>(
     if !plain {
         return None;
     }
-    // The program and the checks every run shares, from the first run's system.
-    let first;
-    let system: &S = match systems {
-        Systems::One(s) => s,
-        Systems::Each(build) => {
-            first = build(0).ok()?;
-            &first
-        }
-        Systems::EachWithEvents(_) => return None,
-    };
+    let system = first;
     let n = system.dof();
     let (q0, qd0) = initial[0];
     let fits = system.constraints().is_none()
@@ -119,7 +113,7 @@ pub(super) fn solve_in_lanes<S: Dynamics + Sync>(
             .map_or(f64::INFINITY, |k| k as f64),
     };
     let lanes = Lanes {
-        systems,
+        each,
         initial,
         t0,
         rule,
@@ -147,14 +141,15 @@ pub(super) fn solve_in_lanes<S: Dynamics + Sync>(
 
 /// What the threads share: the runs, their rule, and the next run waiting.
 struct Lanes<'a, S> {
-    systems: Systems<'a, S>,
+    /// Each run's system, where runs differ (else every run's parameters are `params`).
+    each: Option<&'a (dyn Fn(usize) -> Result<S> + Sync)>,
     initial: &'a [(&'a [f64], &'a [f64])],
     t0: f64,
     rule: StepRule,
     order: usize,
     max_steps: usize,
     program: Arc<TaylorProgram>,
-    /// The parameters of `Systems::One`'s system.
+    /// The parameters of the one system.
     params: Vec<f64>,
     next: AtomicUsize,
     interrupt: Option<&'a (dyn Fn(f64) -> bool + Sync)>,
@@ -175,7 +170,7 @@ impl<S: Dynamics + Sync> Lanes<'_, S> {
         let mut expansion = BatchExpansion::new(self.program.clone(), self.order);
         let mut states = LaneStates::new(n);
         let mut lanes: [Option<InLane>; LANES] = [None; LANES];
-        if matches!(self.systems, Systems::One(_)) {
+        if self.each.is_none() {
             for lane in 0..LANES {
                 expansion.bind(lane, &self.params);
             }
@@ -248,7 +243,7 @@ impl<S: Dynamics + Sync> Lanes<'_, S> {
             if check_state(n, self.t0, q0, Some(qd0)).is_err() {
                 continue;
             }
-            if let Systems::Each(build) = self.systems {
+            if let Some(build) = self.each {
                 let Ok(system) = build(run) else { continue };
                 let Ok(eom) = system.taylor_program() else {
                     continue;
@@ -312,9 +307,12 @@ mod tests {
         let nan = [f64::NAN, 0.0];
         initial[3].0 = &nan;
         let options = Options::adaptive(1e-9, 1e-9).with_output(Output::Final);
-        let taken_of = |initial: &[(&[f64], &[f64])], systems, options: &Options| {
+        type Each<'a> = Option<&'a (dyn Fn(usize) -> crate::Result<EnergyModel> + Sync)>;
+        let taken_of = |initial: &[(&[f64], &[f64])], each: Each<'_>, options: &Options| {
+            let first = each.map_or_else(|| model.clone(), |build| build(0).unwrap());
             solve_in_lanes(
-                systems,
+                &first,
+                each,
                 initial,
                 (0.0, 2.0),
                 Method::Taylor,
@@ -324,15 +322,15 @@ mod tests {
             )
             .map(|runs| runs.iter().map(Option::is_some).collect::<Vec<_>>())
         };
-        let taken = |systems, options: &Options| taken_of(&initial, systems, options);
+        let taken = |each: Each<'_>, options: &Options| taken_of(&initial, each, options);
         let mut want = vec![true; initial.len()];
         want[3] = false;
-        assert_eq!(taken(Systems::One(&model), &options), Some(want.clone()));
-        assert_eq!(taken(Systems::Each(&each), &options), Some(want));
+        assert_eq!(taken(None, &options), Some(want.clone()));
+        assert_eq!(taken(Some(&each), &options), Some(want));
         let steps = options.clone().with_output(Output::Steps);
-        assert_eq!(taken(Systems::One(&model), &steps), None);
+        assert_eq!(taken(None, &steps), None);
         // Too few runs to fill half the lanes.
         let few = &initial[..LANES / 2 - 1];
-        assert_eq!(taken_of(few, Systems::One(&model), &options), None);
+        assert_eq!(taken_of(few, None, &options), None);
     }
 }

@@ -87,8 +87,18 @@ pub fn solve_many<S: Dynamics + Sync>(
     // Taylor runs to their final states go in the lanes of the machine's vectors, several per
     // thread (`batch.rs`); the runs the lanes did not finish run alone below.
     let threads = pool.current_num_threads();
-    let lanes = pool
-        .install(|| solve_in_lanes(systems, initial, span, method, options, threads, interrupt));
+    let lanes = pool.install(|| {
+        let lanes = |first: &S, each| {
+            solve_in_lanes(
+                first, each, initial, span, method, options, threads, interrupt,
+            )
+        };
+        match systems {
+            Systems::One(system) => lanes(system, None),
+            Systems::Each(build) => build(0).ok().and_then(|first| lanes(&first, Some(build))),
+            Systems::EachWithEvents(_) => None,
+        }
+    });
     let run = |i: usize| -> RunResult {
         let (q0, qd0) = initial[i];
         if let Some(Some(finished)) = lanes.as_ref().map(|runs| &runs[i]) {
