@@ -7,10 +7,11 @@
 //! alone, so that run reaches the same failure). The finished runs are what
 //! `solve_partial` gives: the same final state, bits and counters.
 //!
-//! Taken by `solve_many` for `Method::Taylor` with the final state only (`Output::Final`), no
-//! events and no dense output, on a model without constraints whose Taylor program every run
-//! shares (one model, or one compiled model bound to each run's parameters); other ensembles
-//! run one run per task.
+//! Taken by `solve_many` for `Method::Taylor` keeping the final state (`Output::Final`) or
+//! states at given times (`Output::Times`, from each step's polynomial as a run alone evaluates
+//! it), with no events and no dense output, on a model without constraints whose Taylor program
+//! every run shares (one model, or one compiled model bound to each run's parameters), of at
+//! least half as many runs as there are lanes; other ensembles run one run per task.
 
 use super::taylor::order_for;
 use super::{Method, Options, Output, Solution, Statistics, Status};
@@ -23,26 +24,36 @@ use crate::taylor::batch::{BatchExpansion, LANES, LaneStates, LaneStep};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-/// A run the lanes took to its end: its final time and state y = (q, q̇), and its steps.
-#[derive(Debug, Clone)]
+/// A run the lanes took to its end: the states it kept (its final one, or those at the times
+/// asked for), and its steps.
+#[derive(Debug, Clone, Default)]
 pub(super) struct Finished {
-    t: f64,
-    y: Vec<f64>,
+    t: Vec<f64>,
+    q: Vec<f64>,
+    qd: Vec<f64>,
     steps: usize,
     order: usize,
 }
 
 impl Finished {
-    /// The solution `solve_partial` gives this run (the final state only).
-    pub(super) fn solution(&self, dof: usize) -> Solution {
+    /// Keep the state y = (q, q̇) at t.
+    fn keep(&mut self, t: f64, y: &[f64]) {
+        let n = y.len() / 2;
+        self.t.push(t);
+        self.q.extend_from_slice(&y[..n]);
+        self.qd.extend_from_slice(&y[n..]);
+    }
+
+    /// The solution `solve_partial` gives this run.
+    pub(super) fn solution(self, dof: usize) -> Solution {
         let mut stats = Statistics::new(Method::Taylor, None);
         stats.accepted_steps = self.steps;
         stats.rhs_evaluations = self.steps * self.order;
         Solution {
             dof,
-            t: vec![self.t],
-            q: self.y[..dof].to_vec(),
-            qd: self.y[dof..].to_vec(),
+            t: self.t,
+            q: self.q,
+            qd: self.qd,
             stats,
             events: Vec::new(),
             status: Status::Finished,
@@ -70,8 +81,12 @@ pub(super) fn solve_in_lanes<S: Dynamics + Sync>(
     interrupt: Option<&(dyn Fn(f64) -> bool + Sync)>,
 ) -> Option<Vec<Option<Finished>>> {
     let (t0, t_end) = span;
+    let times: &[f64] = match &options.output {
+        Output::Final => &[],
+        Output::Times(times) => times,
+        Output::Steps | Output::Every(_) => return None,
+    };
     let plain = method == Method::Taylor
-        && options.output == Output::Final
         && options.events.is_empty()
         && !options.dense
         && options.dt.is_none()
@@ -113,6 +128,8 @@ pub(super) fn solve_in_lanes<S: Dynamics + Sync>(
             .map_or(f64::INFINITY, |k| k as f64),
     };
     let lanes = Lanes {
+        times,
+        keep_final: options.output == Output::Final,
         each,
         initial,
         t0,
@@ -141,6 +158,10 @@ pub(super) fn solve_in_lanes<S: Dynamics + Sync>(
 
 /// What the threads share: the runs, their rule, and the next run waiting.
 struct Lanes<'a, S> {
+    /// The times to keep the states at (`Output::Times`), in the run's direction.
+    times: &'a [f64],
+    /// Whether to keep the final state (`Output::Final`).
+    keep_final: bool,
     /// Each run's system, where runs differ (else every run's parameters are `params`).
     each: Option<&'a (dyn Fn(usize) -> Result<S> + Sync)>,
     initial: &'a [(&'a [f64], &'a [f64])],
@@ -155,11 +176,12 @@ struct Lanes<'a, S> {
     interrupt: Option<&'a (dyn Fn(f64) -> bool + Sync)>,
 }
 
-/// A lane's run: its index and the steps it has taken.
-#[derive(Debug, Clone, Copy)]
+/// A lane's run: its index, the next of the times to keep and what it kept so far.
+#[derive(Debug, Clone)]
 struct InLane {
     run: usize,
-    steps: usize,
+    next: usize,
+    kept: Finished,
 }
 
 impl<S: Dynamics + Sync> Lanes<'_, S> {
@@ -169,7 +191,7 @@ impl<S: Dynamics + Sync> Lanes<'_, S> {
         let n = self.program.dof();
         let mut expansion = BatchExpansion::new(self.program.clone(), self.order);
         let mut states = LaneStates::new(n);
-        let mut lanes: [Option<InLane>; LANES] = [None; LANES];
+        let mut lanes: [Option<InLane>; LANES] = std::array::from_fn(|_| None);
         if self.each.is_none() {
             for lane in 0..LANES {
                 expansion.bind(lane, &self.params);
@@ -189,7 +211,10 @@ impl<S: Dynamics + Sync> Lanes<'_, S> {
             }
             // A run that would pass `max_steps` runs alone, to fail with `TooManySteps`.
             for slot in &mut lanes {
-                if slot.is_some_and(|r| r.steps >= self.max_steps) {
+                if slot
+                    .as_ref()
+                    .is_some_and(|r| r.kept.steps >= self.max_steps)
+                {
                     *slot = None;
                 }
             }
@@ -200,31 +225,61 @@ impl<S: Dynamics + Sync> Lanes<'_, S> {
             {
                 // The runs in the lanes and those waiting run alone: each fails at once.
                 stopped = true;
-                lanes = [None; LANES];
+                lanes = std::array::from_fn(|_| None);
                 continue;
             }
+            let t = states.t;
             let outcome = expansion.step(&mut states, &self.rule);
             for (lane, slot) in lanes.iter_mut().enumerate() {
                 let Some(run) = slot else { continue };
-                match outcome[lane] {
-                    LaneStep::Step => run.steps += 1,
-                    LaneStep::Last => {
-                        finished.push((
-                            run.run,
-                            Finished {
-                                t: states.t.0[lane],
-                                y: states.state(lane),
-                                steps: run.steps + 1,
-                                order: self.order,
-                            },
-                        ));
-                        *slot = None;
+                if outcome[lane] == LaneStep::Failed {
+                    *slot = None;
+                    continue;
+                }
+                run.kept.steps += 1;
+                self.keep_times(run, &expansion, &states, lane, t.0[lane]);
+                if outcome[lane] == LaneStep::Last {
+                    if self.keep_final {
+                        run.kept.keep(states.t.0[lane], &states.state(lane));
                     }
-                    LaneStep::Failed => *slot = None,
+                    if let Some(run) = slot.take() {
+                        finished.push((run.run, run.kept));
+                    }
                 }
             }
         }
         finished
+    }
+
+    /// Keep `run`'s states at the times asked for up to the end of its step from t in `lane`,
+    /// from the step's polynomial (`Recorder::dense`: the new state itself at the step's end).
+    fn keep_times(
+        &self,
+        run: &mut InLane,
+        expansion: &BatchExpansion,
+        states: &LaneStates,
+        lane: usize,
+        t: f64,
+    ) {
+        let (dir, t_new) = (self.rule.dir, states.t.0[lane]);
+        let due = |next: usize| {
+            self.times
+                .get(next)
+                .filter(|&&ti| (ti - t_new) * dir <= 0.0)
+        };
+        if due(run.next).is_none() {
+            return;
+        }
+        let mut y = states.state(lane);
+        while let Some(&ti) = due(run.next) {
+            run.next += 1;
+            if ti == t_new {
+                y = states.state(lane);
+            } else {
+                expansion.eval(lane, ti - t, &mut y);
+            }
+            run.kept.keep(ti, &y);
+        }
     }
 
     /// The next waiting run the lanes can take, put in `lane` (bound to its parameters); runs
@@ -257,7 +312,19 @@ impl<S: Dynamics + Sync> Lanes<'_, S> {
             y[..n].copy_from_slice(q0);
             y[n..].copy_from_slice(qd0);
             states.load(lane, self.t0, y, &self.rule);
-            return Some(InLane { run, steps: 0 });
+            // The times at or before t₀ keep the initial state (`Recorder::start`).
+            let dir = self.rule.dir;
+            let mut kept = Finished {
+                order: self.order,
+                ..Finished::default()
+            };
+            let next = (self.times.iter())
+                .take_while(|&&ti| (ti - self.t0) * dir <= 0.0)
+                .count();
+            for _ in 0..next {
+                kept.keep(self.t0, y);
+            }
+            return Some(InLane { run, next, kept });
         }
     }
 }
@@ -274,7 +341,7 @@ mod tests {
     use crate::routes::EnergyModel;
 
     /// The lanes take every run of a plain Taylor ensemble to the end, for one model and for
-    /// one program bound per run, and leave to run alone the run they cannot start (a NaN)
+    /// one program bound per run, to the final state or states at times, and leave to run alone the run they cannot start (a NaN)
     /// and every run of an ensemble they do not take (one keeping every step, one of too few
     /// runs).
     #[test]
@@ -326,7 +393,11 @@ mod tests {
         let mut want = vec![true; initial.len()];
         want[3] = false;
         assert_eq!(taken(None, &options), Some(want.clone()));
-        assert_eq!(taken(Some(&each), &options), Some(want));
+        assert_eq!(taken(Some(&each), &options), Some(want.clone()));
+        let timed = options
+            .clone()
+            .with_output(Output::Times(vec![0.0, 0.5, 2.0]));
+        assert_eq!(taken(None, &timed), Some(want));
         let steps = options.clone().with_output(Output::Steps);
         assert_eq!(taken(None, &steps), None);
         // Too few runs to fill half the lanes.

@@ -102,7 +102,7 @@ pub fn solve_many<S: Dynamics + Sync>(
     let run = |i: usize| -> RunResult {
         let (q0, qd0) = initial[i];
         if let Some(Some(finished)) = lanes.as_ref().map(|runs| &runs[i]) {
-            return Ok(finished.solution(q0.len()));
+            return Ok(finished.clone().solution(q0.len()));
         }
         let stop = interrupt.map(|f| f as &dyn Fn(f64) -> bool);
         if stop.is_some_and(|f| f(span.0)) {

@@ -262,6 +262,21 @@ impl BatchExpansion {
         out
     }
 
+    /// y(t₀ + h) of `lane`'s last step by Horner's rule into `out` = (q, q̇) (as
+    /// `Expansion::eval`: the step's dense output).
+    pub(crate) fn eval(&self, lane: usize, h: f64, out: &mut [f64]) {
+        let n = self.program.recurrences.dof;
+        for i in 0..n {
+            let (mut q, mut v) = (0.0, 0.0);
+            for k in (0..=self.order).rev() {
+                q = q * h + self.q[k * n + i].0[lane];
+                v = v * h + self.v[k * n + i].0[lane];
+            }
+            out[i] = q;
+            out[n + i] = v;
+        }
+    }
+
     /// Expand every lane about its state (`Expansion::expand_interpreted`): order 0, M₀
     /// factored, then the orders. Which lanes' M₀ factored.
     #[inline(always)]

@@ -380,9 +380,9 @@ impl Pendulums {
     }
 }
 
-/// Taylor ensembles to their final states run in the lanes of the machine's vectors
-/// (`integrators/batch.rs`): each run is still the serial run bit for bit — its final state,
-/// counters and status — on 1 and 2 threads, with a number of runs that leaves lanes empty at
+/// Taylor ensembles to their final states or to states at given times run in the lanes of the
+/// machine's vectors (`integrators/batch.rs`): each run is still the serial run bit for bit —
+/// its states, counters and status — on 1 and 2 threads, with a number of runs that leaves lanes empty at
 /// the end; for one model, for one model bound to each run's parameters (lanes of different
 /// g, masses and lengths side by side), and for a forced (time-dependent) model. Runs the lanes
 /// give up run alone and fail as they fail alone: one that passes `max_steps`, one whose
@@ -427,6 +427,9 @@ fn taylor_runs_in_lanes_are_the_serial_runs_bit_for_bit() {
     steps.sort();
     let mut limited = options.clone();
     limited.max_steps = steps[steps.len() / 2];
+    // States at times, from each step's polynomial: t₀ itself, the end, and between.
+    let times: Vec<f64> = (0..=24).map(|i| 0.25 * i as f64).collect();
+    let timed = options.clone().with_output(Output::Times(times));
     let each = |i: usize| build(i).unwrap();
     let forced_one = |_: usize| forced_model.clone();
     for (name, systems, alone, options) in [
@@ -439,6 +442,8 @@ fn taylor_runs_in_lanes_are_the_serial_runs_bit_for_bit() {
         ("one model, max_steps", Systems::One(&model), &one, &limited),
         ("a parameter sweep", Systems::Each(&build), &each, &options),
         ("forced", Systems::One(&forced_model), &forced_one, &options),
+        ("at times", Systems::One(&model), &one, &timed),
+        ("a sweep at times", Systems::Each(&build), &each, &timed),
     ] {
         let want = serial(alone, options);
         let failed = want.iter().filter(|r| r.is_err()).count();

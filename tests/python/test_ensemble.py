@@ -237,8 +237,8 @@ def test_every_run_is_simulate_bit_for_bit(hundred, workers):
 
 @pytest.mark.parametrize("workers", [1, 2])
 def test_taylor_runs_in_lanes_are_simulate_bit_for_bit(hundred, workers):
-    # Taylor runs to their final states go several at a time through the lanes of the
-    # machine's vectors: each run still ends where `simulate` ends it, bit for bit, with the
+    # Taylor runs to their final states or to states at times go several at a time through
+    # the lanes of the machine's vectors: each run is still `simulate`'s, bit for bit, with the
     # same counters — in a parameter sweep too (lanes of different g side by side), and a run
     # stopped by max_steps fails as it fails alone.
     model, q0, qd0 = hundred
@@ -247,6 +247,9 @@ def test_taylor_runs_in_lanes_are_simulate_bit_for_bit(hundred, workers):
                                 final_only=True, workers=workers)
     sweep = model.simulate_many(q0, qd0, 4.0, method="taylor", rtol=1e-10, atol=1e-10,
                                 parameters={"g": g}, final_only=True, workers=workers)
+    t_eval = np.linspace(0.0, 4.0, 17)
+    timed = model.simulate_many(q0, qd0, 4.0, method="taylor", rtol=1e-10, atol=1e-10,
+                                t_eval=t_eval, parameters={"g": g}, workers=workers)
     steps = np.sort(plain.stats["accepted_steps"])
     limit = int(steps[50])
     limited = model.simulate_many(q0, qd0, 4.0, method="taylor", rtol=1e-10, atol=1e-10,
@@ -258,6 +261,10 @@ def test_taylor_runs_in_lanes_are_simulate_bit_for_bit(hundred, workers):
             assert np.array_equal(ens.q[i], sol.q[-1]), i
             assert np.array_equal(ens.qd[i], sol.qd[-1]), i
             assert ens.run_stats(i) == sol.stats, i
+        sol = model.with_parameters(g=g[i]).simulate(q0[i], qd0[i], 4.0, method="taylor",
+                                                     rtol=1e-10, atol=1e-10, t_eval=t_eval)
+        assert np.array_equal(timed.q[i], sol.q) and np.array_equal(timed.qd[i], sol.qd), i
+        assert timed.run_stats(i) == sol.stats, i
         assert limited.ok[i] == (plain.stats["accepted_steps"][i] <= limit), i
     assert 30 <= (~limited.ok).sum() <= 60
     failed = int(np.flatnonzero(~limited.ok)[0])
