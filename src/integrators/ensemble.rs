@@ -4,8 +4,8 @@
 //! Each run is exactly the [`solve_partial`] of its system and initial state — the same
 //! arithmetic in the same order, so the results are bit for bit those of a serial loop, whatever
 //! the number of threads — and the results come back in input order. Taylor runs to their final
-//! states are taken several at a time per thread, in the lanes of the machine's vectors
-//! (`batch.rs`), with the same steps and bits. A run that fails keeps its
+//! states or states at times are taken several at a time per thread, in the lanes of the
+//! machine's vectors (`batch.rs`), with the same steps and bits. A run that fails keeps its
 //! [`Failed`] (with what it had computed) and does not stop the others.
 
 use super::batch::solve_in_lanes;
@@ -84,8 +84,8 @@ pub fn solve_many<S: Dynamics + Sync>(
             what: "workers",
             why: format!("cannot start {workers} threads: {e}"),
         })?;
-    // Taylor runs to their final states go in the lanes of the machine's vectors, several per
-    // thread (`batch.rs`); the runs the lanes did not finish run alone below.
+    // Taylor runs to their final states or states at times go in the lanes of the machine's
+    // vectors, several per thread (`batch.rs`); the runs the lanes did not finish run alone.
     let threads = pool.current_num_threads();
     let lanes = pool.install(|| {
         let lanes = |first: &S, each| {
