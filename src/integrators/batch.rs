@@ -5,7 +5,7 @@
 //! run alone, from its start, by [`solve_partial`](super::solve_partial), which fails it with
 //! the error it would have alone (the lanes take a run's steps bit for bit as it takes them
 //! alone, so that run reaches the same failure). The finished runs are what
-//! `solve_partial` gives: the same final state, bits and counters.
+//! `solve_partial` gives: the same states, bits and counters.
 //!
 //! Taken by `solve_many` for `Method::Taylor` keeping the final state (`Output::Final`) or
 //! states at given times (`Output::Times`, from each step's polynomial as a run alone evaluates
