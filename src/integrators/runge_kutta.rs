@@ -149,6 +149,12 @@ fn combine(y: &[f64], h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f64]) {
 /// otherwise; the same operations in the same order either way.
 #[inline]
 fn accumulate(h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f64]) {
+    accumulate_inline(h, w, k, out);
+}
+
+/// [`accumulate`] inline, for weights known at compile time (folded into its code).
+#[inline(always)]
+fn accumulate_inline(h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f64]) {
     match out.len() {
         2 => accumulate_n::<2>(h, w, k, out),
         4 => accumulate_n::<4>(h, w, k, out),
@@ -159,19 +165,18 @@ fn accumulate(h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f64]) {
 }
 
 /// [`accumulate`] over `M` components (`M = 0`: as many as `out` has).
-/// Indexed by the weights (`k` has at least as many stages), so that weights known at compile
-/// time ([`Coefficients`]) unroll the loop and fold its branches away.
+/// Over as many stages as weights (`k` has at least as many): weights known at compile time
+/// ([`Coefficients`]) then unroll the loop and fold its branches away.
 #[inline(always)]
 fn accumulate_n<const M: usize>(h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f64]) {
     let k = &k[..w.len()];
     if M > 0 {
         let out: &mut [f64; M] = out.try_into().expect("M components");
         let mut acc = *out;
-        for j in 0..w.len() {
-            let wj = w[j];
-            if wj != 0.0 {
+        for (wj, kj) in w.iter().zip(k) {
+            if *wj != 0.0 {
                 let hw = h * wj;
-                let kj: &[f64; M] = k[j][..M].try_into().expect("M components");
+                let kj: &[f64; M] = kj[..M].try_into().expect("M components");
                 for (o, v) in acc.iter_mut().zip(kj) {
                     *o += hw * v;
                 }
@@ -187,6 +192,31 @@ fn accumulate_n<const M: usize>(h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f6
                 }
             }
         }
+    }
+}
+
+/// out = y + h Σⱼ wⱼ kⱼ as [`combine`], over `M` components (`M = 0`: any number) read from y
+/// straight into the sum rather than copied into `out` and read back: the same operations.
+#[inline(always)]
+fn combine_n<const M: usize>(y: &[f64], h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f64]) {
+    if M > 0 {
+        let y: &[f64; M] = y.try_into().expect("M components");
+        let out: &mut [f64; M] = out.try_into().expect("M components");
+        let mut acc = *y;
+        let k = &k[..w.len()];
+        for (wj, kj) in w.iter().zip(k) {
+            if *wj != 0.0 {
+                let hw = h * wj;
+                let kj: &[f64; M] = kj[..M].try_into().expect("M components");
+                for (o, v) in acc.iter_mut().zip(kj) {
+                    *o += hw * v;
+                }
+            }
+        }
+        *out = acc;
+    } else {
+        copy(y, out);
+        accumulate_n::<0>(h, w, k, out);
     }
 }
 
@@ -227,7 +257,10 @@ impl ExplicitRk {
     }
 
     /// [`ExplicitRk::stages_n`] with `K`'s constant coefficients: the stages written out one
-    /// after the other, each with its own index known at compile time.
+    /// after the other, each with its own index known at compile time. A function of its own
+    /// per length: inlined into one, the lengths' copies of the stages together had made the
+    /// compiler stop inlining the right-hand side into them.
+    #[inline(never)]
     fn stages_const<K: Coefficients, S: Dynamics + ?Sized, const M: usize>(
         run: &mut Run<'_, S>,
         c: &mut Cache,
@@ -249,8 +282,7 @@ impl ExplicitRk {
             let (lo, hi) = c.k.split_at_mut(s);
             copy(&lo[s - 1], &mut hi[0]);
         } else {
-            copy(&c.y, &mut c.y_new);
-            accumulate_n::<M>(h, K::B, &c.k[..s], &mut c.y_new);
+            combine_n::<M>(&c.y, h, K::B, &c.k[..s], &mut c.y_new);
         }
         Ok(())
     }
@@ -263,8 +295,7 @@ impl ExplicitRk {
         t: f64,
         h: f64,
     ) -> Result<()> {
-        copy(&c.y, &mut c.stage);
-        accumulate_n::<M>(h, K::A[I], &c.k[..I], &mut c.stage);
+        combine_n::<M>(&c.y, h, K::A[I], &c.k[..I], &mut c.stage);
         if K::PROBE == Some(I) {
             copy(&c.stage, &mut c.probe);
         }
@@ -312,7 +343,9 @@ impl ExplicitRk {
         Ok(())
     }
 
-    /// f(t + h, y₁) into stage `s`, unless the tableau already has it.
+    /// f(t + h, y₁) into stage `s`, unless the tableau already has it. Inline: RK4's fourth
+    /// evaluation of a step, compiled into the loop as the other three.
+    #[inline(always)]
     fn f_new<S: Dynamics + ?Sized>(
         &self,
         run: &mut Run<'_, S>,
@@ -337,8 +370,19 @@ impl ExplicitRk {
     ) -> f64 {
         let s = self.tableau.stages();
         let m = ranges.iter().map(ExactSizeIterator::len).sum::<usize>() as f64;
+        let term = |(e, (a, b)): (&f64, (&f64, &f64))| {
+            let sk = atol + rtol * a.abs().max(b.abs());
+            (e / sk) * (e / sk)
+        };
+        // Ranges covering all of y: one plain loop, the same terms summed in the same order.
+        let whole = ranges[0].start == 0
+            && ranges[0].end == ranges[1].start
+            && ranges[1].end == c.y.len();
         // One sum in component order (the same rounding as a sum over all of y).
         let scaled = |e: &[f64], y: &[f64], y1: &[f64]| -> f64 {
+            if whole {
+                return e.iter().zip(y.iter().zip(y1)).map(term).sum::<f64>();
+            }
             ranges
                 .iter()
                 .flat_map(|r| {
@@ -346,17 +390,17 @@ impl ExplicitRk {
                         .iter()
                         .zip(y[r.clone()].iter().zip(&y1[r.clone()]))
                 })
-                .map(|(e, (a, b))| {
-                    let sk = atol + rtol * a.abs().max(b.abs());
-                    (e / sk) * (e / sk)
-                })
+                .map(term)
                 .sum::<f64>()
         };
         match &self.tableau.error {
             Some(ErrorEstimate::Embedded { e, .. }) => {
                 c.err.fill(0.0);
-                let e = if K::BUILTIN { K::E } else { e };
-                accumulate(h, e, &c.k[..s], &mut c.err);
+                if K::BUILTIN {
+                    accumulate_inline(h, K::E, &c.k[..s], &mut c.err);
+                } else {
+                    accumulate(h, e, &c.k[..s], &mut c.err);
+                }
                 (scaled(&c.err, &c.y, &c.y_new) / m).sqrt()
             }
             Some(ErrorEstimate::Dop853 { e5, e3 }) => {
@@ -380,7 +424,9 @@ impl ExplicitRk {
     /// Accept the step (t, t + h): build its interpolant when the run needs it — Hairer's
     /// continuous extension when the tableau has one (its extra stages are evaluated here, only
     /// then), quintic Hermite in q otherwise — hand it to the run, and make y₁ the new y. A
-    /// `quiet` step that does not end the span is only counted ([`Run::quiet_steps`]).
+    /// `quiet` step that does not end the span is only counted ([`Run::quiet_steps`]): inline,
+    /// the rest of the acceptance in [`ExplicitRk::accept_step`].
+    #[inline(always)]
     fn advance<S: Dynamics + ?Sized>(
         &self,
         run: &mut Run<'_, S>,
@@ -391,9 +437,7 @@ impl ExplicitRk {
         quiet: bool,
     ) -> Result<Flow> {
         run.stats.accepted_steps += 1;
-        let h = t_new - t;
         let s = self.tableau.stages();
-        let n = run.n;
         if run.project(t_new, &mut c.y_new)? {
             // The end moved onto the constraints: its derivative anew (the interpolant's end
             // and, first same as last, the next step's first stage).
@@ -405,6 +449,21 @@ impl ExplicitRk {
             c.k.swap(0, s);
             return Ok(Flow::Continue);
         }
+        self.accept_step(run, c, t, t_new, last)
+    }
+
+    /// [`ExplicitRk::advance`] of a step that is not quiet.
+    fn accept_step<S: Dynamics + ?Sized>(
+        &self,
+        run: &mut Run<'_, S>,
+        c: &mut Cache,
+        t: f64,
+        t_new: f64,
+        last: bool,
+    ) -> Result<Flow> {
+        let h = t_new - t;
+        let s = self.tableau.stages();
+        let n = run.n;
         let hermite = Interpolant::Hermite {
             t,
             h,
