@@ -375,9 +375,8 @@ impl ExplicitRk {
             (e / sk) * (e / sk)
         };
         // Ranges covering all of y: one plain loop, the same terms summed in the same order.
-        let whole = ranges[0].start == 0
-            && ranges[0].end == ranges[1].start
-            && ranges[1].end == c.y.len();
+        let whole =
+            ranges[0].start == 0 && ranges[0].end == ranges[1].start && ranges[1].end == c.y.len();
         // One sum in component order (the same rounding as a sum over all of y).
         let scaled = |e: &[f64], y: &[f64], y1: &[f64]| -> f64 {
             if whole {
@@ -664,9 +663,10 @@ impl ExplicitRk {
             let t_new = if last { run.t_end } else { t + h };
             let trial = self.stages::<K, S>(run, c, t, h);
             let (err, failure) = match trial {
-                Ok(()) if c.y_new.iter().all(|v| v.is_finite()) => {
-                    (self.error_norm::<K>(c, h, tolerances, &ranges), "error estimate")
-                }
+                Ok(()) if c.y_new.iter().all(|v| v.is_finite()) => (
+                    self.error_norm::<K>(c, h, tolerances, &ranges),
+                    "error estimate",
+                ),
                 Ok(()) => (f64::NAN, "state"),
                 // A trial stage far off (an unstable step of a stiff problem) can also make M
                 // singular: that trial failed, not the run.
@@ -858,7 +858,8 @@ impl<K: Coefficients, S: Dynamics + ?Sized> SegmentStepper<S> for RkStepper<K> {
         loop {
             let flow = match &mut self.mode {
                 Mode::Fixed { i, steps } => {
-                    let flow = self.rk
+                    let flow = self
+                        .rk
                         .fixed_step::<K, S>(run, &mut self.c, *i, *steps, quiet > 0);
                     if flow.is_ok() {
                         *i += 1;
@@ -894,5 +895,21 @@ impl<K> RkStepper<K> {
             Mode::Fixed { i, steps } => run.grid_time(*i, *steps),
             Mode::Adaptive(control) => control.t,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The built-in tableaux run on their constants (a constructor and its constants that
+    /// drifted apart would quietly fall back to the run-time path).
+    #[test]
+    fn builtin_tableaux_match_their_constants() {
+        assert!(consts_match::<Rk4Consts>(&RK4));
+        assert!(consts_match::<Dopri5Consts>(&DOPRI5));
+        assert!(!consts_match::<Rk4Consts>(&DOPRI5));
+        assert!(!consts_match::<Dopri5Consts>(&DOP853));
+        assert!(!consts_match::<RunTime>(&RK4));
     }
 }
