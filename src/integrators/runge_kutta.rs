@@ -304,7 +304,7 @@ impl ExplicitRk {
         } else {
             t + K::C[I] * h
         };
-        run.rhs(ti, &c.stage, &mut c.k[I])
+        run.rhs_n::<M>(ti, &c.stage, &mut c.k[I])
     }
 
     /// [`ExplicitRk::stages`] over `M` components (`M = 0`: any number).
