@@ -338,4 +338,24 @@ impl<'a, S: Dynamics + ?Sized> Run<'a, S> {
         copy(qd, dq);
         self.system.accelerations_into(t, q, qd, dqd)
     }
+
+    /// [`Run::rhs`] of a state of `M` components known at compile time (`M = 0`: any number):
+    /// q̇ copied as one move of its known length.
+    #[inline(always)]
+    pub(crate) fn rhs_n<const M: usize>(
+        &mut self,
+        t: f64,
+        y: &[f64],
+        dy: &mut [f64],
+    ) -> Result<()> {
+        if M == 0 || 2 * self.n != M {
+            return self.rhs(t, y, dy);
+        }
+        self.stats.rhs_evaluations += 1;
+        self.poll(t)?;
+        let (q, qd) = y[..M].split_at(M / 2);
+        let (dq, dqd) = dy[..M].split_at_mut(M / 2);
+        dq.copy_from_slice(qd);
+        self.system.accelerations_into(t, q, qd, dqd)
+    }
 }

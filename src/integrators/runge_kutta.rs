@@ -5,9 +5,10 @@
 
 use super::dense::{Ends, Interpolant};
 use super::run::{Flow, Integrator, Run, SegmentStepper, copy};
-use super::tableau::{ErrorEstimate, Tableau};
+use super::tableau::{self, ErrorEstimate, Tableau};
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
+use std::marker::PhantomData;
 use std::sync::LazyLock;
 
 /// An explicit Runge–Kutta method given by its tableau.
@@ -26,6 +27,82 @@ impl ExplicitRk {
 pub(crate) static RK4: LazyLock<Tableau> = LazyLock::new(Tableau::rk4);
 pub(crate) static DOPRI5: LazyLock<Tableau> = LazyLock::new(Tableau::dopri5);
 pub(crate) static DOP853: LazyLock<Tableau> = LazyLock::new(Tableau::dop853);
+
+/// Where the stepping loop reads a tableau's coefficients. A built-in tableau's are compile-time
+/// constants ([`Rk4Consts`], [`Dopri5Consts`]): each stage's combination is then straight-line
+/// code with its zero weights gone, as in a hand-written loop, where reading them from the
+/// run-time [`Tableau`] cost a load and a branch per weight ([`RunTime`], any other tableau).
+/// The same operations in the same order either way.
+trait Coefficients: 'static {
+    /// Whether the constants below are the tableau's (`false`: read the run-time tableau).
+    const BUILTIN: bool;
+    /// Number of stages (at most 12).
+    const S: usize;
+    /// Row i holds a_i0 … a_i,i−1.
+    const A: &'static [&'static [f64]];
+    const B: &'static [f64];
+    const C: &'static [f64];
+    const FSAL: bool;
+    /// The stage whose argument the stiffness test compares.
+    const PROBE: Option<usize>;
+    /// The embedded pair's weights e = b − b̂ (empty: none).
+    const E: &'static [f64];
+}
+
+/// Any tableau: the coefficients read at run time.
+struct RunTime;
+impl Coefficients for RunTime {
+    const BUILTIN: bool = false;
+    const S: usize = 0;
+    const A: &'static [&'static [f64]] = &[];
+    const B: &'static [f64] = &[];
+    const C: &'static [f64] = &[];
+    const FSAL: bool = false;
+    const PROBE: Option<usize> = None;
+    const E: &'static [f64] = &[];
+}
+
+/// [`RK4`]'s coefficients.
+struct Rk4Consts;
+impl Coefficients for Rk4Consts {
+    const BUILTIN: bool = true;
+    const S: usize = 4;
+    const A: &'static [&'static [f64]] = tableau::RK4_A;
+    const B: &'static [f64] = tableau::RK4_B;
+    const C: &'static [f64] = tableau::RK4_C;
+    const FSAL: bool = false;
+    const PROBE: Option<usize> = None;
+    const E: &'static [f64] = &[];
+}
+
+/// [`DOPRI5`]'s coefficients.
+struct Dopri5Consts;
+impl Coefficients for Dopri5Consts {
+    const BUILTIN: bool = true;
+    const S: usize = 7;
+    const A: &'static [&'static [f64]] = tableau::DOPRI5_A;
+    const B: &'static [f64] = tableau::DOPRI5_B;
+    const C: &'static [f64] = tableau::DOPRI5_C;
+    const FSAL: bool = true;
+    const PROBE: Option<usize> = Some(5);
+    const E: &'static [f64] = tableau::DOPRI5_E;
+}
+
+/// Whether `K`'s constants are `tab`'s (the tableau the stepper runs).
+fn consts_match<K: Coefficients>(tab: &Tableau) -> bool {
+    let e: &[f64] = match &tab.error {
+        Some(ErrorEstimate::Embedded { e, .. }) => e,
+        _ => &[],
+    };
+    K::BUILTIN
+        && K::S == tab.stages()
+        && K::A.iter().copied().eq(tab.a.iter().map(Vec::as_slice))
+        && K::B == tab.b
+        && K::C == tab.c
+        && K::FSAL == tab.fsal
+        && K::PROBE == tab.stiffness.map(|p| p.stage)
+        && K::E == e
+}
 
 /// Preallocated work space: nothing is allocated inside the step loop.
 struct Cache {
@@ -72,6 +149,12 @@ fn combine(y: &[f64], h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f64]) {
 /// otherwise; the same operations in the same order either way.
 #[inline]
 fn accumulate(h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f64]) {
+    accumulate_inline(h, w, k, out);
+}
+
+/// [`accumulate`] inline, for weights known at compile time (folded into its code).
+#[inline(always)]
+fn accumulate_inline(h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f64]) {
     match out.len() {
         2 => accumulate_n::<2>(h, w, k, out),
         4 => accumulate_n::<4>(h, w, k, out),
@@ -82,8 +165,11 @@ fn accumulate(h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f64]) {
 }
 
 /// [`accumulate`] over `M` components (`M = 0`: as many as `out` has).
+/// Over as many stages as weights (`k` has at least as many): weights known at compile time
+/// ([`Coefficients`]) then unroll the loop and fold its branches away.
 #[inline(always)]
 fn accumulate_n<const M: usize>(h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f64]) {
+    let k = &k[..w.len()];
     if M > 0 {
         let out: &mut [f64; M] = out.try_into().expect("M components");
         let mut acc = *out;
@@ -109,6 +195,31 @@ fn accumulate_n<const M: usize>(h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f6
     }
 }
 
+/// out = y + h Σⱼ wⱼ kⱼ as [`combine`], over `M` components (`M = 0`: any number) read from y
+/// straight into the sum rather than copied into `out` and read back: the same operations.
+#[inline(always)]
+fn combine_n<const M: usize>(y: &[f64], h: f64, w: &[f64], k: &[Vec<f64>], out: &mut [f64]) {
+    if M > 0 {
+        let y: &[f64; M] = y.try_into().expect("M components");
+        let out: &mut [f64; M] = out.try_into().expect("M components");
+        let mut acc = *y;
+        let k = &k[..w.len()];
+        for (wj, kj) in w.iter().zip(k) {
+            if *wj != 0.0 {
+                let hw = h * wj;
+                let kj: &[f64; M] = kj[..M].try_into().expect("M components");
+                for (o, v) in acc.iter_mut().zip(kj) {
+                    *o += hw * v;
+                }
+            }
+        }
+        *out = acc;
+    } else {
+        copy(y, out);
+        accumulate_n::<0>(h, w, k, out);
+    }
+}
+
 /// Hairer's stiffness bookkeeping (`IASTI`, `NONSTI`).
 #[derive(Default, Clone, Copy)]
 struct StiffnessCounter {
@@ -119,7 +230,7 @@ struct StiffnessCounter {
 impl ExplicitRk {
     /// Stages 1..s of a step of size `h` from (t, y) (stage 0 = f(t, y) is in place), then y₁
     /// and, for a FSAL tableau, f(t + h, y₁).
-    fn stages<S: Dynamics + ?Sized>(
+    fn stages<K: Coefficients, S: Dynamics + ?Sized>(
         &self,
         run: &mut Run<'_, S>,
         c: &mut Cache,
@@ -127,6 +238,15 @@ impl ExplicitRk {
         h: f64,
     ) -> Result<()> {
         // One instance per small length: its combinations unrolled inline.
+        if K::BUILTIN {
+            return match c.y.len() {
+                2 => Self::stages_const::<K, S, 2>(run, c, t, h),
+                4 => Self::stages_const::<K, S, 4>(run, c, t, h),
+                6 => Self::stages_const::<K, S, 6>(run, c, t, h),
+                8 => Self::stages_const::<K, S, 8>(run, c, t, h),
+                _ => Self::stages_const::<K, S, 0>(run, c, t, h),
+            };
+        }
         match c.y.len() {
             2 => self.stages_n::<S, 2>(run, c, t, h),
             4 => self.stages_n::<S, 4>(run, c, t, h),
@@ -134,6 +254,57 @@ impl ExplicitRk {
             8 => self.stages_n::<S, 8>(run, c, t, h),
             _ => self.stages_n::<S, 0>(run, c, t, h),
         }
+    }
+
+    /// [`ExplicitRk::stages_n`] with `K`'s constant coefficients: the stages written out one
+    /// after the other, each with its own index known at compile time. A function of its own
+    /// per length: inlined into one, the lengths' copies of the stages together had made the
+    /// compiler stop inlining the right-hand side into them.
+    #[inline(never)]
+    fn stages_const<K: Coefficients, S: Dynamics + ?Sized, const M: usize>(
+        run: &mut Run<'_, S>,
+        c: &mut Cache,
+        t: f64,
+        h: f64,
+    ) -> Result<()> {
+        const { assert!(K::S <= 12, "stages written out up to 12") };
+        macro_rules! stages {
+            ($($i:literal)*) => {
+                $(if $i < K::S {
+                    Self::stage_const::<K, S, M, $i>(run, c, t, h)?;
+                })*
+            };
+        }
+        stages!(1 2 3 4 5 6 7 8 9 10 11);
+        let s = K::S;
+        if K::FSAL {
+            std::mem::swap(&mut c.y_new, &mut c.stage);
+            let (lo, hi) = c.k.split_at_mut(s);
+            copy(&lo[s - 1], &mut hi[0]);
+        } else {
+            combine_n::<M>(&c.y, h, K::B, &c.k[..s], &mut c.y_new);
+        }
+        Ok(())
+    }
+
+    /// Stage `I` of [`ExplicitRk::stages_const`].
+    #[inline(always)]
+    fn stage_const<K: Coefficients, S: Dynamics + ?Sized, const M: usize, const I: usize>(
+        run: &mut Run<'_, S>,
+        c: &mut Cache,
+        t: f64,
+        h: f64,
+    ) -> Result<()> {
+        combine_n::<M>(&c.y, h, K::A[I], &c.k[..I], &mut c.stage);
+        if K::PROBE == Some(I) {
+            copy(&c.stage, &mut c.probe);
+        }
+        let ti = if K::C[I] == 1.0 {
+            t + h
+        } else {
+            t + K::C[I] * h
+        };
+        run.rhs_n::<M>(ti, &c.stage, &mut c.k[I])
     }
 
     /// [`ExplicitRk::stages`] over `M` components (`M = 0`: any number).
@@ -172,7 +343,9 @@ impl ExplicitRk {
         Ok(())
     }
 
-    /// f(t + h, y₁) into stage `s`, unless the tableau already has it.
+    /// f(t + h, y₁) into stage `s`, unless the tableau already has it. Inline: RK4's fourth
+    /// evaluation of a step, compiled into the loop as the other three.
+    #[inline(always)]
     fn f_new<S: Dynamics + ?Sized>(
         &self,
         run: &mut Run<'_, S>,
@@ -188,7 +361,7 @@ impl ExplicitRk {
 
     /// Hairer's scaled error norm of the step (≤ 1: accept).
     /// `ranges`: the components the norm reads (`Options::error_ranges`).
-    fn error_norm(
+    fn error_norm<K: Coefficients>(
         &self,
         c: &mut Cache,
         h: f64,
@@ -197,8 +370,18 @@ impl ExplicitRk {
     ) -> f64 {
         let s = self.tableau.stages();
         let m = ranges.iter().map(ExactSizeIterator::len).sum::<usize>() as f64;
+        let term = |(e, (a, b)): (&f64, (&f64, &f64))| {
+            let sk = atol + rtol * a.abs().max(b.abs());
+            (e / sk) * (e / sk)
+        };
+        // Ranges covering all of y: one plain loop, the same terms summed in the same order.
+        let whole =
+            ranges[0].start == 0 && ranges[0].end == ranges[1].start && ranges[1].end == c.y.len();
         // One sum in component order (the same rounding as a sum over all of y).
         let scaled = |e: &[f64], y: &[f64], y1: &[f64]| -> f64 {
+            if whole {
+                return e.iter().zip(y.iter().zip(y1)).map(term).sum::<f64>();
+            }
             ranges
                 .iter()
                 .flat_map(|r| {
@@ -206,16 +389,17 @@ impl ExplicitRk {
                         .iter()
                         .zip(y[r.clone()].iter().zip(&y1[r.clone()]))
                 })
-                .map(|(e, (a, b))| {
-                    let sk = atol + rtol * a.abs().max(b.abs());
-                    (e / sk) * (e / sk)
-                })
+                .map(term)
                 .sum::<f64>()
         };
         match &self.tableau.error {
             Some(ErrorEstimate::Embedded { e, .. }) => {
                 c.err.fill(0.0);
-                accumulate(h, e, &c.k[..s], &mut c.err);
+                if K::BUILTIN {
+                    accumulate_inline(h, K::E, &c.k[..s], &mut c.err);
+                } else {
+                    accumulate(h, e, &c.k[..s], &mut c.err);
+                }
                 (scaled(&c.err, &c.y, &c.y_new) / m).sqrt()
             }
             Some(ErrorEstimate::Dop853 { e5, e3 }) => {
@@ -239,7 +423,9 @@ impl ExplicitRk {
     /// Accept the step (t, t + h): build its interpolant when the run needs it — Hairer's
     /// continuous extension when the tableau has one (its extra stages are evaluated here, only
     /// then), quintic Hermite in q otherwise — hand it to the run, and make y₁ the new y. A
-    /// `quiet` step that does not end the span is only counted ([`Run::quiet_steps`]).
+    /// `quiet` step that does not end the span is only counted ([`Run::quiet_steps`]): inline,
+    /// the rest of the acceptance in [`ExplicitRk::accept_step`].
+    #[inline(always)]
     fn advance<S: Dynamics + ?Sized>(
         &self,
         run: &mut Run<'_, S>,
@@ -250,9 +436,7 @@ impl ExplicitRk {
         quiet: bool,
     ) -> Result<Flow> {
         run.stats.accepted_steps += 1;
-        let h = t_new - t;
         let s = self.tableau.stages();
-        let n = run.n;
         if run.project(t_new, &mut c.y_new)? {
             // The end moved onto the constraints: its derivative anew (the interpolant's end
             // and, first same as last, the next step's first stage).
@@ -264,6 +448,21 @@ impl ExplicitRk {
             c.k.swap(0, s);
             return Ok(Flow::Continue);
         }
+        self.accept_step(run, c, t, t_new, last)
+    }
+
+    /// [`ExplicitRk::advance`] of a step that is not quiet.
+    fn accept_step<S: Dynamics + ?Sized>(
+        &self,
+        run: &mut Run<'_, S>,
+        c: &mut Cache,
+        t: f64,
+        t_new: f64,
+        last: bool,
+    ) -> Result<Flow> {
+        let h = t_new - t;
+        let s = self.tableau.stages();
+        let n = run.n;
         let hermite = Interpolant::Hermite {
             t,
             h,
@@ -319,7 +518,7 @@ impl ExplicitRk {
     }
 
     /// Step `i` of `steps` equal steps; `quiet` as in [`ExplicitRk::advance`].
-    fn fixed_step<S: Dynamics + ?Sized>(
+    fn fixed_step<K: Coefficients, S: Dynamics + ?Sized>(
         &self,
         run: &mut Run<'_, S>,
         c: &mut Cache,
@@ -329,7 +528,7 @@ impl ExplicitRk {
     ) -> Result<Flow> {
         let t = run.grid_time(i, steps);
         let t_new = run.grid_time(i + 1, steps);
-        self.stages(run, c, t, t_new - t)?;
+        self.stages::<K, S>(run, c, t, t_new - t)?;
         if !c.y_new.iter().all(|v| v.is_finite()) {
             return Err(Error::NonFinite {
                 what: "state",
@@ -418,7 +617,7 @@ impl ExplicitRk {
 
     /// One accepted step of error-controlled size from `state.t`, rejected trials retried;
     /// `quiet` as in [`ExplicitRk::advance`].
-    fn adaptive_step<S: Dynamics + ?Sized>(
+    fn adaptive_step<K: Coefficients, S: Dynamics + ?Sized>(
         &self,
         run: &mut Run<'_, S>,
         c: &mut Cache,
@@ -462,11 +661,12 @@ impl ExplicitRk {
                 last = true;
             }
             let t_new = if last { run.t_end } else { t + h };
-            let trial = self.stages(run, c, t, h);
+            let trial = self.stages::<K, S>(run, c, t, h);
             let (err, failure) = match trial {
-                Ok(()) if c.y_new.iter().all(|v| v.is_finite()) => {
-                    (self.error_norm(c, h, tolerances, &ranges), "error estimate")
-                }
+                Ok(()) if c.y_new.iter().all(|v| v.is_finite()) => (
+                    self.error_norm::<K>(c, h, tolerances, &ranges),
+                    "error estimate",
+                ),
                 Ok(()) => (f64::NAN, "state"),
                 // A trial stage far off (an unstable step of a stiff problem) can also make M
                 // singular: that trial failed, not the run.
@@ -594,15 +794,34 @@ impl Integrator for ExplicitRk {
             },
             None => Mode::Adaptive(self.control(run, &mut c)?),
         };
-        Ok(Box::new(RkStepper { rk: self, c, mode }))
+        // The coefficients as constants for the built-in tableaux, chosen once per run.
+        if consts_match::<Rk4Consts>(self.tableau) {
+            Ok(Box::new(RkStepper::<Rk4Consts>::new(self, c, mode)))
+        } else if consts_match::<Dopri5Consts>(self.tableau) {
+            Ok(Box::new(RkStepper::<Dopri5Consts>::new(self, c, mode)))
+        } else {
+            Ok(Box::new(RkStepper::<RunTime>::new(self, c, mode)))
+        }
     }
 }
 
-/// Where an explicit Runge–Kutta run stands between steps.
-struct RkStepper {
+/// Where an explicit Runge–Kutta run stands between steps; `K`: where its coefficients are read.
+struct RkStepper<K> {
     rk: ExplicitRk,
     c: Cache,
     mode: Mode,
+    coefficients: PhantomData<K>,
+}
+
+impl<K> RkStepper<K> {
+    fn new(rk: ExplicitRk, c: Cache, mode: Mode) -> Self {
+        Self {
+            rk,
+            c,
+            mode,
+            coefficients: PhantomData,
+        }
+    }
 }
 
 enum Mode {
@@ -630,7 +849,7 @@ struct Control {
     non_finite: Option<Error>,
 }
 
-impl<S: Dynamics + ?Sized> SegmentStepper<S> for RkStepper {
+impl<K: Coefficients, S: Dynamics + ?Sized> SegmentStepper<S> for RkStepper<K> {
     /// The steps that nothing watches go in a row inside one call, only counted: without the
     /// solver's round trip, the recorder and the interpolant per step, as a hand-written loop.
     fn step(&mut self, run: &mut Run<'_, S>) -> Result<Flow> {
@@ -639,14 +858,17 @@ impl<S: Dynamics + ?Sized> SegmentStepper<S> for RkStepper {
         loop {
             let flow = match &mut self.mode {
                 Mode::Fixed { i, steps } => {
-                    let flow = self.rk.fixed_step(run, &mut self.c, *i, *steps, quiet > 0);
+                    let flow = self
+                        .rk
+                        .fixed_step::<K, S>(run, &mut self.c, *i, *steps, quiet > 0);
                     if flow.is_ok() {
                         *i += 1;
                     }
                     flow
                 }
                 Mode::Adaptive(control) => {
-                    self.rk.adaptive_step(run, &mut self.c, control, quiet > 0)
+                    self.rk
+                        .adaptive_step::<K, S>(run, &mut self.c, control, quiet > 0)
                 }
             };
             match flow {
@@ -666,12 +888,28 @@ impl<S: Dynamics + ?Sized> SegmentStepper<S> for RkStepper {
     }
 }
 
-impl RkStepper {
+impl<K> RkStepper<K> {
     /// The time of the current state.
     fn t<S: Dynamics + ?Sized>(&self, run: &Run<'_, S>) -> f64 {
         match &self.mode {
             Mode::Fixed { i, steps } => run.grid_time(*i, *steps),
             Mode::Adaptive(control) => control.t,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The built-in tableaux run on their constants (a constructor and its constants that
+    /// drifted apart would quietly fall back to the run-time path).
+    #[test]
+    fn builtin_tableaux_match_their_constants() {
+        assert!(consts_match::<Rk4Consts>(&RK4));
+        assert!(consts_match::<Dopri5Consts>(&DOPRI5));
+        assert!(!consts_match::<Rk4Consts>(&DOPRI5));
+        assert!(!consts_match::<Dopri5Consts>(&DOP853));
+        assert!(!consts_match::<RunTime>(&RK4));
     }
 }

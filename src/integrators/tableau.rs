@@ -96,6 +96,66 @@ pub struct Tableau {
     pub control: Controller,
 }
 
+/// RK4's and DOPRI5's coefficients as constants: their constructors build the tableaux from
+/// these, and the stepping loop reads them at compile time (`runge_kutta.rs`, `Builtin`), where
+/// they fold into straight-line code as in a hand-written loop. Row i of `_A` holds a_i0 …
+/// a_i,i−1.
+pub(crate) const RK4_A: &[&[f64]] = &[&[], &[0.5], &[0.0, 0.5], &[0.0, 0.0, 1.0]];
+pub(crate) const RK4_B: &[f64] = &[1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0];
+pub(crate) const RK4_C: &[f64] = &[0.0, 0.5, 0.5, 1.0];
+pub(crate) const DOPRI5_A: &[&[f64]] = &[
+    &[],
+    &[1.0 / 5.0],
+    &[3.0 / 40.0, 9.0 / 40.0],
+    &[44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0],
+    &[
+        19372.0 / 6561.0,
+        -25360.0 / 2187.0,
+        64448.0 / 6561.0,
+        -212.0 / 729.0,
+    ],
+    &[
+        9017.0 / 3168.0,
+        -355.0 / 33.0,
+        46732.0 / 5247.0,
+        49.0 / 176.0,
+        -5103.0 / 18656.0,
+    ],
+    &[
+        35.0 / 384.0,
+        0.0,
+        500.0 / 1113.0,
+        125.0 / 192.0,
+        -2187.0 / 6784.0,
+        11.0 / 84.0,
+    ],
+];
+pub(crate) const DOPRI5_B: &[f64] = &[
+    35.0 / 384.0,
+    0.0,
+    500.0 / 1113.0,
+    125.0 / 192.0,
+    -2187.0 / 6784.0,
+    11.0 / 84.0,
+    0.0,
+];
+pub(crate) const DOPRI5_C: &[f64] = &[0.0, 0.2, 0.3, 0.8, 8.0 / 9.0, 1.0, 1.0];
+/// DOPRI5's e = b − b̂ (b̂ of order 4).
+pub(crate) const DOPRI5_E: &[f64] = &[
+    71.0 / 57600.0,
+    0.0,
+    -71.0 / 16695.0,
+    71.0 / 1920.0,
+    -17253.0 / 339200.0,
+    22.0 / 525.0,
+    -1.0 / 40.0,
+];
+
+/// The rows of `a` as the tableau stores them.
+fn rows(a: &[&[f64]]) -> Vec<Vec<f64>> {
+    a.iter().map(|row| row.to_vec()).collect()
+}
+
 impl Tableau {
     /// A plain tableau (no error estimate, no dense output).
     ///
@@ -188,13 +248,7 @@ impl Tableau {
 
     /// The classical Runge–Kutta method of order 4 (Kutta, *Z. Math. Phys.* 46, 1901).
     pub fn rk4() -> Self {
-        Self::new(
-            "rk4",
-            4,
-            vec![vec![], vec![0.5], vec![0.0, 0.5], vec![0.0, 0.0, 1.0]],
-            vec![1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0],
-            vec![0.0, 0.5, 0.5, 1.0],
-        )
+        Self::new("rk4", 4, rows(RK4_A), RK4_B.to_vec(), RK4_C.to_vec())
     }
 
     /// Dormand–Prince 5(4): J. R. Dormand & P. J. Prince, "A family of embedded Runge–Kutta
@@ -205,55 +259,13 @@ impl Tableau {
         let mut t = Self::new(
             "dopri5",
             5,
-            vec![
-                vec![],
-                vec![1.0 / 5.0],
-                vec![3.0 / 40.0, 9.0 / 40.0],
-                vec![44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0],
-                vec![
-                    19372.0 / 6561.0,
-                    -25360.0 / 2187.0,
-                    64448.0 / 6561.0,
-                    -212.0 / 729.0,
-                ],
-                vec![
-                    9017.0 / 3168.0,
-                    -355.0 / 33.0,
-                    46732.0 / 5247.0,
-                    49.0 / 176.0,
-                    -5103.0 / 18656.0,
-                ],
-                vec![
-                    35.0 / 384.0,
-                    0.0,
-                    500.0 / 1113.0,
-                    125.0 / 192.0,
-                    -2187.0 / 6784.0,
-                    11.0 / 84.0,
-                ],
-            ],
-            vec![
-                35.0 / 384.0,
-                0.0,
-                500.0 / 1113.0,
-                125.0 / 192.0,
-                -2187.0 / 6784.0,
-                11.0 / 84.0,
-                0.0,
-            ],
-            vec![0.0, 0.2, 0.3, 0.8, 8.0 / 9.0, 1.0, 1.0],
+            rows(DOPRI5_A),
+            DOPRI5_B.to_vec(),
+            DOPRI5_C.to_vec(),
         );
         t.fsal = true;
         t.error = Some(ErrorEstimate::Embedded {
-            e: vec![
-                71.0 / 57600.0,
-                0.0,
-                -71.0 / 16695.0,
-                71.0 / 1920.0,
-                -17253.0 / 339200.0,
-                22.0 / 525.0,
-                -1.0 / 40.0,
-            ],
+            e: DOPRI5_E.to_vec(),
             order: 4,
         });
         t.dense = Some(DenseOutput {
