@@ -55,7 +55,7 @@ from ._lagrangian import (
     TooManyStepsError,
     __version__,
 )
-from ._ensemble import Ensemble
+from ._ensemble import BatchIntegrator, Ensemble
 from ._fit import Fit
 from ._linear import Equilibrium, Linearization, Modes
 from ._model import Model, methods
@@ -66,6 +66,7 @@ from ._workprec import WorkPrecision, work_precision
 __all__ = [
     "Coordinate",
     "ConvergenceError",
+    "BatchIntegrator",
     "Ensemble",
     "Equilibrium",
     "Event",

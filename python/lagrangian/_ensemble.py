@@ -728,3 +728,89 @@ def _stack(
         np.concatenate(method),
         np.concatenate(choice),
     )
+
+
+class BatchIntegrator:
+    """Many runs of one model standing at a common time, advanced together
+    (``Model.batch_integrator``): ``propagate_until(t)`` integrates every run still going to
+    ``t`` with one :meth:`Model.simulate_many` from their states (final states only, so Taylor
+    runs go through the SIMD lanes), and they stand there. Run i after each call is bit for bit
+    what :meth:`Model.integrator` started from ``(q0[i], qd0[i])`` gives after the same calls.
+
+    ``t``, ``q`` (runs × coordinates) and ``qd`` read the state (copies); ``ok[i]`` is False
+    once run i has failed, ``error(i)`` its exception (what ``Integrator.propagate_until``
+    raises), and a failed run stays at the state and time it stood at before the call that
+    failed (``t_failed[i]``), out of the later calls.
+    """
+
+    def __init__(self, model: Any, q0: Any, qd0: Any, *, t0: float, options: Dict[str, Any],
+                 parameters: Optional[Mapping[str, Any]], workers: Optional[int]) -> None:
+        self._model = model
+        self._q = np.array(q0, dtype=float, ndmin=2)
+        self._qd = np.array(qd0, dtype=float, ndmin=2)
+        self._t = float(t0)
+        self._options = options
+        self._parameters = dict(parameters) if parameters is not None else None
+        self._workers = workers
+        k = len(self._q)
+        self._ok = np.ones(k, dtype=bool)
+        self._t_failed = np.full(k, np.nan)
+        self._errors: Dict[int, Exception] = {}
+
+    @property
+    def t(self) -> float:
+        return self._t
+
+    @property
+    def q(self) -> npt.NDArray[np.float64]:
+        return self._q.copy()
+
+    @property
+    def qd(self) -> npt.NDArray[np.float64]:
+        return self._qd.copy()
+
+    @property
+    def ok(self) -> npt.NDArray[np.bool_]:
+        return self._ok.copy()
+
+    @property
+    def t_failed(self) -> npt.NDArray[np.float64]:
+        """The time each failed run stood at before its failing call (NaN: not failed)."""
+        return self._t_failed.copy()
+
+    def error(self, i: int) -> Optional[Exception]:
+        """The exception run i failed with, or ``None``."""
+        return self._errors.get(i)
+
+    def __len__(self) -> int:
+        return len(self._q)
+
+    def __repr__(self) -> str:
+        return f"BatchIntegrator(runs={len(self)}, t={self._t}, failed={int((~self._ok).sum())})"
+
+    def propagate_until(self, t: float) -> None:
+        """Integrate every run still going from ``self.t`` to ``t`` and stand there."""
+        t = float(t)
+        if not np.isfinite(t):
+            raise ValueError(f"t = {t}: give a finite time to integrate to")
+        going = np.flatnonzero(self._ok)
+        if t == self._t or len(going) == 0:
+            self._t = t
+            return
+        parameters = None
+        if self._parameters is not None:
+            parameters = {name: (np.asarray(v)[going] if np.ndim(v) else v)
+                          for name, v in self._parameters.items()}
+        ens = self._model.simulate_many(
+            self._q[going], self._qd[going], t, t0=self._t, final_only=True,
+            parameters=parameters, workers=self._workers, **self._options)
+        for j, i in enumerate(going):
+            if ens.ok[j]:
+                self._q[i], self._qd[i] = ens.q[j], ens.qd[j]
+            else:
+                self._ok[i] = False
+                self._t_failed[i] = self._t
+                error = ens.error(j)
+                assert error is not None
+                self._errors[int(i)] = error
+        self._t = t

@@ -522,3 +522,37 @@ def test_counters_come_from_one_list_in_rust():
     for i, q0 in enumerate(([1.0, 0.5], [0.5, 0.2])):
         one = model.simulate(q0, [0.0, 0.0], 0.5, method="radau5")
         assert ens.run_stats(i) == one.stats
+
+
+def test_batch_integrator_is_the_integrator_run_by_run(hundred):
+    # Runs advanced together piece by piece (SIMD lanes for Taylor): after each call every run
+    # stands where Model.integrator stands after the same calls, bit for bit — in a g sweep
+    # too; a run that fails (max_steps) is marked with the integrator's error and kept out of
+    # the later calls, at the state it stood at; bad times are refused.
+    model, q0, qd0 = hundred
+    q0, qd0, g = q0[:24], qd0[:24], np.linspace(5.0, 15.0, 24)
+    kw = dict(method="taylor", rtol=1e-10, atol=1e-10)
+    bi = model.batch_integrator(q0, qd0, parameters={"g": g}, max_steps=60, **kw)
+    assert len(bi) == 24 and bi.t == 0.0 and bi.ok.all()
+    stops = (0.5, 1.5, 3.0)
+    for t in stops:
+        bi.propagate_until(t)
+        assert bi.t == t
+    assert 0 < (~bi.ok).sum() < 24
+    for i in range(24):
+        ig = model.with_parameters(g=g[i]).integrator(q0[i], qd0[i], max_steps=60, **kw)
+        failed_at = None
+        for t in stops:
+            try:
+                ig.propagate_until(t)
+            except lg.TooManyStepsError as e:
+                failed_at = e
+                break
+        assert bi.ok[i] == (failed_at is None), i
+        if failed_at is None:
+            assert np.array_equal(bi.q[i], ig.q) and np.array_equal(bi.qd[i], ig.qd), i
+        else:
+            assert str(bi.error(i)) == str(failed_at) and bi.t_failed[i] == ig.t, i
+            assert np.array_equal(bi.q[i], ig.q) and np.array_equal(bi.qd[i], ig.qd), i
+    with pytest.raises(ValueError, match="finite time"):
+        bi.propagate_until(float("nan"))
