@@ -8,7 +8,7 @@
 //! machine's vectors (`batch.rs`), with the same steps and bits. A run that fails keeps its
 //! [`Failed`] (with what it had computed) and does not stop the others.
 
-use super::batch::solve_in_lanes;
+use super::batch::{Finished, solve_in_lanes};
 use super::{Event, Failed, Method, Options, Solution, solve_partial};
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
@@ -99,10 +99,10 @@ pub fn solve_many<S: Dynamics + Sync>(
             Systems::EachWithEvents(_) => None,
         }
     });
-    let run = |i: usize| -> RunResult {
+    let run = |(i, finished): (usize, Option<Finished>)| -> RunResult {
         let (q0, qd0) = initial[i];
-        if let Some(Some(finished)) = lanes.as_ref().map(|runs| &runs[i]) {
-            return Ok(finished.clone().solution(q0.len()));
+        if let Some(finished) = finished {
+            return Ok(finished.solution(q0.len()));
         }
         let stop = interrupt.map(|f| f as &dyn Fn(f64) -> bool);
         if stop.is_some_and(|f| f(span.0)) {
@@ -124,9 +124,12 @@ pub fn solve_many<S: Dynamics + Sync>(
     };
     // One run per task: runs differ in cost (an amplitude, a parameter), so rayon's work
     // stealing balances them; the indexed collect keeps the input order.
+    // A run the lanes finished is only handed over.
+    let lanes = lanes.unwrap_or_else(|| vec![None; initial.len()]);
     Ok(pool.install(|| {
-        (0..initial.len())
+        lanes
             .into_par_iter()
+            .enumerate()
             .with_max_len(1)
             .map(run)
             .collect()
