@@ -28,7 +28,8 @@ use lagrangian::scenes::Andrews;
 use lagrangian::tape::{ConstraintProgram, ConstraintRows, EomFunction};
 use lagrangian::trace::Traced;
 use lagrangian::{
-    Constrained, Constraints, Dynamics, Potential, Result, Scalar, Structure, System,
+    Constrained, Constraints, DerivedProgram, Dynamics, Potential, Result, Scalar, Structure,
+    System,
 };
 use std::hint::black_box;
 use std::time::Duration;
@@ -165,7 +166,7 @@ impl Dynamics for Compiled {
     fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
         self.system.accelerations_into(t, q, qd, out)
     }
-    fn derived_program(&self) -> Option<&EomFunction> {
+    fn derived_program(&self) -> Option<&dyn DerivedProgram> {
         Some(&self.program)
     }
 }

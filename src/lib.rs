@@ -61,7 +61,7 @@ pub mod trace;
 pub use constrained::{
     Constrained, ConstrainedAccelerations, ConstraintResiduals, PROJECTION_TOLERANCE,
 };
-pub use dynamics::{ConstraintAccess, Dynamics, Structure};
+pub use dynamics::{ConstraintAccess, DerivedProgram, Dynamics, Structure};
 pub use energies::{Constraints, Dissipation, GeneralizedForces, KineticEnergy, Potential};
 pub use error::{Error, Result};
 pub use integrators::solve_with_interrupt;

@@ -8,7 +8,8 @@
 //! latency; LDLᵀ halves their number. The pivots d_j are the squares of Cholesky's diagonal, so
 //! the checks (and the errors they return) are the same.
 
-use crate::Scalar;
+use crate::error::Error;
+use crate::scalar::Scalar;
 use std::ops::{Add, Mul, Sub};
 
 /// Why a symmetric matrix could not be factored.
@@ -226,6 +227,58 @@ where
         for j in (0..k).filter(|&j| nonzero[k * n + j]) {
             b[j] = b[j] - x * f[k * n + j];
         }
+    }
+}
+
+// The mass matrix's LDLᵀ with the typed errors of eq. 55 (t and q named).
+
+/// Factor the row-major n × n mass matrix `m` in place as LDLᵀ (only [`solve_mass`] reads the result).
+///
+/// # Errors
+/// [`Error::SingularMassMatrix`] with t and q when M is singular, not positive definite or not
+/// finite.
+#[inline(always)]
+pub(crate) fn factor_mass<D: Scalar>(
+    m: &mut [D],
+    n: usize,
+    t: D,
+    q: &[D],
+) -> crate::error::Result<()> {
+    ldlt_in_place(m, n).map_err(|f| singular_mass(f, t, q))
+}
+
+/// The typed error for a mass matrix whose factorization failed at (t, q).
+pub(crate) fn singular_mass<D: Scalar>(failure: FactorFailure, t: D, q: &[D]) -> Error {
+    Error::SingularMassMatrix {
+        t: t.re(),
+        q: q.iter().map(|x| x.re()).collect(),
+        reason: failure.reason(),
+    }
+}
+
+/// Solve M q̈ = `rhs` in place with the factor `m` from [`factor_mass`] (`f64` for a constant M, or
+/// the scalar of `rhs`).
+///
+/// # Errors
+/// [`Error::NonFinite`] when q̈ is not finite.
+#[inline(always)]
+pub(crate) fn solve_mass<F: Copy, D>(
+    m: &[F],
+    n: usize,
+    t: D,
+    rhs: &mut [D],
+) -> crate::error::Result<()>
+where
+    D: Scalar + std::ops::Mul<F, Output = D>,
+{
+    ldlt_solve(m, n, rhs);
+    if rhs.iter().all(|v| v.re().is_finite()) {
+        Ok(())
+    } else {
+        Err(Error::NonFinite {
+            what: "accelerations",
+            t: t.re(),
+        })
     }
 }
 

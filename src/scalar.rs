@@ -23,6 +23,10 @@ pub fn re<D: Scalar>(x: D) -> f64 {
     x.re()
 }
 
+/// The largest number of directions one dual-number pass seeds: the passes of eq. 55, the
+/// constraints' Jacobian and the programs' jets all differentiate in chunks of this size.
+pub(crate) const CHUNK: usize = 4;
+
 /// A first-order vector dual over `K` seeded directions (gradients in chunks of `K`).
 pub(crate) type Grad<D, const K: usize> = DualSVec<D, K>;
 
@@ -134,4 +138,44 @@ fn fill_buf<'a, L: Copy, const CAP: usize>(
         *heap = vec![fill; len];
         heap
     }
+}
+
+// Dispatch on the scalar type: a generic pass that meets `f64` (or one dual shape) takes its
+// plain-array path instead.
+
+/// Whether `D` is exactly `T`.
+#[inline(always)]
+pub(crate) fn is<D: 'static, T: 'static>() -> bool {
+    std::any::TypeId::of::<D>() == std::any::TypeId::of::<T>()
+}
+
+/// `x` as a `T`, when [`is::<D, T>`] holds.
+///
+/// # Safety
+/// `D` and `T` must be the same type.
+#[inline(always)]
+pub(crate) unsafe fn cast<D, T>(x: &D) -> &T {
+    // SAFETY: the caller guarantees D == T.
+    unsafe { &*(x as *const D as *const T) }
+}
+
+/// `x` as a slice of `T`, when [`is::<D, T>`] holds.
+///
+/// # Safety
+/// `D` and `T` must be the same type.
+#[inline(always)]
+pub(crate) unsafe fn cast_slice<D, T>(x: &[D]) -> &[T] {
+    // SAFETY: the caller guarantees D == T.
+    unsafe { &*(x as *const [D] as *const [T]) }
+}
+
+/// `x` as a `D`, when [`is::<D, T>`] holds.
+///
+/// # Safety
+/// `D` and `T` must be the same type.
+#[inline(always)]
+pub(crate) unsafe fn uncast<T, D>(x: T) -> D {
+    let x = std::mem::ManuallyDrop::new(x);
+    // SAFETY: the caller guarantees D == T, so the bits are a valid D; `x` is not dropped twice.
+    unsafe { std::mem::transmute_copy::<T, D>(&x) }
 }

@@ -45,12 +45,12 @@
 //! ```
 
 use crate::derived::eom_program::{Energies, EomFunction, EomProgram, particle_kinetic};
+use crate::dynamics::{Dynamics, Structure};
+use crate::energies::{Dissipation, GeneralizedForces, KineticEnergy, Potential};
 use crate::error::{Error, Result};
 use crate::expr::graph::{Binary, Graph, Node, Unary};
-use crate::{
-    CartesianForces, Dissipation, Dynamics, GeneralizedForces, KineticEnergy, ParticleSystem,
-    Particles, Potential, Scalar, Structure, System,
-};
+use crate::routes::{CartesianForces, ParticleSystem, Particles, System};
+use crate::scalar::Scalar;
 use num_dual::{DualNum, DualStruct, Mappable};
 use num_traits::{FromPrimitive, Inv, Num, One, Signed, Zero};
 use std::cell::RefCell;
@@ -847,8 +847,8 @@ impl<S: TraceEnergies> Dynamics for WithProgram<S> {
     /// [`Dynamics::derived_program`] stays `None`, so that every other method runs the Rust
     /// code as before, with no trace to pay for on a system's first run (see the module
     /// documentation for the measurements).
-    fn taylor_program(&self) -> std::result::Result<&EomFunction, String> {
-        self.program().map_err(|e| e.to_string())
+    fn taylor_program(&self) -> std::result::Result<&dyn crate::dynamics::DerivedProgram, String> {
+        self.program().map(|p| p as _).map_err(|e| e.to_string())
     }
     fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
         self.system.energy(t, q, qd)

@@ -42,19 +42,15 @@
 use crate::checks::{check_state, finite};
 use crate::dynamics::Dynamics;
 use crate::energies::Constraints;
-use crate::eom::factor;
 use crate::error::{Error, Result};
+use crate::linalg::factor_mass;
 use crate::linalg::{ldlt_in_place, ldlt_solve};
-use crate::program::jet;
 use crate::scalar::{
-    Grad, Hyper, Scalar, grad_const, grad_part, grad_seed, hyper, hyper_mixed, with_f64_buf,
+    CHUNK, Grad, Hyper, Scalar, grad_const, grad_part, grad_seed, hyper, hyper_mixed, with_f64_buf,
 };
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 use num_dual::{Dual, Dual2, Dual64};
 use std::sync::OnceLock;
-
-/// Directions seeded per pass of the Jacobian G and of the linearity check.
-const CHUNK: usize = 4;
 
 /// Entries of ∂²(a·q̇ + b)/∂q̇² above this fraction of the row's largest |∂(a·q̇ + b)/∂q̇| (or
 /// of 1) make the row nonlinear in q̇ (dual numbers give exact zeros for a linear row).
@@ -680,10 +676,10 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
                 self.constant_mass_factor(t, q, qd)?
             } else {
                 finite(m, "mass matrix", t)?;
-                factor(m, n, t, q)?;
+                factor_mass(m, n, t, q)?;
                 m
             };
-            crate::eom::solve(m, n, t, qdd)?;
+            crate::linalg::solve_mass(m, n, t, qdd)?;
             reactions.fill(0.0);
             if k == 0 {
                 return Ok(());
@@ -958,9 +954,9 @@ impl<S: Dynamics, C: Constraints> Dynamics for Constrained<S, C> {
     fn dof(&self) -> usize {
         self.system.dof()
     }
-    fn structure(&self) -> crate::Structure {
+    fn structure(&self) -> crate::dynamics::Structure {
         let s = self.system.structure();
-        crate::Structure {
+        crate::dynamics::Structure {
             time_dependent: s.time_dependent
                 || (self.rows() > 0 && self.constraints.depends_on_time()),
             ..s
@@ -989,13 +985,13 @@ impl<S: Dynamics, C: Constraints> Dynamics for Constrained<S, C> {
     }
     fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
         let (n, k) = (self.dof(), self.rows());
-        if jet::is::<D, f64>() {
+        if crate::scalar::is::<D, f64>() {
             // SAFETY: D is f64 (same TypeId), so these are identity casts.
             let (tf, qf, qdf, outf) = unsafe {
                 (
-                    *jet::cast::<D, f64>(&t),
-                    jet::cast_slice::<D, f64>(q),
-                    jet::cast_slice::<D, f64>(qd),
+                    *crate::scalar::cast::<D, f64>(&t),
+                    crate::scalar::cast_slice::<D, f64>(q),
+                    crate::scalar::cast_slice::<D, f64>(qd),
                     &mut *(out as *mut [D] as *mut [f64]),
                 )
             };
@@ -1017,9 +1013,7 @@ impl<S: Dynamics, C: Constraints> Dynamics for Constrained<S, C> {
             })
         }
     }
-    fn taylor_program(
-        &self,
-    ) -> std::result::Result<&crate::derived::eom_program::EomFunction, String> {
+    fn taylor_program(&self) -> std::result::Result<&dyn crate::dynamics::DerivedProgram, String> {
         Err(
             "the Taylor method expands the unconstrained eq. 55 program, which has no \
              multipliers: a constrained model takes a Runge–Kutta method or radau5, each step \
@@ -1139,7 +1133,7 @@ fn mass_factor_in_place<D: Scalar>(m: &mut [D], n: usize, t: D, q: &[D]) -> Resu
             t: t.re(),
         });
     }
-    factor(m, n, t, q)
+    factor_mass(m, n, t, q)
 }
 
 fn dot<D: Scalar>(x: &[D], y: &[D]) -> D {

@@ -12,7 +12,7 @@
 //! constants of [`EomFunction::constants`].
 
 use crate::checks::check_lengths;
-use crate::eom;
+use crate::dynamics::DerivedProgram;
 use crate::error::{Error, Result};
 use crate::expr::derive::{
     POSITION, Seeds, Simplify, TIME, VELOCITY, Wrt, gradient, reads, tangents,
@@ -938,12 +938,14 @@ impl EomFunction {
                 });
             match &self.mass_factor {
                 Some(factor) => {
-                    let factor = factor.as_ref().map_err(|&f| eom::singular(f, t, q))?;
-                    eom::solve(&factor[..], n, t, out)
+                    let factor = factor
+                        .as_ref()
+                        .map_err(|&f| crate::linalg::singular_mass(f, t, q))?;
+                    crate::linalg::solve_mass(&factor[..], n, t, out)
                 }
                 None => {
-                    eom::factor(m, n, t, q)?;
-                    eom::solve(&*m, n, t, out)
+                    crate::linalg::factor_mass(m, n, t, q)?;
+                    crate::linalg::solve_mass(&*m, n, t, out)
                 }
             }
         })
@@ -985,16 +987,52 @@ impl EomFunction {
         }
         match &self.mass_factor {
             Some(factor) => {
-                let factor = factor.as_ref().map_err(|&f| eom::singular(f, t, q))?;
+                let factor = factor
+                    .as_ref()
+                    .map_err(|&f| crate::linalg::singular_mass(f, t, q))?;
                 self.run(t, q, qd, |_, _, _| {}, out);
-                eom::solve(&factor[..], n, t, out)
+                crate::linalg::solve_mass(&factor[..], n, t, out)
             }
             None => with_buf::<f64, 64, _>(n * n, 0.0, |m| {
                 // The factorization reads the lower triangle.
                 self.run(t, q, qd, |i, j, x| m[j * n + i] = x, out);
-                eom::factor(m, n, t, q)?;
-                eom::solve(&*m, n, t, out)
+                crate::linalg::factor_mass(m, n, t, q)?;
+                crate::linalg::solve_mass(&*m, n, t, out)
             }),
         }
+    }
+}
+
+impl crate::dynamics::sealed::Sealed for EomFunction {}
+
+impl DerivedProgram for EomFunction {
+    fn mass_and_force(&self, t: f64, q: &[f64], qd: &[f64], m: &mut [f64], f: &mut [f64]) {
+        EomFunction::mass_and_force(self, t, q, qd, m, f)
+    }
+    fn acceleration_jacobian(&self, t: f64, q: &[f64], qd: &[f64], jac: &mut [f64]) -> bool {
+        EomFunction::acceleration_jacobian(self, t, q, qd, jac)
+    }
+    fn qp_form(&self, t: f64, q: &[f64], qd: &[f64], p: &mut [f64], g: &mut [f64]) {
+        EomFunction::qp_form(self, t, q, qd, p, g)
+    }
+    fn qp_jacobian(&self, t: f64, q: &[f64], qd: &[f64], jac: &mut [f64]) -> bool {
+        EomFunction::qp_jacobian(self, t, q, qd, jac)
+    }
+    fn acceleration_instructions(&self) -> usize {
+        EomFunction::acceleration_instructions(self)
+    }
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+}
+
+impl EomFunction {
+    /// The program behind a system's [`DerivedProgram`] (sealed: this is its one
+    /// implementation).
+    pub fn of(program: &dyn DerivedProgram) -> &EomFunction {
+        program
+            .as_any()
+            .downcast_ref()
+            .expect("DerivedProgram is sealed: EomFunction is its one implementation")
     }
 }

@@ -16,9 +16,9 @@ mod qp_form;
 pub(crate) use jacobian::{acceleration_jacobian, jacobian};
 pub(crate) use qp_form::ForceParts;
 
-use crate::Scalar;
 use crate::checks::{check_state, finite};
 use crate::error::Result;
+use crate::scalar::Scalar;
 use nalgebra::{DMatrix, DVector};
 
 /// What a system is made of, found from its parts (at compile time for Rust models).
@@ -83,7 +83,7 @@ pub trait Dynamics {
     /// take the accelerations' Jacobian and the (q, p) form of the implicit symplectic methods
     /// from its machine code instead of from dual numbers. A wrapper that changes the equations
     /// must not pass it on.
-    fn derived_program(&self) -> Option<&crate::derived::eom_program::EomFunction> {
+    fn derived_program(&self) -> Option<&dyn DerivedProgram> {
         None
     }
 
@@ -95,9 +95,7 @@ pub trait Dynamics {
     ///
     /// # Errors
     /// The reason, as the Taylor method reports it.
-    fn taylor_program(
-        &self,
-    ) -> std::result::Result<&crate::derived::eom_program::EomFunction, String> {
+    fn taylor_program(&self) -> std::result::Result<&dyn DerivedProgram, String> {
         self.derived_program().ok_or_else(|| {
             "the Taylor method expands the model's expression graph: state the model as \
              expressions (lg.Model, tape::EomProgram) or trace a Rust system \
@@ -168,6 +166,39 @@ pub trait Dynamics {
     fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
         energy_from_parts(self, t, q, qd)
     }
+}
+
+/// What the integrators take from the eq. 55 program derived on a model's expression graph
+/// ([`Dynamics::derived_program`]): machine code at `f64` states. A capability, as
+/// [`ConstraintAccess`] is, so that this trait names nothing of the code generation above it.
+/// Sealed: the one implementation is the crate's own ([`EomFunction`](crate::tape::EomFunction)),
+/// which the Taylor method reads whole through [`as_any`](Self::as_any).
+pub trait DerivedProgram: sealed::Sealed + std::any::Any {
+    /// Row-major M (n × n) and f of eq. 55 (M q̈ = f) at a state.
+    fn mass_and_force(&self, t: f64, q: &[f64], qd: &[f64], m: &mut [f64], f: &mut [f64]);
+
+    /// ∂q̈/∂(q, q̇) (row-major n × 2n) into `jac` when compiled for this model; `false` (and
+    /// `jac` untouched) when the caller must take it from dual numbers.
+    fn acceleration_jacobian(&self, t: f64, q: &[f64], qd: &[f64], jac: &mut [f64]) -> bool;
+
+    /// The (q, p) form: momenta p and G = ∂L/∂q + Q″ − ∂Φ/∂q̇ at (t, q, q̇).
+    fn qp_form(&self, t: f64, q: &[f64], qd: &[f64], p: &mut [f64], g: &mut [f64]);
+
+    /// ∂(p, G)/∂(q, q̇) (row-major 2n × 2n) when compiled for this model, else `false`.
+    fn qp_jacobian(&self, t: f64, q: &[f64], qd: &[f64], jac: &mut [f64]) -> bool;
+
+    /// About the instructions of one evaluation of q̈ (the automatic method choice weighs a
+    /// step's cost with it).
+    fn acceleration_instructions(&self) -> usize;
+
+    /// The program itself, for the Taylor method, which expands its graph.
+    fn as_any(&self) -> &dyn std::any::Any;
+}
+
+/// Keeps [`DerivedProgram`] the crate's own.
+pub(crate) mod sealed {
+    /// Implemented only inside the crate.
+    pub trait Sealed {}
 }
 
 /// The `f64` view of a constrained system's constraints that the integrators need

@@ -5,9 +5,9 @@
 //! integrators take from p itself.
 
 use super::Dynamics;
-use crate::Scalar;
 use crate::eom::by_dof;
 use crate::eom::passes::{Wrt, gradient};
+use crate::scalar::Scalar;
 
 /// Which parts of the force G = ∂L/∂q + Q″ − ∂Φ/∂q̇ a system has.
 #[derive(Debug, Clone, Copy)]

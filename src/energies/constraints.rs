@@ -1,7 +1,7 @@
 //! Constraints stated as equations: holonomic g(t, q) = 0 and velocity constraints
 //! a(t, q)·q̇ + b(t, q) = 0.
 
-use crate::Scalar;
+use crate::scalar::Scalar;
 
 /// Constraints on the motion (seed §2: N particles under f constraints; §3.1–3.2: the constraint
 /// forces R do no work in a virtual displacement): `holonomic_count` holonomic rows

@@ -1,6 +1,6 @@
 //! Rayleigh's dissipation function Φ(t, q, q̇).
 
-use crate::Scalar;
+use crate::scalar::Scalar;
 
 /// Rayleigh's dissipation function Φ(t, q, q̇) (seed eq. 54): the viscous generalized force is
 /// −∂Φ/∂q̇ (eq. 55), and 2Φ is the power dissipated when Φ is quadratic in q̇.

@@ -1,6 +1,6 @@
 //! Generalized forces Q(t, q, q̇) that no potential describes.
 
-use crate::Scalar;
+use crate::scalar::Scalar;
 
 /// Non-conservative generalized forces Q″(t, q, q̇) (seed eq. 4, 55): forcing, friction, follower
 /// loads, anything whose virtual work Σ Qᵢ δqᵢ is not −δU.

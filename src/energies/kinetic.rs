@@ -1,6 +1,6 @@
 //! Kinetic energy T(t, q, q̇).
 
-use crate::Scalar;
+use crate::scalar::Scalar;
 
 /// The kinetic energy T(t, q, q̇) of a system in generalized coordinates (seed eq. 1, 38).
 ///

@@ -1,6 +1,6 @@
 //! Potential energy U(t, q).
 
-use crate::Scalar;
+use crate::scalar::Scalar;
 
 /// The potential energy U(t, q) of the conservative forces (seed eq. 3): Q = −∂U/∂q.
 ///

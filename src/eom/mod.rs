@@ -6,7 +6,7 @@
 //!   needs;
 //! - [`Forces`]: the terms T does not give, Q″ − ∂U/∂q − ∂Φ/∂q̇, from the parts U, Φ and Q″;
 //! - [`Forces::accelerations`] and [`Forces::accelerations_constant`]: the one right-hand side
-//!   and its LDLᵀ tail ([`factor`], [`solve`]): M factored with typed errors naming t and q,
+//!   and its LDLᵀ tail ([`factor_mass`](crate::linalg::factor_mass), [`solve_mass`](crate::linalg::solve_mass)): M factored with typed errors naming t and q,
 //!   solved, checked finite;
 //!
 //! A route supplies only M and the terms its kinetic energy gives (T's
@@ -16,14 +16,15 @@
 
 pub(crate) mod passes;
 
-use crate::error::{Error, Result};
-use crate::linalg::{FactorFailure, ldlt_in_place, ldlt_solve};
+use crate::energies::{Dissipation, GeneralizedForces, Potential};
+use crate::error::Result;
+use crate::linalg::{factor_mass, solve_mass};
+use crate::scalar::Scalar;
 use crate::scalar::with_buf;
-use crate::{Dissipation, GeneralizedForces, Potential, Scalar};
 use passes::{Wrt, gradient};
 
 /// Call a const-generic method with `C` = the number of coordinates (up to the chunk size
-/// [`passes::CHUNK`]) and `C2 = 2 C`: `by_dof!(hint, n, self.method(args))` calls
+/// [`CHUNK`](crate::scalar::CHUNK)) and `C2 = 2 C`: `by_dof!(hint, n, self.method(args))` calls
 /// `self.method::<C, C2, _>(args)` with `C` from [`pass_chunk`]. `hint` is the number of
 /// coordinates when the type fixes it
 /// ([`KineticEnergy::FIXED_DOF`](crate::KineticEnergy::FIXED_DOF)): `C` is then chosen at
@@ -46,8 +47,8 @@ macro_rules! by_dof {
             2 => $this.$f::<2, 4, _>($($arg),*),
             3 => $this.$f::<3, 6, _>($($arg),*),
             _ => $this.$f::<
-                { $crate::eom::passes::CHUNK },
-                { 2 * $crate::eom::passes::CHUNK },
+                { $crate::scalar::CHUNK },
+                { 2 * $crate::scalar::CHUNK },
                 _,
             >($($arg),*),
         }
@@ -61,7 +62,7 @@ pub(crate) use by_dof;
 pub(crate) const fn pass_chunk(dof: Option<usize>) -> usize {
     match dof {
         Some(n @ 1..=3) => n,
-        Some(_) => passes::CHUNK,
+        Some(_) => crate::scalar::CHUNK,
         None => 0,
     }
 }
@@ -164,7 +165,7 @@ impl<'a, U: Potential, R: Dissipation, Q: GeneralizedForces> Forces<'a, U, R, Q>
     /// them.
     ///
     /// # Errors
-    /// As [`factor`] and [`solve`].
+    /// As [`factor_mass`] and [`solve_mass`].
     #[inline(always)]
     pub(crate) fn accelerations<const C: usize, D: Scalar>(
         &self,
@@ -182,14 +183,14 @@ impl<'a, U: Potential, R: Dissipation, Q: GeneralizedForces> Forces<'a, U, R, Q>
             #[inline(always)]
             |m| {
                 let folded = inertia(m, out);
-                factor(m, n, t, q)?;
+                factor_mass(m, n, t, q)?;
                 self.add_into::<C, D>(t, q, qd, folded, out);
-                solve(&*m, n, t, out)
+                solve_mass(&*m, n, t, out)
             },
         )
     }
 
-    /// [`accelerations`](Self::accelerations) with a constant M whose factor (from [`factor`],
+    /// [`accelerations`](Self::accelerations) with a constant M whose factor (from [`factor_mass`],
     /// at `f64`) is `m`: `kinetic(rhs)` adds the terms the kinetic energy gives (if any) into
     /// `rhs` and returns whether those include −∂U/∂q.
     ///
@@ -208,46 +209,6 @@ impl<'a, U: Potential, R: Dissipation, Q: GeneralizedForces> Forces<'a, U, R, Q>
         out.fill(D::zero());
         let folded = kinetic(out);
         self.add_into::<C, D>(t, q, qd, folded, out);
-        solve(m, q.len(), t, out)
-    }
-}
-
-/// Factor the row-major n × n mass matrix `m` in place as LDLᵀ (only [`solve`] reads the result).
-///
-/// # Errors
-/// [`Error::SingularMassMatrix`] with t and q when M is singular, not positive definite or not
-/// finite.
-#[inline(always)]
-pub(crate) fn factor<D: Scalar>(m: &mut [D], n: usize, t: D, q: &[D]) -> Result<()> {
-    ldlt_in_place(m, n).map_err(|f| singular(f, t, q))
-}
-
-/// The typed error for a mass matrix whose factorization failed at (t, q).
-pub(crate) fn singular<D: Scalar>(failure: FactorFailure, t: D, q: &[D]) -> Error {
-    Error::SingularMassMatrix {
-        t: t.re(),
-        q: q.iter().map(|x| x.re()).collect(),
-        reason: failure.reason(),
-    }
-}
-
-/// Solve M q̈ = `rhs` in place with the factor `m` from [`factor`] (`f64` for a constant M, or
-/// the scalar of `rhs`).
-///
-/// # Errors
-/// [`Error::NonFinite`] when q̈ is not finite.
-#[inline(always)]
-pub(crate) fn solve<F: Copy, D>(m: &[F], n: usize, t: D, rhs: &mut [D]) -> Result<()>
-where
-    D: Scalar + std::ops::Mul<F, Output = D>,
-{
-    ldlt_solve(m, n, rhs);
-    if rhs.iter().all(|v| v.re().is_finite()) {
-        Ok(())
-    } else {
-        Err(Error::NonFinite {
-            what: "accelerations",
-            t: t.re(),
-        })
+        solve_mass(m, q.len(), t, out)
     }
 }

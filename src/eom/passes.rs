@@ -11,20 +11,18 @@
 //!   −∂U/∂q (U has no q̇, so it leaves M and ∂²T/∂q̇∂q alone) and U needs no pass of its own.
 //!   A T with explicit time dependence gets one more small pass for ∂²T/∂q̇∂t.
 //!
-//! Up to [`CHUNK`] coordinates are seeded in one pass (the const `C` equals the number of
-//! coordinates, so nothing is wasted); larger systems are seeded in chunks of [`CHUNK`], the way
+//! Up to [`CHUNK`](crate::scalar::CHUNK) coordinates are seeded in one pass (the const `C` equals the number of
+//! coordinates, so nothing is wasted); larger systems are seeded in chunks of [`CHUNK`](crate::scalar::CHUNK), the way
 //! ForwardDiff.jl does, with M by blocks and the kinetic terms from a gradient pass and one
 //! hyper-dual pass per chunk along the motion (q, q̇, t) ↦ (q̇, 0, 1). The const `C2` is always
 //! `2 C` (stable Rust cannot write `2 * C` in a type).
 
+use crate::energies::{KineticEnergy, Potential};
+use crate::scalar::Scalar;
 use crate::scalar::{
     Grad, Hyper, grad_const, grad_part, grad_seed, hyper, hyper_eps2, hyper_mixed, with_buf,
 };
-use crate::{KineticEnergy, Potential, Scalar};
 use nalgebra::{SMatrix, SVector};
-
-/// The largest number of coordinates differentiated in one pass.
-pub(crate) const CHUNK: usize = 4;
 
 /// The largest number of coordinates for which the one-pass scheme also evaluates U. Up to two,
 /// its hyper-dual numbers (≤ 15 components) stay in registers and U rides along for free; from

@@ -76,7 +76,7 @@ pub fn tangent(graph: &mut Graph, node: usize, seeds: &Seeds) -> Result<usize> {
 /// As [`tangent`].
 pub fn tangents(graph: &mut Graph, roots: &[usize], seeds: &Seeds) -> Result<Vec<Option<usize>>> {
     let len = graph.len();
-    let bad = |i: usize| crate::Error::InvalidInput {
+    let bad = |i: usize| crate::error::Error::InvalidInput {
         what: "expression",
         why: format!("node {i} is not a node of the graph"),
     };
@@ -162,7 +162,7 @@ pub fn gradient(
     dof: usize,
 ) -> Result<Vec<Option<usize>>> {
     if root >= graph.len() {
-        return Err(crate::Error::InvalidInput {
+        return Err(crate::error::Error::InvalidInput {
             what: "expression",
             why: format!("node {root} is not a node of the graph"),
         });

@@ -4,6 +4,7 @@
 use super::method::Method;
 use super::options::Options;
 use super::{stiffness, taylor};
+use crate::derived::eom_program::EomFunction;
 use crate::dynamics::Dynamics;
 
 /// Choose a method from the system's structure, the options and the initial state (the rule
@@ -196,7 +197,7 @@ impl TaylorEstimate {
     /// that the backend changes the speed of a run, never its result.
     fn new<S: Dynamics + ?Sized>(system: &S, options: &Options) -> Option<Self> {
         let eom = system.derived_program()?;
-        let (program, _) = eom.taylor();
+        let (program, _) = EomFunction::of(eom).taylor();
         if !program.is_analytic() {
             return None;
         }

@@ -16,6 +16,7 @@
 use super::taylor::order_for;
 use super::{Method, Options, Output, Solution, Statistics, Status};
 use crate::checks::check_state;
+use crate::derived::eom_program::EomFunction;
 use crate::dynamics::Dynamics;
 use crate::error::Result;
 use crate::taylor::StepRule;
@@ -109,7 +110,7 @@ pub(super) fn solve_in_lanes<S: Dynamics + Sync>(
     if !fits {
         return None;
     }
-    let (program, params) = system.taylor_program().ok()?.taylor();
+    let (program, params) = EomFunction::of(system.taylor_program().ok()?).taylor();
     let (program, params) = (program.clone(), params.to_vec());
     let order = order_for(options.rtol.min(options.atol));
     if !BatchExpansion::fits(&program, order) {
@@ -303,7 +304,7 @@ impl<S: Dynamics + Sync> Lanes<'_, S> {
                 let Ok(eom) = system.taylor_program() else {
                     continue;
                 };
-                let (program, params) = eom.taylor();
+                let (program, params) = EomFunction::of(eom).taylor();
                 if !Arc::ptr_eq(program, &self.program) {
                     continue;
                 }
@@ -354,7 +355,7 @@ mod tests {
             tape(parts.kinetic, Inputs::kinetic(2, 5)),
             tape(parts.potential.unwrap(), Inputs::potential(2, 5)),
         );
-        let bind = |p: &[f64]| -> crate::Result<EnergyModel> {
+        let bind = |p: &[f64]| -> crate::error::Result<EnergyModel> {
             EnergyModel::new(
                 2,
                 Function::new(t.clone(), p)?,
@@ -374,7 +375,7 @@ mod tests {
         let nan = [f64::NAN, 0.0];
         initial[3].0 = &nan;
         let options = Options::adaptive(1e-9, 1e-9).with_output(Output::Final);
-        type Each<'a> = Option<&'a (dyn Fn(usize) -> crate::Result<EnergyModel> + Sync)>;
+        type Each<'a> = Option<&'a (dyn Fn(usize) -> crate::error::Result<EnergyModel> + Sync)>;
         let taken_of = |initial: &[(&[f64], &[f64])], each: Each<'_>, options: &Options| {
             let first = each.map_or_else(|| model.clone(), |build| build(0).unwrap());
             solve_in_lanes(

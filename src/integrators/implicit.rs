@@ -9,7 +9,6 @@ use super::dense::{Ends, Interpolant};
 use super::run::{Flow, Run, SegmentStepper};
 use super::solution::Statistics;
 use crate::dynamics::Dynamics;
-use crate::eom;
 use crate::error::Result;
 use crate::linalg::ldlt_solve;
 use crate::nonlinear::{Convergence, Verdict, max_norm};
@@ -56,7 +55,7 @@ impl Legendre {
     ) -> Result<()> {
         let n = q.len();
         system.mass_matrix_into(t, q, v, &mut self.mass);
-        eom::factor(&mut self.mass, n, t, q)?;
+        crate::linalg::factor_mass(&mut self.mass, n, t, q)?;
         stats.factorizations += 1;
         let mut conv = Convergence::new(LEGENDRE_ITERATIONS);
         loop {

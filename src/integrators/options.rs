@@ -364,7 +364,7 @@ fn bad<T>(what: &'static str, why: String) -> Result<T> {
 /// `None` for fixed steps: the one statement of the rule, also for the Python binding's checks
 /// before a run.
 pub(crate) fn projection_tolerance(controlled_rtol: Option<f64>) -> f64 {
-    let floor = crate::PROJECTION_TOLERANCE;
+    let floor = crate::constrained::PROJECTION_TOLERANCE;
     controlled_rtol.map_or(floor, |rtol| rtol.max(floor))
 }
 

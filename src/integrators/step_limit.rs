@@ -14,9 +14,9 @@ use super::method::Method;
 use super::options::{Options, Output};
 use super::run::{Flow, Run};
 use super::stiffness;
-use crate::Scalar;
 use crate::dynamics::{Dynamics, Structure};
 use crate::error::{Error, Result};
+use crate::scalar::Scalar;
 use nalgebra::Complex;
 
 /// Amplification per step above this counts as unstable (round-off in the propagator of a

@@ -26,7 +26,6 @@ use super::dense::{Ends, Interpolant};
 use super::rattle::{Manifold, holonomic_only};
 use super::run::{Flow, Integrator, Run, SegmentStepper, axpy, copy};
 use crate::dynamics::Dynamics;
-use crate::eom;
 use crate::error::{Error, Result};
 use num_dual::Dual64;
 
@@ -271,7 +270,7 @@ impl Kick {
                 t,
             });
         }
-        eom::solve(&self.factor, run.n, t, out)
+        crate::linalg::solve_mass(&self.factor, run.n, t, out)
     }
 }
 
@@ -344,7 +343,7 @@ impl Integrator for Splitting {
         let (t0, q0, qd0) = (run.t0, &run.y0[..n], &run.y0[n..]);
         let mut factor = vec![0.0; n * n];
         run.system.mass_matrix_into(t0, q0, qd0, &mut factor);
-        eom::factor(&mut factor, n, t0, q0)?;
+        crate::linalg::factor_mass(&mut factor, n, t0, q0)?;
         run.stats.factorizations += 1;
         // L is the factor's strict lower triangle (its upper one is the factorization's scratch).
         let diagonal = (0..n).all(|i| (0..i).all(|j| factor[i * n + j] == 0.0));

@@ -23,6 +23,7 @@
 
 use super::dense::Interpolant;
 use super::run::{Flow, Integrator, Run, SegmentStepper};
+use crate::derived::eom_program::EomFunction;
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
 #[cfg(feature = "jit")]
@@ -62,10 +63,12 @@ impl Integrator for Taylor {
     ) -> std::result::Result<(), String> {
         match system.taylor_program() {
             Err(why) => Err(why),
-            Ok(p) if !p.taylor().0.is_analytic() => Err("the model takes |x| or sign(x) of \
+            Ok(p) if !EomFunction::of(p).taylor().0.is_analytic() => {
+                Err("the model takes |x| or sign(x) of \
                  the state, which have no Taylor series across x = 0 (a step would run past \
                  the kink unseen): use dop853, whose error control finds it"
-                .into()),
+                    .into())
+            }
             Ok(_) => Ok(()),
         }
     }
@@ -88,7 +91,7 @@ impl Integrator for Taylor {
                 what: "method",
                 why,
             })?;
-        let (program, params) = eom.taylor();
+        let (program, params) = EomFunction::of(eom).taylor();
         let (rtol, atol) = (run.options.rtol, run.options.atol);
         // The order for the tighter of the two tolerances, fixed for the run.
         let eps = rtol.min(atol);

@@ -31,12 +31,12 @@
 use super::implicit::{FixedSteps, ImplicitStep, Legendre};
 use super::rattle::{Manifold, holonomic_only};
 use super::run::{Integrator, Run, SegmentStepper};
-use crate::Scalar;
 use crate::dynamics::Dynamics;
 use crate::dynamics::ForceParts;
 use crate::dynamics::jacobian;
 use crate::error::{Error, Result};
 use crate::nonlinear::{Convergence, Lu, Verdict, max_norm, newton_update, same_step};
+use crate::scalar::Scalar;
 use nalgebra::DMatrix;
 use num_dual::Dual64;
 
@@ -483,7 +483,7 @@ impl Stepper {
         // the projected velocity (for T quadratic in q̇, p_{k+1} − G(q_{k+1})ᵀμ).
         run.system
             .mass_matrix_into(t_new, q_new, v_new, &mut cp.mass);
-        crate::eom::factor(&mut cp.mass, n, t_new, q_new)?;
+        crate::linalg::factor_mass(&mut cp.mass, n, t_new, q_new)?;
         run.stats.factorizations += 1;
         cp.manifold.tangent(c, &cp.mass, t_new, q_new)?;
         let residual = cp.manifold.project_velocity(c, t_new, q_new, v_new)?;

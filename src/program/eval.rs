@@ -5,11 +5,12 @@
 
 use super::compile::{ConstOp, Input, Out, Tape};
 use super::ins::step;
-use super::jet::{self, Arith, Convert, First, Jet, Num, Second};
-use crate::eom::passes::CHUNK;
+use super::jet::{Arith, Convert, First, Jet, Num, Second};
+use crate::energies::{Dissipation, GeneralizedForces, KineticEnergy, Potential};
 use crate::error::{Error, Result};
+use crate::scalar::CHUNK;
+use crate::scalar::Scalar;
 use crate::scalar::{Grad, Hyper, with_buf};
-use crate::{Dissipation, GeneralizedForces, KineticEnergy, Potential, Scalar};
 use std::sync::Arc;
 
 /// Calls `$then!` with the chunk sizes of the derivative passes (`eom/passes.rs`): (C, 2C) for
@@ -98,19 +99,20 @@ impl Tape {
         );
         macro_rules! via_jet {
             ($dual:ty => $jet:ty) => {
-                if jet::is::<D, $dual>() {
+                if crate::scalar::is::<D, $dual>() {
                     #[cfg(test)]
                     path::record::<D>(true);
                     // SAFETY: D is $dual (same TypeId), so these are identity casts.
                     let (t, q, qd) = unsafe {
                         (
-                            jet::cast::<D, $dual>(&t),
-                            jet::cast_slice::<D, $dual>(q),
-                            jet::cast_slice::<D, $dual>(qd),
+                            crate::scalar::cast::<D, $dual>(&t),
+                            crate::scalar::cast_slice::<D, $dual>(q),
+                            crate::scalar::cast_slice::<D, $dual>(qd),
                         )
                     };
                     // SAFETY: as above, $dual is D.
-                    let mut emit = |k, v: $dual| emit(k, unsafe { jet::uncast::<$dual, D>(v) });
+                    let mut emit =
+                        |k, v: $dual| emit(k, unsafe { crate::scalar::uncast::<$dual, D>(v) });
                     return self.run_converted::<$dual, $jet>(consts, t, q, qd, &mut emit);
                 }
             };
@@ -209,9 +211,9 @@ pub(crate) mod path {
 
     /// Scalars whose own arithmetic has no `Option` parts, so the generic path is theirs.
     fn plain<D: 'static>() -> bool {
-        super::jet::is::<D, f64>()
-            || super::jet::is::<D, Dual64>()
-            || super::jet::is::<D, Dual2_64>()
+        crate::scalar::is::<D, f64>()
+            || crate::scalar::is::<D, Dual64>()
+            || crate::scalar::is::<D, Dual2_64>()
     }
 
     pub(crate) fn record<D: 'static>(jet: bool) {

@@ -14,11 +14,11 @@
 //! compute the same numbers (dense, every part present). `f64`, `Dual64` and `Dual2_64` have no
 //! `Option` parts and keep their own arithmetic.
 
-use crate::Scalar;
 use crate::expr::functions::unary_functions;
+use crate::scalar::Scalar;
+use crate::scalar::is;
 use nalgebra::{Const, SMatrix, SVector};
 use num_dual::{Derivative, DualSVec64, HyperDualVec64};
-use std::any::TypeId;
 
 /// The [`Arith`] methods of the functions of one argument, from their table
 /// (`expr/functions.rs`; `sign` is a step, so its derivatives are zero).
@@ -772,41 +772,4 @@ impl<const M: usize, const N: usize> Convert<HyperDualVec64<Const<M>, Const<N>>>
             Derivative::some(SMatrix::<f64, M, N>::from_fn(|i, j| s.e12[i][j])),
         )
     }
-}
-
-/// Whether `D` is exactly `T`.
-#[inline(always)]
-pub(crate) fn is<D: 'static, T: 'static>() -> bool {
-    TypeId::of::<D>() == TypeId::of::<T>()
-}
-
-/// `x` as a `T`, when [`is::<D, T>`] holds.
-///
-/// # Safety
-/// `D` and `T` must be the same type.
-#[inline(always)]
-pub(crate) unsafe fn cast<D, T>(x: &D) -> &T {
-    // SAFETY: the caller guarantees D == T.
-    unsafe { &*(x as *const D as *const T) }
-}
-
-/// `x` as a slice of `T`, when [`is::<D, T>`] holds.
-///
-/// # Safety
-/// `D` and `T` must be the same type.
-#[inline(always)]
-pub(crate) unsafe fn cast_slice<D, T>(x: &[D]) -> &[T] {
-    // SAFETY: the caller guarantees D == T.
-    unsafe { &*(x as *const [D] as *const [T]) }
-}
-
-/// `x` as a `D`, when [`is::<D, T>`] holds.
-///
-/// # Safety
-/// `D` and `T` must be the same type.
-#[inline(always)]
-pub(crate) unsafe fn uncast<T, D>(x: T) -> D {
-    let x = std::mem::ManuallyDrop::new(x);
-    // SAFETY: the caller guarantees D == T, so the bits are a valid D; `x` is not dropped twice.
-    unsafe { std::mem::transmute_copy::<T, D>(&x) }
 }

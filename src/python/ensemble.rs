@@ -13,12 +13,13 @@ use super::events::{CompiledEvent, EventSpec};
 use super::model::{AnyModel, Backend};
 use super::py_model::PyModel;
 use super::scenes;
+use crate::dynamics::Dynamics;
+use crate::error::{Error, Result};
 use crate::integrators::{
     Failed, Method, Occurrences, Output, RunResult, Solution, Statistics, Status, Systems,
     solve_many,
 };
 use crate::scenes::registry::Arguments;
-use crate::{Dynamics, Error, Result};
 use numpy::ndarray::{Array1, Array2, Array3, ArrayView2};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;

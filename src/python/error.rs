@@ -5,7 +5,7 @@
 //! each message saying where (t) and what to try; [`Error::Interrupted`] is `KeyboardInterrupt`.
 //! A failure of `simulate` during the run carries what was computed (see [`with_partial`]).
 
-use crate::Error;
+use crate::error::Error;
 use crate::integrators::Failed;
 use numpy::PyArray1;
 use pyo3::create_exception;

@@ -4,7 +4,7 @@
 //! The Jacobian is the one Radau IIA uses, by forward-mode AD
 //! ([`crate::dynamics::acceleration_jacobian`]); no finite differences.
 
-use crate::Dynamics;
+use crate::dynamics::Dynamics;
 use crate::dynamics::acceleration_jacobian;
 use nalgebra::DMatrix;
 use num_dual::Dual64;

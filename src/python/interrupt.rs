@@ -3,7 +3,7 @@
 //! `simulate` and `Integrator.propagate_until` share them; an ensemble polls from its calling
 //! thread instead (see `ensemble.rs`).
 
-use crate::Error;
+use crate::error::Error;
 use pyo3::prelude::*;
 use std::cell::Cell;
 use std::sync::Mutex;

@@ -3,7 +3,8 @@
 //! `python/lagrangian/_linear.py`).
 
 use super::model::CompiledModel;
-use crate::{Dynamics, Linearization, ModeProblem, Modes, Stability, linearize, modes};
+use crate::dynamics::Dynamics;
+use crate::statics::{Linearization, ModeProblem, Modes, Stability, linearize, modes};
 use nalgebra::{Complex, DMatrix, DVector};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2};

@@ -2,20 +2,22 @@
 //! that each integrator is compiled once for all of them (the variant is one predictable branch
 //! per evaluation).
 
+use crate::constrained::Constrained;
 use crate::derived::constraint_program::ConstraintProgram;
 use crate::derived::eom_program::{Energies, EomFunction, EomProgram, particle_kinetic};
+use crate::dynamics::{Dynamics, Structure};
+use crate::energies::{Dissipation, GeneralizedForces, KineticEnergy, Potential};
+use crate::error::{Error, Result};
 use crate::expr::derive::{Wrt, gradient, reads};
 use crate::expr::graph::{Binary, Graph, Node, Unary};
 use crate::program::{compile::Tape, eval::Function, inputs::Inputs};
+use crate::routes::{CartesianForces, ParticleSystem, Particles, System};
 use crate::routes::{EnergyModel, ExprConstraints, TapeParticles};
+use crate::scalar::Scalar;
 use crate::scenes::registry::{Arguments, Drawn, Positions, Scene, positions_of, scenes};
 use crate::scenes::*;
 use crate::sensitivity::{ConstraintNodes, Direction, Variational};
 use crate::trace::{TraceEnergies, WithProgram};
-use crate::{
-    CartesianForces, Constrained, Dissipation, Dynamics, Error, GeneralizedForces, KineticEnergy,
-    ParticleSystem, Particles, Potential, Result, Scalar, Structure, System,
-};
 use std::sync::{Arc, Mutex};
 
 /// The enum over the tape models and every scene of the registry, its dispatch macro `each!`,
@@ -196,16 +198,16 @@ impl Dynamics for AnyModel {
     fn lagrangian<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
         each!(self, s => s.lagrangian(t, q, qd))
     }
-    fn derived_program(&self) -> Option<&EomFunction> {
+    fn derived_program(&self) -> Option<&dyn crate::dynamics::DerivedProgram> {
         each!(self, s => s.derived_program())
     }
-    fn taylor_program(&self) -> std::result::Result<&EomFunction, String> {
+    fn taylor_program(&self) -> std::result::Result<&dyn crate::dynamics::DerivedProgram, String> {
         each!(self, s => s.taylor_program())
     }
     fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
         each!(self, s => s.energy(t, q, qd))
     }
-    fn constraints(&self) -> Option<&dyn crate::ConstraintAccess> {
+    fn constraints(&self) -> Option<&dyn crate::dynamics::ConstraintAccess> {
         // By the trait: `Constrained` has an inherent `constraints` (its rows) as well.
         each!(self, s => Dynamics::constraints(s))
     }
@@ -282,7 +284,7 @@ impl Dynamics for WithLoads<'_> {
     }
     fn generalized_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
         self.model.generalized_forces_into(t, q, qd, out);
-        crate::GeneralizedForces::forces(self.loads, t, q, qd, out);
+        crate::energies::GeneralizedForces::forces(self.loads, t, q, qd, out);
     }
     fn dissipative_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
         self.model.dissipative_forces_into(t, q, qd, out)
@@ -299,11 +301,11 @@ impl Dynamics for WithLoads<'_> {
         self.model.accelerations_into(t, q, qd, out)?;
         let n = self.dof();
         let mut loads = vec![D::zero(); n];
-        crate::GeneralizedForces::forces(self.loads, t, q, qd, &mut loads);
+        crate::energies::GeneralizedForces::forces(self.loads, t, q, qd, &mut loads);
         let mut m = vec![D::zero(); n * n];
         self.model.mass_matrix_into(t, q, qd, &mut m);
-        crate::eom::factor(&mut m, n, t, q)?;
-        crate::eom::solve(&m, n, t, &mut loads)?;
+        crate::linalg::factor_mass(&mut m, n, t, q)?;
+        crate::linalg::solve_mass(&m, n, t, &mut loads)?;
         for (a, l) in out.iter_mut().zip(&loads) {
             *a += *l;
         }
@@ -618,7 +620,7 @@ impl CompiledModel {
         &self,
         params: &[f64],
         inputs: &[usize],
-        lin: &crate::Linearization,
+        lin: &crate::statics::Linearization,
     ) -> Result<nalgebra::DMatrix<f64>> {
         let Some((graph, parts)) = &self.energies else {
             return Err(bad(

@@ -14,12 +14,12 @@ use super::sensitivity::{self, SensitivityRun};
 use super::solution::Reactions;
 use super::states::{self, States};
 use super::{events, first_order, integrator, linear, solution};
+use crate::constrained::Constrained;
+use crate::dynamics::Dynamics;
+use crate::error::Error;
 use crate::integrators::{Failed, Method, Options, Solution, Status, solve_partial};
 use crate::sensitivity::{Direction, Variational};
-use crate::{
-    Constrained, Dynamics, Error, StaticsOptions, constrained_equilibrium, constrained_modes,
-    equilibrium,
-};
+use crate::statics::{StaticsOptions, constrained_equilibrium, constrained_modes, equilibrium};
 use numpy::ndarray::{Array2, Array3};
 use numpy::{
     IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayDyn, PyArrayMethods, PyReadonlyArray1,
@@ -413,7 +413,7 @@ impl PyModel {
     /// The names of the constraint rows, holonomic first (empty without constraints).
     #[getter]
     fn constraint_names(&self) -> Vec<String> {
-        use crate::Constraints;
+        use crate::energies::Constraints;
         self.model.constrained().map_or_else(Vec::new, |c| {
             (0..c.rows()).map(|i| c.constraints().name(i)).collect()
         })
@@ -422,7 +422,7 @@ impl PyModel {
     /// Number of holonomic rows g(t, q) = 0 (the first of [`constraint_names`]).
     #[getter]
     fn holonomic_count(&self) -> usize {
-        use crate::Constraints;
+        use crate::energies::Constraints;
         self.model
             .constrained()
             .map_or(0, |c| c.constraints().holonomic_count())
@@ -476,7 +476,10 @@ impl PyModel {
                  stated by its energies has its reactions as constraint_forces (generalized)",
             ));
         };
-        let (count, dim) = (crate::Particles::count(p), crate::Particles::dim(p));
+        let (count, dim) = (
+            crate::routes::Particles::count(p),
+            crate::routes::Particles::dim(p),
+        );
         self.each_state(
             py,
             "particle reactions",
@@ -1137,7 +1140,7 @@ fn particle_reactions(
     q: &[f64],
     qd: &[f64],
     out: &mut [f64],
-) -> crate::Result<()> {
+) -> crate::error::Result<()> {
     use num_dual::Dual64;
     let reaction = c.evaluate(t, q, qd)?.reaction_forces;
     // M⁻¹ Gᵀλ: the reactions' part of q̈.
@@ -1157,8 +1160,8 @@ fn particle_reactions(
         .map(|(&x, &v)| Dual64::new(x, v))
         .collect();
     let mut r = vec![Dual64::from(0.0); out.len()];
-    crate::Particles::positions(p, Dual64::from(t), &qq, &mut r);
-    let dim = crate::Particles::dim(p);
+    crate::routes::Particles::positions(p, Dual64::from(t), &qq, &mut r);
+    let dim = crate::routes::Particles::dim(p);
     for (k, (o, x)) in out.iter_mut().zip(&r).enumerate() {
         *o = p.masses()[k / dim] * x.eps;
     }

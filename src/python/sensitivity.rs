@@ -11,12 +11,13 @@
 use super::events::EventSpec;
 use super::model::{AnyModel, node_ids};
 use crate::derived::variational::Direction;
+use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
 use crate::expr::derive::{Seeds, tangents};
+use crate::integrators::Occurrences;
 use crate::integrators::Solution;
 use crate::program::{compile::Tape, eval::Function, inputs::Inputs};
 use crate::sensitivity::Variational;
-use crate::{Dynamics, integrators::Occurrences};
 use std::sync::Arc;
 
 /// The directions the package names: `("param", index)`, `("q0", i)` or `("qd0", i)`.

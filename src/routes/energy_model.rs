@@ -4,11 +4,15 @@
 
 use crate::checks::check_lengths;
 use crate::derived::eom_program::EomFunction;
+use crate::dynamics::{Dynamics, Structure};
+use crate::energies::KineticEnergy;
 use crate::eom::Forces;
+use crate::error::{Error, Result};
 use crate::program::compile::Input;
 use crate::program::eval::Function;
-use crate::program::jet::{self, Chain, Jet, Lagrange};
-use crate::{Dynamics, Error, KineticEnergy, Result, Scalar, Structure, System};
+use crate::program::jet::{Chain, Jet, Lagrange};
+use crate::routes::System;
+use crate::scalar::Scalar;
 
 /// The [`System`] of tape functions an [`EnergyModel`] wraps.
 pub type TapeSystem = System<Function, Option<Function>, Option<Function>, Option<Function>>;
@@ -245,14 +249,14 @@ impl Dynamics for EnergyModel {
     #[inline]
     fn momenta_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
         if let Some(program) = &self.program
-            && jet::is::<D, f64>()
+            && crate::scalar::is::<D, f64>()
         {
             // SAFETY: D is f64 (same TypeId), so these are identity casts.
             let (t, q, qd, out) = unsafe {
                 (
-                    *jet::cast::<D, f64>(&t),
-                    jet::cast_slice::<D, f64>(q),
-                    jet::cast_slice::<D, f64>(qd),
+                    *crate::scalar::cast::<D, f64>(&t),
+                    crate::scalar::cast_slice::<D, f64>(q),
+                    crate::scalar::cast_slice::<D, f64>(qd),
                     &mut *(out as *mut [D] as *mut [f64]),
                 )
             };
@@ -266,13 +270,13 @@ impl Dynamics for EnergyModel {
     }
     #[inline]
     fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
-        if (self.program.is_some() || self.fused) && jet::is::<D, f64>() {
+        if (self.program.is_some() || self.fused) && crate::scalar::is::<D, f64>() {
             // SAFETY: D is f64 (same TypeId), so these are identity casts.
             let (t, q, qd) = unsafe {
                 (
-                    *jet::cast::<D, f64>(&t),
-                    jet::cast_slice::<D, f64>(q),
-                    jet::cast_slice::<D, f64>(qd),
+                    *crate::scalar::cast::<D, f64>(&t),
+                    crate::scalar::cast_slice::<D, f64>(q),
+                    crate::scalar::cast_slice::<D, f64>(qd),
                 )
             };
             let out = unsafe { &mut *(out as *mut [D] as *mut [f64]) };
@@ -296,8 +300,8 @@ impl Dynamics for EnergyModel {
     fn lagrangian<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
         self.system.lagrangian(t, q, qd)
     }
-    fn derived_program(&self) -> Option<&EomFunction> {
-        self.program.as_ref()
+    fn derived_program(&self) -> Option<&dyn crate::dynamics::DerivedProgram> {
+        self.program.as_ref().map(|p| p as _)
     }
     fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
         let Some(program) = &self.program else {
@@ -312,11 +316,11 @@ impl Dynamics for EnergyModel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ParticleSystem;
     use crate::derived::eom_program::{Energies, EomProgram};
     use crate::expr::graph::{Binary, Graph, Unary};
     use crate::program::compile::Tape;
     use crate::program::inputs::Inputs;
+    use crate::routes::ParticleSystem;
     use crate::routes::TapeParticles;
     use approx::assert_relative_eq;
     use std::sync::Arc;
@@ -568,7 +572,7 @@ mod tests {
         }
         let want = jac(&energy);
         // The derived program over dual numbers, without its compiled Jacobian.
-        let program = derived.derived_program().unwrap();
+        let program = EomFunction::of(derived.derived_program().unwrap());
         let (t, y) = (1.3, [0.9, -0.4, 1.3, 0.7]);
         let mut dual = DMatrix::zeros(2, 4);
         let (mut xd, mut fd) = ([Dual64::from_re(0.0); 4], [Dual64::from_re(0.0); 2]);

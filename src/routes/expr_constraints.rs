@@ -6,11 +6,11 @@
 //! can instead come from a [`ConstraintRows`]: derived once on the expression graph and compiled
 //! (`derived::constraint_program`), the constraints' counterpart of eq. 55's program.
 
-use crate::Scalar;
 use crate::derived::constraint_program::ConstraintRows;
 use crate::energies::Constraints;
 use crate::error::{Error, Result};
 use crate::program::eval::Function;
+use crate::scalar::Scalar;
 
 /// [`Constraints`] whose rows are the outputs of compiled expression tapes.
 #[derive(Debug, Clone)]

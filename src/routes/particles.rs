@@ -12,10 +12,12 @@
 
 use crate::checks::check_lengths;
 use crate::dynamics::{Dynamics, Structure};
+use crate::energies::{Dissipation, GeneralizedForces, KineticEnergy, Potential};
 use crate::eom::{Forces, by_dof};
 use crate::error::Result;
+use crate::routes::System;
+use crate::scalar::Scalar;
 use crate::scalar::{Grad, grad_const, grad_part, grad_seed, with_buf};
-use crate::{Dissipation, GeneralizedForces, KineticEnergy, Potential, Scalar, System};
 use num_dual::{Dual, Dual2};
 
 /// Point masses whose positions are functions of the generalized coordinates (eq. 8–10).

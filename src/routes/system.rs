@@ -1,13 +1,13 @@
 //! The energy route: a system composed of its kinetic energy, potential, dissipation and
 //! generalized forces (seed eq. 55). Absent parts are `()` and cost nothing.
 
-use crate::Scalar;
 use crate::checks::check_lengths;
 use crate::dynamics::{Dynamics, Structure};
 use crate::energies::{Dissipation, GeneralizedForces, KineticEnergy, Potential};
 use crate::eom::passes::{InertiaOut, Wrt, gradient, inertia};
-use crate::eom::{self, Forces, by_dof};
+use crate::eom::{Forces, by_dof};
 use crate::error::Result;
+use crate::scalar::Scalar;
 use std::sync::OnceLock;
 
 /// A mechanical system stated by its energies: T, and optionally U, Φ and Q″.
@@ -222,7 +222,7 @@ where
                 kinetic_terms: None,
             };
             inertia::<C, C2, f64, T, ()>(&self.kinetic, &(), tr, &qr, &qdr, io);
-            eom::factor(&mut m, n, tr, &qr)?;
+            crate::linalg::factor_mass(&mut m, n, tr, &qr)?;
             Ok(m)
         });
         factor.as_deref().map_err(Clone::clone)

@@ -3,7 +3,8 @@
 
 use crate::error::{Error, Result};
 use crate::program::eval::Function;
-use crate::{Particles, Scalar};
+use crate::routes::Particles;
+use crate::scalar::Scalar;
 
 /// Point masses whose positions are a tape: the particle route for models stated at run time.
 #[derive(Debug, Clone, PartialEq)]

@@ -15,7 +15,10 @@
 // The Test Set's values keep the digits it prints (more than an f64 holds).
 #![allow(clippy::excessive_precision)]
 
-use crate::{Constrained, Constraints, KineticEnergy, Potential, Scalar, System};
+use crate::constrained::Constrained;
+use crate::energies::{Constraints, KineticEnergy, Potential};
+use crate::routes::System;
+use crate::scalar::Scalar;
 
 // The Test Set's masses, inertias and geometry (`andrews.f`, `andpar`), SI units.
 const M1: f64 = 0.043_25;

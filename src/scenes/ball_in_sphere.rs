@@ -2,8 +2,10 @@
 
 use super::registry::{Arguments, Coordinates, Drawing, Parameter, Route, Scene, SceneInfo};
 use super::rigid_disc;
+use crate::energies::{KineticEnergy, Potential};
 use crate::error::{Error, Result};
-use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
+use crate::routes::{ParticleSystem, Particles, System};
+use crate::scalar::Scalar;
 use std::f64::consts::PI;
 
 /// A ball of mass m, moment of inertia J and radius r₂ rolling without slipping on the inside of
@@ -213,7 +215,7 @@ impl Scene for BallInSphere {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Dynamics;
+    use crate::dynamics::Dynamics;
     use approx::assert_relative_eq;
     use num_dual::Dual64;
 

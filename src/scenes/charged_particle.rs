@@ -4,8 +4,10 @@
 use super::registry::{
     Arguments, Coordinates, Parameter, Route, Scene, SceneInfo, State, exact_planar,
 };
+use crate::energies::{KineticEnergy, Potential};
 use crate::error::{Error, Result};
-use crate::{CartesianForces, KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
+use crate::routes::{CartesianForces, ParticleSystem, Particles, System};
+use crate::scalar::Scalar;
 
 /// Charge e and mass m at (x, y) in the field B ẑ (vector potential A = (B/2)(−y, x)) and the
 /// electric field E = (E_x, E_y).

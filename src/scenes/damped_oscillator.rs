@@ -4,8 +4,10 @@
 use super::registry::{
     Arguments, Coordinates, Drawn, Parameter, Positions, Route, Scene, SceneInfo, State,
 };
+use crate::energies::{Dissipation, KineticEnergy, Potential};
 use crate::error::{Error, Result};
-use crate::{Dissipation, KineticEnergy, Potential, Scalar, System};
+use crate::routes::System;
+use crate::scalar::Scalar;
 
 /// A mass m on a spring k with a dashpot c, coordinate x.
 ///

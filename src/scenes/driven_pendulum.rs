@@ -2,8 +2,10 @@
 //! reference problem for explicitly time-dependent kinetic energy.
 
 use super::registry::{Arguments, Coordinates, Drawing, Parameter, Route, Scene, SceneInfo};
+use crate::energies::{KineticEnergy, Potential};
 use crate::error::Result;
-use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
+use crate::routes::{ParticleSystem, Particles, System};
+use crate::scalar::Scalar;
 
 /// A point mass m on a massless rod of length l whose pivot moves as y_p(t) = a cos ω t, in
 /// gravity g along −y; coordinate θ from the downward vertical, the bob at

@@ -1,8 +1,10 @@
 //! The spring (elastic) pendulum in polar coordinates, optionally with a radial dashpot.
 
 use super::registry::{Arguments, Coordinates, Drawing, Parameter, Route, Scene, SceneInfo};
+use crate::energies::{Dissipation, KineticEnergy, Potential};
 use crate::error::Result;
-use crate::{Dissipation, KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
+use crate::routes::{ParticleSystem, Particles, System};
+use crate::scalar::Scalar;
 
 /// A mass m on a spring of stiffness k and natural length l₀, swinging in gravity g along −y;
 /// coordinates (r, θ), θ from the downward vertical, the bob at (r sin θ, −r cos θ).

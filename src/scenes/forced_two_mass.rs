@@ -5,8 +5,10 @@ use super::registry::{
     Arguments, Coordinates, Drawn, Parameter, Positions, Route, Scene, SceneInfo, State,
     exact_planar,
 };
+use crate::energies::{GeneralizedForces, KineticEnergy, Potential};
 use crate::error::{Error, Result};
-use crate::{GeneralizedForces, KineticEnergy, Potential, Scalar, System};
+use crate::routes::System;
+use crate::scalar::Scalar;
 
 /// Masses m₁, m₂ on springs k₁ (ground–m₁) and k₂ (m₁–m₂), coordinates the displacements
 /// (x₁, x₂) from equilibrium, forced by f_i(t) = F_i cos Ω t.

@@ -2,8 +2,10 @@
 //! chaotic orbits, the standard test of long-time symplectic integration.
 
 use super::registry::{Arguments, Coordinates, Route, Scene, SceneInfo};
+use crate::energies::{KineticEnergy, Potential};
 use crate::error::Result;
-use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
+use crate::routes::{ParticleSystem, Particles, System};
+use crate::scalar::Scalar;
 
 /// A unit mass in the plane, coordinates (x, y).
 ///

@@ -4,8 +4,10 @@
 use super::registry::{
     Arguments, Coordinates, Drawing, Parameter, Route, Scene, SceneInfo, State, exact_planar,
 };
+use crate::energies::{KineticEnergy, Potential};
 use crate::error::{Error, Result};
-use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
+use crate::routes::{ParticleSystem, Particles, System};
+use crate::scalar::Scalar;
 use std::f64::consts::PI;
 
 /// A body of mass m attracted to a fixed centre with gravitational parameter μ, coordinates

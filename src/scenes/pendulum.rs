@@ -2,8 +2,10 @@
 //! Angles are measured from the downward vertical.
 
 use super::registry::{Arguments, Coordinates, Drawing, Parameter, Route, Scene, SceneInfo};
+use crate::energies::{KineticEnergy, Potential};
 use crate::error::{Error, Result};
-use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
+use crate::routes::{ParticleSystem, Particles, System};
+use crate::scalar::Scalar;
 
 /// A point mass m on a massless rod of length l: T = ½ m l² θ̇², U = −m g l cos θ.
 #[derive(Debug, Clone, Copy, PartialEq)]

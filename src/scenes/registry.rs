@@ -8,9 +8,10 @@
 //! checked by name ([`Arguments`]) and the Python model's enum over the scene systems are all
 //! produced from that list. Adding a scene is one file and one line in `scenes!`.
 
+use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
+use crate::routes::{ParticleSystem, Particles, System};
 use crate::trace::TraceEnergies;
-use crate::{Dynamics, ParticleSystem, Particles, System};
 
 /// The kind and default of one parameter.
 #[derive(Debug, Clone, Copy, PartialEq)]

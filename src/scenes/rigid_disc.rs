@@ -1,7 +1,7 @@
 //! A rolling disc (cylinder, ball) on the particle route: three point masses with the body's
 //! mass, centroid and moment of inertia, so they have its kinetic energy in plane motion.
 
-use crate::Scalar;
+use crate::scalar::Scalar;
 
 /// Mass of point `k` of a disc of mass `m` and moment of inertia `j` about its centre, radius
 /// `radius`: m − J/r² at the centre (k = 0) and J/(2r²) at each of two opposite rim points — total

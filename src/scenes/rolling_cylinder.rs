@@ -2,8 +2,10 @@
 
 use super::registry::{Arguments, Coordinates, Drawing, Parameter, Route, Scene, SceneInfo, State};
 use super::rigid_disc;
+use crate::energies::{KineticEnergy, Potential};
 use crate::error::Result;
-use crate::{KineticEnergy, ParticleSystem, Particles, Potential, Scalar, System};
+use crate::routes::{ParticleSystem, Particles, System};
+use crate::scalar::Scalar;
 
 /// A cylinder of mass m, moment of inertia J about its axis and radius r rolling without
 /// slipping down a slope of angle α; the coordinate x is the distance its centre has travelled
@@ -172,7 +174,7 @@ impl RollingCylinder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Dynamics;
+    use crate::dynamics::Dynamics;
     use approx::assert_relative_eq;
     use num_dual::Dual64;
 

@@ -9,11 +9,10 @@
 use super::registry::{
     Arguments, Coordinates, Drawing, Drawn, Parameter, Positions, Route, Scene, SceneInfo,
 };
+use crate::energies::{GeneralizedForces, KineticEnergy, Potential};
 use crate::error::Result;
-use crate::{
-    CartesianForces, GeneralizedForces, KineticEnergy, ParticleSystem, Particles, Potential,
-    Scalar, System,
-};
+use crate::routes::{CartesianForces, ParticleSystem, Particles, System};
+use crate::scalar::Scalar;
 
 /// Example 1, the lever (Fig. 1): arms l₁ and l₂ on either side of the pivot, a vertical force P
 /// at the end of l₁ and a horizontal force Q at the end of l₂.

@@ -7,12 +7,13 @@
 //! generalized force, the potential, or M itself (a mass).
 
 use crate::derived::eom_program::{Energies, eom_graph};
+use crate::error::{Error, Result};
 use crate::expr::derive::{Seeds, tangents};
 use crate::expr::graph::Graph;
 use crate::program::compile::Tape;
 use crate::program::eval::Function;
 use crate::program::inputs::Inputs;
-use crate::{Error, Linearization, Result};
+use crate::statics::Linearization;
 use nalgebra::DMatrix;
 use std::sync::Arc;
 
@@ -68,7 +69,7 @@ pub fn input_matrix(
     let mut values = vec![0.0; outputs.len()];
     function.eval_into(lin.t, lin.q.as_slice(), lin.qd.as_slice(), &mut values);
     let mut factor: Vec<f64> = lin.m.transpose().iter().copied().collect();
-    crate::eom::factor(&mut factor, n, lin.t, lin.q.as_slice())?;
+    crate::linalg::factor_mass(&mut factor, n, lin.t, lin.q.as_slice())?;
     let triangle = n * (n + 1) / 2;
     let mut b = b;
     for (j, column) in values.chunks_exact(roots.len()).enumerate() {
@@ -85,7 +86,7 @@ pub fn input_matrix(
                 k += 1;
             }
         }
-        crate::eom::solve(&factor, n, lin.t, &mut rhs)?;
+        crate::linalg::solve_mass(&factor, n, lin.t, &mut rhs)?;
         for (r, x) in rhs.into_iter().enumerate() {
             b[(n + r, j)] = x;
         }
@@ -141,7 +142,7 @@ mod tests {
         )
         .unwrap();
         let (theta, omega) = (0.4_f64, -1.3);
-        let lin = crate::linearize(&model, 0.0, &[theta], &[omega]).unwrap();
+        let lin = crate::statics::linearize(&model, 0.0, &[theta], &[omega]).unwrap();
         let b = input_matrix(&g, &parts, &params, &[3, 1, 0, 2], &lin).unwrap();
         let [m, grav, l, f] = params;
         assert_eq!(b.shape(), (2, 4));

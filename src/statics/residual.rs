@@ -1,11 +1,11 @@
 //! The residual at rest r(q) = −[∂L/∂q + Q″ − ∂Φ/∂q̇ − ∂²L/∂q̇∂t](t, q, q̇ = 0) and its
 //! stiffness K = ∂r/∂q by dual numbers (see [`crate::equilibrium`]).
 
-use crate::Scalar;
 use crate::checks::check_state;
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
 use crate::nonlinear::Residual;
+use crate::scalar::Scalar;
 use nalgebra::{DMatrix, DVector};
 use num_dual::{Dual, Dual64};
 

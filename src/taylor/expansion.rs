@@ -11,7 +11,6 @@ use super::lower::Recurrences;
 #[cfg(feature = "jit")]
 use super::series::MAX_TAYLOR_ORDER;
 use super::series::{SeriesOp, conv_rows};
-use crate::eom;
 use crate::error::{Error, Result};
 use crate::expr::graph::Graph;
 use crate::linalg;
@@ -816,7 +815,7 @@ fn factor_m0(
     for (m, &row) in m0.iter_mut().zip(&program.recurrences.mass_full) {
         *m = series[row * w];
     }
-    eom::factor(m0, program.recurrences.dof, t0, q0)?;
+    crate::linalg::factor_mass(m0, program.recurrences.dof, t0, q0)?;
     *m0_fixed = program.recurrences.mass_constant;
     Ok(())
 }

@@ -2,14 +2,15 @@
 //! `path` records it), checked through the routes — the energy route and the particle route —
 //! that sit above the interpreter: here, so that `program/eval.rs` draws no arrow up to them.
 
+use crate::dynamics::Dynamics;
 use crate::error::Result;
 use crate::expr::graph::{Binary, Graph, Unary};
 use crate::program::compile::Tape;
 use crate::program::eval::Function;
 use crate::program::inputs::Inputs;
 use crate::routes::EnergyModel;
+use crate::routes::ParticleSystem;
 use crate::routes::TapeParticles;
-use crate::{Dynamics, ParticleSystem};
 
 /// A chain of n pendulums stated as tapes: T (position-dependent, or with a constant M),
 /// U, Φ and Q″, each optionally time-dependent; and the same chain as particles.

@@ -1,14 +1,16 @@
 //! [`ExprConstraints`]: constraints stated as compiled expression tapes, under [`Constrained`]
 //! (tested here, the last room: `routes` comes before `constrained`).
 
-use crate::Scalar;
+use crate::constrained::Constrained;
 use crate::derived::constraint_program::ConstraintProgram;
 use crate::energies::Constraints;
+use crate::energies::KineticEnergy;
 use crate::expr::graph::{Binary, Graph};
 use crate::program::eval::Function;
 use crate::program::{compile::Tape, inputs::Inputs};
 use crate::routes::ExprConstraints;
-use crate::{Constrained, KineticEnergy, System};
+use crate::routes::System;
+use crate::scalar::Scalar;
 use std::sync::Arc;
 
 /// A unit point mass in the plane.

@@ -7,7 +7,7 @@
 use lagrangian::integrators::{Event, Method, Options, Output, solve, solve_partial};
 use lagrangian::scenes::ForcedTwoMass;
 use lagrangian::tape::{
-    Binary, Energies, EnergyModel, EomProgram, Function, Graph, Inputs, Tape, models,
+    Binary, Energies, EnergyModel, EomFunction, EomProgram, Function, Graph, Inputs, Tape, models,
 };
 use lagrangian::{Dynamics, Error};
 use std::sync::Arc;
@@ -187,7 +187,9 @@ fn long_run_switches_to_the_unrolled_expansion_bit_for_bit() {
     let (a, steps) = end_state(&native, &q0, &v0, t_end, 1e-6);
     let (b, _) = end_state(&interpreted, &q0, &v0, t_end, 1e-6);
     assert!(steps > 10_000, "{steps} steps");
-    let program = native.derived_program().unwrap().taylor().0;
+    let program = EomFunction::of(native.derived_program().unwrap())
+        .taylor()
+        .0;
     // p = ⌈ln 10⁶ / 2 + 1⌉ = 8.
     assert_eq!(program.is_unrolled(8), cfg!(feature = "jit"));
     for (x, y) in a.iter().zip(&b) {
@@ -217,7 +219,7 @@ fn long_run_compiles_the_unrolled_expansion_at_its_start() {
     let v0 = [0.0, (1.0 - e * e).sqrt() / ((1.0 - e) * (1.0 - e))];
     let orbit = 2.0 * std::f64::consts::PI;
     let model = kepler();
-    let program = model.derived_program().unwrap().taylor().0;
+    let program = EomFunction::of(model.derived_program().unwrap()).taylor().0;
     let (_, steps) = end_state(&model, &q0, &v0, orbit, 1e-6);
     assert!(steps < 1_000, "{steps} steps");
     assert!(!program.is_unrolled(8));
@@ -463,7 +465,7 @@ fn runs_keeping_fewer_steps_take_the_same_steps() {
     let options = |output: Output| Options::adaptive(1e-10, 1e-10).with_output(output);
     // p = ⌈ln 10¹⁰ / 2 + 1⌉ = 13.
     let unroll = |model: &EnergyModel| {
-        let program = model.derived_program().unwrap().taylor().0;
+        let program = EomFunction::of(model.derived_program().unwrap()).taylor().0;
         assert_eq!(program.unroll(13), cfg!(feature = "jit"));
     };
     let row = |sol: &lagrangian::integrators::Solution, i: usize| {
@@ -586,7 +588,9 @@ fn a_singular_mass_matrix_stops_the_run_with_its_error() {
         let (q0, v0) = (&[0.0, 0.3][..dof], &[1.0, 0.5][..dof]);
         for unrolled in [false, true] {
             if unrolled {
-                let program = singular.derived_program().unwrap().taylor().0;
+                let program = EomFunction::of(singular.derived_program().unwrap())
+                    .taylor()
+                    .0;
                 assert_eq!(program.unroll(8), cfg!(feature = "jit"));
             }
             for output in [Output::Steps, Output::Final] {

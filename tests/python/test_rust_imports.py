@@ -1,5 +1,9 @@
 """The crate's files import each other one way: no circle in the file-level graph of `src/`.
 
+Inside the crate every item is named by its home module: a path through the crate root's
+re-exports (`use crate::Scalar`) would be an arrow to `lib.rs`, which sits above everything it
+re-exports, and fails `test_no_internal_import_of_a_root_reexport`.
+
 An arrow runs from a file to each file whose items it names: `crate::`, `super::`, `self::` and
 child-module paths, in `use` declarations and in code (inline modules such as `mod tests`
 included), with re-exports (`pub use`) followed to the file that defines the item. A `pub use` line is
@@ -17,8 +21,8 @@ Module = Tuple[str, ...]
 
 # Bottom to top: a room may name only rooms at or below its own position.
 LAYERS = [
-    "error", "scalar", "checks", "linalg", "nonlinear", "energies", "eom", "expr", "program",
-    "native", "taylor", "derived", "dynamics", "routes", "tape", "constrained",
+    "error", "scalar", "checks", "linalg", "nonlinear", "energies", "eom", "dynamics", "expr",
+    "program", "native", "taylor", "derived", "routes", "tape", "constrained",
     "integrators", "statics", "sensitivity", "trace",
     "scenes", "python", "tests",
 ]
@@ -214,3 +218,41 @@ def test_rooms_follow_the_layers() -> None:
             if LAYERS.index(b) > LAYERS.index(a):
                 up.append(f"{_name(m)} → {_name(d)}")
     assert not up, "arrows running up the layers:\n" + "\n".join(sorted(up))
+
+
+def _paths(m: Module) -> Set[str]:
+    """Every path file `m` names: in `use` declarations (public ones included) and in code."""
+    text = _inline_modules_as_self(TEXTS[m])
+    paths = {p for _, p in _uses(text)}
+    code = re.sub(r"\buse\s+[^;]+;", "", text)
+    paths |= {x.group(1) for x in re.finditer(r"(?<![\w:$])((?:crate|super|self)(?:::\w+)+)", code)}
+    return paths
+
+
+def root_reexport_imports() -> List[str]:
+    """The places inside the crate that name an item through a crate-root re-export."""
+    root = REEXPORTS[()]
+    found = []
+    for m in FILES:
+        if m == ():
+            continue
+        for path in sorted(_paths(m)):
+            absolute = _absolute(m, path)
+            if absolute and absolute[0] in root and (absolute[0],) not in FILES:
+                found.append(f"{_name(m)}: {path} (name it by its home, crate::{'::'.join(root[absolute[0]])})")
+    return found
+
+
+def test_the_reexport_check_sees_a_root_import() -> None:
+    saved = TEXTS[("dynamics",)]
+    try:
+        TEXTS[("dynamics",)] = saved + "\nuse crate::Scalar;\nfn f() -> crate::Error { todo!() }\n"
+        found = root_reexport_imports()
+    finally:
+        TEXTS[("dynamics",)] = saved
+    assert any("crate::Scalar" in f for f in found) and any("crate::Error" in f for f in found)
+
+
+def test_no_internal_import_of_a_root_reexport() -> None:
+    found = root_reexport_imports()
+    assert not found, "imports through the crate root's re-exports:\n" + "\n".join(found)
