@@ -23,6 +23,7 @@ mod ensemble;
 mod events;
 mod graph_derivatives;
 mod implicit;
+mod integrator_refusals;
 mod integrators;
 mod linearize;
 mod partial;
