@@ -166,32 +166,44 @@ impl Arguments {
                 ));
             };
             if values[i].is_some() {
-                return Err(argument_error(scene, &name, "given twice".into()));
+                return Err(argument_error(scene, &name, "given twice: give it once".into()));
             }
-            let ok = match (&info.parameters[i].kind, &value) {
-                (Kind::Number(_), Value::Number(x)) => x.is_finite(),
-                (Kind::List(_), Value::List(xs)) => xs.iter().all(|x| x.is_finite()),
-                (Kind::Number(_), Value::List(_)) => {
+            // Each message says what was given and what the parameter needs.
+            match (&info.parameters[i].kind, &value) {
+                (Kind::Number(_), Value::Number(x)) if !x.is_finite() => {
                     return Err(argument_error(
                         scene,
                         &name,
-                        "is a number, not a list".into(),
+                        format!("the value {x} is not finite: give a finite number"),
                     ));
                 }
-                (Kind::List(_), Value::Number(_)) => {
-                    return Err(argument_error(scene, &name, "is a list of numbers".into()));
+                (Kind::List(_), Value::List(xs)) => {
+                    if let Some(j) = xs.iter().position(|x| !x.is_finite()) {
+                        return Err(argument_error(
+                            scene,
+                            &name,
+                            format!(
+                                "entry {j} of {xs:?} is {}, not finite: give finite numbers",
+                                xs[j]
+                            ),
+                        ));
+                    }
                 }
-            };
-            if !ok {
-                let shown = match &value {
-                    Value::Number(x) => x.to_string(),
-                    Value::List(xs) => format!("{xs:?}"),
-                };
-                return Err(argument_error(
-                    scene,
-                    &name,
-                    format!("the value {shown} is not finite"),
-                ));
+                (Kind::Number(_), Value::List(xs)) => {
+                    return Err(argument_error(
+                        scene,
+                        &name,
+                        format!("must be a real number, got the list {xs:?}"),
+                    ));
+                }
+                (Kind::List(_), Value::Number(x)) => {
+                    return Err(argument_error(
+                        scene,
+                        &name,
+                        format!("must be a list of numbers, got {x:?}"),
+                    ));
+                }
+                (Kind::Number(_), Value::Number(_)) => {}
             }
             values[i] = Some(value);
         }
@@ -203,10 +215,15 @@ impl Arguments {
                 (Some(v), _) => Ok(v),
                 (None, Kind::Number(Some(x))) => Ok(Value::Number(x)),
                 (None, Kind::List(Some(xs))) => Ok(Value::List(xs.to_vec())),
-                (None, _) => Err(argument_error(
+                (None, Kind::Number(None)) => Err(argument_error(
                     scene,
                     p.name,
-                    "missing, and it has no default".into(),
+                    "missing, and it has no default: give a real number".into(),
+                )),
+                (None, Kind::List(None)) => Err(argument_error(
+                    scene,
+                    p.name,
+                    "missing, and it has no default: give a list of numbers".into(),
                 )),
             })
             .collect::<Result<Vec<_>>>()?;
