@@ -324,13 +324,13 @@ def _run_rows(output: str, values: Any, i: int, rows: int) -> FloatArray:
 
 def simulate_many(
     self: ModelLike,
-    q0: StatesLike,
-    qd0: StatesLike,
+    q0: Any,
+    qd0: Any,
     t_end: float,
     *,
-    t0: float = 0.0,
     parameters: Optional[Mapping[str, Any]] = None,
-    t_eval: Optional[TimesLike] = None,
+    t_eval: Optional[ArrayLike] = None,
+    t0: float = 0.0,
     method: str = "auto",
     dt: Optional[float] = None,
     rtol: float = 1e-6,

@@ -1,4 +1,12 @@
-"""``Model``: a mechanical system stated by its energies, compiled to Rust once."""
+"""``Model``: a mechanical system stated by its energies, compiled to Rust once.
+
+What a model does with its compiled system itself — evaluate the state functions, run
+``simulate`` and ``integrator`` — is written here. The methods that hand their work to a module
+below (``simulate_many``, ``batch_integrator``, ``fit``, ``equilibrium``, ``linearize``,
+``modes``) are those modules' functions bound as methods: each keyword list, its defaults and its
+documentation live once, beside the work; they read the model by its public members
+(``_protocols.ModelLike``). The statement's compilation, ``repr`` and pickled form are in
+``_statement``."""
 
 from __future__ import annotations
 
@@ -970,6 +978,7 @@ class Model:
         )
         return integrator
 
+    # -- the workers' functions, bound as methods ---------------------------------------
     batch_integrator = _ensemble.batch_integrator
     simulate_many = _ensemble.simulate_many
     fit = _fit.fit

@@ -113,20 +113,8 @@ class ModelLike(Drawable, Protocol):
 
     def energy(self, t: float, q: ArrayLike, qd: ArrayLike) -> Any: ...
 
-    def simulate(
-        self,
-        q0: ArrayLike,
-        qd0: ArrayLike,
-        t_end: float,
-        *,
-        t0: float = ...,
-        method: str = ...,
-        rtol: float = ...,
-        atol: float = ...,
-        t_eval: Optional[ArrayLike] = ...,
-        dense: bool = ...,
-        sensitivities: Optional[Sequence[str]] = ...,
-    ) -> Run: ...
+    # Any arguments: the keywords are stated once, on ``Model.simulate``.
+    def simulate(self, *args: Any, **kwargs: Any) -> Run: ...
 
 
 class FittedModel(Protocol):
