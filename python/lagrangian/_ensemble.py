@@ -551,7 +551,8 @@ def _check_consistent(
         return
     rtol = None if "dt" in options else float(options["rtol"])
     for i in range(q.shape[0]):
-        model = base.with_parameters(**{k: float(v[i]) for k, v in sweep.items()}) if sweep else base
+        values = {k: float(v[i]) for k, v in sweep.items()}
+        model = base.with_parameters(**values) if sweep else base
         try:
             model.native.check_consistent(float(options["t0"]), q[i].tolist(), qd[i].tolist(), rtol)
         except ValueError as e:

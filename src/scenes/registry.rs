@@ -166,7 +166,11 @@ impl Arguments {
                 ));
             };
             if values[i].is_some() {
-                return Err(argument_error(scene, &name, "given twice: give it once".into()));
+                return Err(argument_error(
+                    scene,
+                    &name,
+                    "given twice: give it once".into(),
+                ));
             }
             // Each message says what was given and what the parameter needs.
             match (&info.parameters[i].kind, &value) {
@@ -585,7 +589,11 @@ mod tests {
     #[test]
     fn new_missing_without_default_names_parameter() {
         let e = Arguments::new(&REQUIRED, given(&[("g", Value::Number(1.0))])).unwrap_err();
-        assert!(e.to_string().contains("missing"), "{e}");
+        assert!(
+            e.to_string()
+                .ends_with("m: missing, and it has no default: give a real number"),
+            "{e}"
+        );
         assert_eq!(parameter_of(e), "m");
         let ok = Arguments::new(&REQUIRED, given(&[("m", Value::Number(2.0))])).unwrap();
         assert_eq!((ok.number("m"), ok.number("g")), (2.0, 9.81));
@@ -599,20 +607,32 @@ mod tests {
             (
                 given(&[("g", Value::Number(1.0)), ("g", Value::Number(2.0))]),
                 "g",
-                "twice",
+                "g: given twice: give it once",
             ),
-            (given(&[("g", Value::Number(f64::NAN))]), "g", "not finite"),
+            (
+                given(&[("g", Value::Number(f64::NAN))]),
+                "g",
+                "g: the value NaN is not finite: give a finite number",
+            ),
             (
                 given(&[("lengths", Value::List(vec![1.0, f64::INFINITY]))]),
                 "lengths",
-                "not finite",
+                "lengths: entry 1 of [1.0, inf] is inf, not finite: give finite numbers",
             ),
-            (given(&[("masses", Value::Number(1.0))]), "masses", "list"),
-            (given(&[("g", Value::List(vec![1.0]))]), "g", "number"),
+            (
+                given(&[("masses", Value::Number(5.0))]),
+                "masses",
+                "masses: must be a list of numbers, got 5.0",
+            ),
+            (
+                given(&[("g", Value::List(vec![1.0]))]),
+                "g",
+                "g: must be a real number, got the list [1.0]",
+            ),
         ];
         for (args, name, why) in cases {
             let e = Arguments::new(info, args).unwrap_err();
-            assert!(e.to_string().contains(why), "{e}");
+            assert!(e.to_string().ends_with(why), "{e}");
             assert!(e.to_string().contains(name), "{e}");
             assert_eq!(parameter_of(e), name);
         }
