@@ -603,7 +603,11 @@ mod tests {
     fn new_unknown_repeated_nonfinite_wrong_kind_name_parameter() {
         let info = info("n_pendulum").unwrap();
         let cases = [
-            (given(&[("mass", Value::Number(1.0))]), "mass", "unknown"),
+            (
+                given(&[("mass", Value::Number(1.0))]),
+                "mass",
+                "mass: unknown parameter; the parameters are masses, lengths, g",
+            ),
             (
                 given(&[("g", Value::Number(1.0)), ("g", Value::Number(2.0))]),
                 "g",

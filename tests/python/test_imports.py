@@ -227,8 +227,11 @@ def test_the_private_read_check_can_fail():
     assert foreign_private_reads(source) == ["line 5: ._native"]
 
 
-def test_the_ensemble_reads_the_model_through_its_public_surface():
-    assert foreign_private_reads((PACKAGE / "_ensemble.py").read_text()) == []
+@pytest.mark.parametrize("module", MODULES)
+def test_modules_read_each_other_through_public_members(module: str) -> None:
+    # _ensemble reads a model by its public surface (native, parameters, scene,
+    # with_parameters, ...), as every other worker does.
+    assert foreign_private_reads((PACKAGE / f"{module}.py").read_text()) == []
 
 
 def test_benchmark_comparators_are_not_in_the_package() -> None:
