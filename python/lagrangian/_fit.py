@@ -18,7 +18,6 @@ from typing import Any, Dict, Generic, List, Mapping, Optional, Tuple, TypeVar, 
 import numpy as np
 import numpy.typing as npt
 
-from ._plot import plot_fit
 from ._protocols import ModelLike
 from ._validate import flag, real
 
@@ -98,6 +97,8 @@ class Fit(Generic[M]):
         """A figure of a trial: the data and the fitted run against t (the fitted values and
         their uncertainties in its title), and the weighted residuals below. Needs
         matplotlib; ``path`` also saves it (the suffix picks the format)."""
+        from ._plot import plot_fit  # not loaded by `import lagrangian`
+
         return plot_fit(self, path, trial=trial, title=title)
 
     def __repr__(self) -> str:

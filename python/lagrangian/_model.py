@@ -16,7 +16,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from . import _ensemble, _fit, _lagrangian, _linear, _plot, _sensitivity
+from . import _ensemble, _fit, _lagrangian, _linear, _sensitivity
 from ._drawing import Drawing
 from ._events import Event, event_specs
 from ._expr import Coordinate, Expr, ExprLike
@@ -391,6 +391,8 @@ class Model:
         ImportError
             Without matplotlib.
         """
+        from . import _plot  # not loaded by `import lagrangian`
+
         points = self.drawing if drawing is None else drawing_points(drawing, "drawing")
         if drawing is not None and points is not None:
             names = {c.name for c in self._coordinates}

@@ -11,7 +11,6 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _lagrangian
-from ._plot import plot_solution
 from ._sensitivity import Leading
 
 if TYPE_CHECKING:
@@ -259,6 +258,8 @@ class Solution(_lagrangian.NativeSolution):
         ImportError
             Without matplotlib.
         """
+        from ._plot import plot_solution  # not loaded by `import lagrangian`
+
         return plot_solution(self, path, title=title, conserved=conserved)
 
 

@@ -26,7 +26,6 @@ from ._measure import (
     state_error,
 )
 from ._model import Model
-from ._plot import plot_work_precision
 from ._protocols import ArrayLike
 from ._validate import number, real, vector
 
@@ -179,6 +178,8 @@ class WorkPrecision(Sequence[Row]):
         with ``ax`` it is drawn on those axes. Returns the :class:`matplotlib.figure.Figure`
         (not registered with ``pyplot``; a notebook displays it).
         """
+        from ._plot import plot_work_precision  # not loaded by `import lagrangian`
+
         return plot_work_precision(self, path, ax=ax, peers=peers)
 
 

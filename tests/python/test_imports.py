@@ -166,11 +166,12 @@ def test_the_delegating_methods_import_down():
         assert caller not in GRAPH[worker], (worker, caller)
 
 
-def test_import_lagrangian_needs_no_matplotlib():
+def test_import_lagrangian_loads_no_pictures():
     run = subprocess.run(
         [sys.executable, "-c",
          "import sys, lagrangian; assert 'matplotlib' not in sys.modules, 'matplotlib'; "
-         "assert 'scipy' not in sys.modules, 'scipy'"],
+         "assert 'scipy' not in sys.modules, 'scipy'; "
+         "assert 'lagrangian._plot' not in sys.modules, 'lagrangian._plot'"],
         capture_output=True, text=True, timeout=120,
     )
     assert run.returncode == 0, run.stderr
