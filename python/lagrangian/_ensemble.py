@@ -1,6 +1,9 @@
 """Ensembles (``Model.simulate_many``): many runs of one model — initial states and parameter
 values swept together — in Rust on all cores of this machine, or split into chunks on a Dask
-cluster or any ``concurrent.futures.Executor``; and ``Ensemble``, what they return."""
+cluster or any ``concurrent.futures.Executor``; and ``Ensemble``, what they return. Also
+``Model.batch_integrator`` and its ``BatchIntegrator``. :func:`simulate_many` and
+:func:`batch_integrator` are those methods (``Model`` binds them); they read the model by its
+public members (``_protocols.ModelLike``)."""
 
 from __future__ import annotations
 
@@ -44,9 +47,6 @@ __all__ = ["BatchIntegrator", "Ensemble", "Failure", "batch_integrator", "simula
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
-# One state for every run, or one per run (rows).
-StatesLike = Union[Sequence[float], Sequence[Sequence[float]], FloatArray]
-TimesLike = Union[Sequence[float], FloatArray]
 
 # What the native `simulate_many` returns: (t, q, qd, reached, counters, method, choice,
 # choices, failures, status, events, constraint residuals); see src/python/ensemble.rs.
@@ -566,7 +566,7 @@ def _options(
     dt: Optional[float],
     rtol: float,
     atol: float,
-    t_eval: Optional[TimesLike],
+    t_eval: Optional[ArrayLike],
     max_steps: Optional[int],
     final_only: bool,
 ) -> Tuple[float, Dict[str, Any]]:

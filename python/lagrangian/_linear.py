@@ -1,6 +1,8 @@
-"""Equilibria (``Equilibrium``, from ``Model.equilibrium``), the equations of motion linearized
-about a state (``Linearization``, from ``Model.linearize``) and the modes of an equilibrium
-(``Modes``, from ``Model.modes``)."""
+"""Statics and small oscillations: equilibria (``Equilibrium``, from ``Model.equilibrium``), the
+equations of motion linearized about a state (``Linearization``, from ``Model.linearize``) and
+the modes of an equilibrium (``Modes``, from ``Model.modes``) — the results and the functions
+that find them, which ``Model`` binds as those methods (they read the model by its public
+members, ``_protocols.ModelLike``)."""
 
 from __future__ import annotations
 
