@@ -888,8 +888,8 @@ class BatchIntegrator:
 
 def batch_integrator(
     self: ModelLike,
-    q0: ArrayLike,
-    qd0: ArrayLike,
+    q0: Any,
+    qd0: Any,
     *,
     t0: float = 0.0,
     method: str = "taylor",
