@@ -1,6 +1,9 @@
 """Ensembles (``Model.simulate_many``): many runs of one model — initial states and parameter
 values swept together — in Rust on all cores of this machine, or split into chunks on a Dask
-cluster or any ``concurrent.futures.Executor``; and ``Ensemble``, what they return."""
+cluster or any ``concurrent.futures.Executor``; and ``Ensemble``, what they return. Also
+``Model.batch_integrator`` and its ``BatchIntegrator``. :func:`simulate_many` and
+:func:`batch_integrator` are those methods (``Model`` binds them); they read the model by its
+public members (``_protocols.ModelLike``)."""
 
 from __future__ import annotations
 
@@ -12,7 +15,6 @@ import pickle
 import threading
 from collections import OrderedDict
 from typing import (
-    TYPE_CHECKING,
     Any,
     Dict,
     List,
@@ -29,6 +31,7 @@ import numpy.typing as npt
 
 from . import _lagrangian, _sensitivity
 from ._events import Event, event_specs
+from ._protocols import ArrayLike, ModelLike
 from ._solution import Solution
 from ._validate import (
     at_least_one,
@@ -40,16 +43,10 @@ from ._validate import (
     sweep_parameters,
 )
 
-if TYPE_CHECKING:
-    from ._model import Model
-
-__all__ = ["Ensemble", "Failure", "simulate_many"]
+__all__ = ["BatchIntegrator", "Ensemble", "Failure", "batch_integrator", "simulate_many"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
-# One state for every run, or one per run (rows).
-StatesLike = Union[Sequence[float], Sequence[Sequence[float]], FloatArray]
-TimesLike = Union[Sequence[float], FloatArray]
 
 # What the native `simulate_many` returns: (t, q, qd, reached, counters, method, choice,
 # choices, failures, status, events, constraint residuals); see src/python/ensemble.rs.
@@ -148,6 +145,7 @@ class Ensemble:
         "_model",
         "_events",
         "_terminal",
+        "_conserved",
     )
 
     t: Any
@@ -170,7 +168,7 @@ class Ensemble:
     def __init__(
         self,
         raw: Raw,
-        model: Optional["Model"],
+        model: Optional[ModelLike],
         mode: str,
         parameters: Optional[Mapping[str, FloatArray]] = None,
         events: Sequence[Event] = (),
@@ -220,6 +218,9 @@ class Ensemble:
         self.sensitivities = None
         self.parameters = dict(parameters or {})
         self._model = model
+        # h = q̇·p − L is a constant of each run by the rule `simulate` follows (in Rust).
+        resets = any(e.reset for e in self._events)
+        self._conserved = None if model is None else bool(model.native.conserved(resets))
 
     @property
     def ok(self) -> npt.NDArray[np.bool_]:
@@ -239,8 +240,8 @@ class Ensemble:
         out["choice"] = self.stats["choice"][i]
         for key in COUNTERS:
             out[key] = int(self.stats[key][i])
-        if self._model is not None:
-            out["conserved"] = self._model._conserved(self._events)
+        if self._conserved is not None:
+            out["conserved"] = self._conserved
         if "constraint_residual" in self.stats:
             out["constraint_residual"] = float(self.stats["constraint_residual"][i])
         return out
@@ -322,14 +323,14 @@ def _run_rows(output: str, values: Any, i: int, rows: int) -> FloatArray:
 
 
 def simulate_many(
-    model: "Model",
-    q0: StatesLike,
-    qd0: StatesLike,
+    self: ModelLike,
+    q0: Any,
+    qd0: Any,
     t_end: float,
     *,
-    t0: float = 0.0,
     parameters: Optional[Mapping[str, Any]] = None,
-    t_eval: Optional[TimesLike] = None,
+    t_eval: Optional[ArrayLike] = None,
+    t0: float = 0.0,
     method: str = "auto",
     dt: Optional[float] = None,
     rtol: float = 1e-6,
@@ -344,7 +345,79 @@ def simulate_many(
     sensitivities: Optional[Sequence[str]] = None,
     sensitivity_error_control: bool = True,
 ) -> Ensemble:
-    """:meth:`Model.simulate_many` (documented there)."""
+    """Integrate many runs at once: initial states and parameter values swept together.
+
+    Run i is exactly what :meth:`simulate` computes from ``(q0[i], qd0[i])`` with the
+    parameters ``{name: parameters[name][i]}`` — bit for bit, whatever the number of
+    threads. The runs go in Rust on a thread pool with the GIL released (Ctrl-C stops them
+    with ``KeyboardInterrupt``), or, with ``executor``, in chunks on a Dask cluster or any
+    :class:`concurrent.futures.Executor`. A run that fails does not stop the others: the
+    :class:`Ensemble` marks it, with its error, and keeps what it computed.
+
+    >>> import numpy as np, lagrangian as lg
+    >>> pendulum = lg.scenes.simple_pendulum(m=1.0, l=1.0, g=9.81)
+    >>> ens = pendulum.simulate_many(np.linspace(0.1, 3.0, 50)[:, None], [0.0], 2.0,
+    ...                              t_eval=np.linspace(0.0, 2.0, 21), rtol=1e-9)
+    >>> ens.q.shape, bool(ens.ok.all())
+    ((50, 21, 1), True)
+
+    Parameters
+    ----------
+    q0, qd0 : array_like, shape (k, dof) or (dof,)
+        Initial coordinates and velocities, one row per run; a single row is used for
+        every run.
+    t_end : float
+        End time, shared by the runs (before ``t0``: backwards).
+    parameters : mapping of str to float or array_like of shape (k,), optional
+        Parameter values: one per run (a sweep), or one for all. The model is compiled
+        once and bound to each run's values (a scene is built for each run).
+    t_eval : array_like, optional
+        Output times shared by every run (as in :meth:`simulate`): ``q`` and ``qd`` are
+        then arrays of shape (k, len(t_eval), dof).
+    t0, method, dt, rtol, atol, max_steps
+        As in :meth:`simulate`, for every run, with its checks and messages.
+    final_only : bool
+        Keep only each run's final state: ``t`` of shape (k,), ``q`` and ``qd`` of shape
+        (k, dof), so that millions of runs fit in memory. Not with ``t_eval``.
+    events : sequence of Event, optional
+        As in :meth:`simulate`, in every run: the occurrences are in the ensemble's
+        ``t_events``, ``q_events`` and ``qd_events`` (``[j][i]``: event j in run i) and
+        ``event_counts``; a run a terminal event stopped has status 1. An event that reads a
+        swept parameter takes each run's value (compiled once). With ``final_only``, the
+        events are the sweep's whole output: a period, a first passage, an escape time.
+    workers : int, optional
+        Threads of this machine (default: every core); with ``executor``, threads per chunk
+        on its worker (default 1: the executor's own workers give the parallelism).
+    executor : dask.distributed.Client or concurrent.futures.Executor, optional
+        Run the ensemble there, in ``chunks`` chunks of consecutive runs: the model is
+        pickled once (Dask sends it to each worker once; every worker process compiles it
+        once), each chunk runs ``simulate_many`` on a worker, and the results are gathered
+        in order, identical to a local run. ``pip install lagrangian[dask]`` for Dask.
+    chunks : int, optional
+        Number of chunks for ``executor`` (default: 4 per executor thread).
+    timeout : float, optional
+        Seconds to wait for each chunk's result from ``executor`` before
+        :class:`TimeoutError` (default: no limit).
+    sensitivities, sensitivity_error_control
+        As in :meth:`simulate`, for every run (with its own parameter values): the
+        ensemble's ``sensitivities[name]`` holds them in the layout of ``q`` with 2 dof
+        columns (∂q, ∂q̇) — (k, len(t_eval), 2 dof) with ``t_eval``, (k, 2 dof) with
+        ``final_only``, else a list per run — and a trailing axis of dof for ``"q0"`` and
+        ``"qd0"``. The events' times have no sensitivities here (``simulate`` gives them).
+
+    Returns
+    -------
+    Ensemble
+
+    Raises
+    ------
+    ValueError
+        For bad input, as :meth:`simulate` (and before any run): shapes, non-finite values,
+        runs that do not agree in number, unknown parameters, invalid options.
+    KeyboardInterrupt
+        On Ctrl-C.
+    """
+    model = self
     n = model.dof
     q, qd = states("q0", q0, n), states("qd0", qd0, n)
     fixed, sweep = sweep_parameters(parameters, model.parameters)
@@ -353,13 +426,13 @@ def simulate_many(
     qd = np.ascontiguousarray(np.broadcast_to(qd, (k, n)))
     base = model.with_parameters(**fixed) if fixed else model
     t_end, options = _options(t0, t_end, method, dt, rtol, atol, t_eval, max_steps, final_only)
-    event_specs(events or (), base._coordinates, base._parameters)  # checked before any run
+    event_specs(events or (), base.coordinates, base.parameters)  # checked before any run
     _check_consistent(base, q, qd, options, sweep)
     events = list(events or ())
     if workers is not None:
         workers = at_least_one("workers", workers, "thread")
     mode = "final" if final_only else "steps" if t_eval is None else "t_eval"
-    runner: Any = base
+    runner: Runner = base
     if sensitivities is not None:
         runner = Variational(base, sensitivities, flag("sensitivity_error_control",
                                                        sensitivity_error_control))
@@ -369,7 +442,7 @@ def simulate_many(
                 "derivatives, which are not derived: run without the reset, or without "
                 "sensitivities"
             )
-        if sweep and getattr(base, "scene", None) is not None:
+        if sweep and base.scene is not None:
             raise ValueError(
                 "a scene's arguments are numbers in its Rust code: sweep them without "
                 "sensitivities, or state the system with lg.Model"
@@ -394,38 +467,17 @@ class Variational:
     split of the results into the model's states and the sensitivities. Pickled as the model
     and the names (a chunk's worker compiles it again)."""
 
-    __slots__ = ("base", "names", "control", "wanted", "layout", "_native")
+    __slots__ = ("base", "names", "control", "wanted", "layout", "native")
 
-    def __init__(self, base: "Model", names: Sequence[str], control: bool) -> None:
+    def __init__(self, base: ModelLike, names: Sequence[str], control: bool) -> None:
         self.base, self.names, self.control = base, names, control
-        scene = getattr(base, "scene", None)
-        self.wanted, self.layout = _sensitivity.directions(names, base._parameters, base.dof,
-                                                           scene)
-        params = [float(v) for v in base._parameters.values()] if scene is None else []
-        self._native = base._native.variational_model(self.wanted, params)
+        scene, values = base.scene, base.parameters
+        self.wanted, self.layout = _sensitivity.directions(names, values, base.dof, scene)
+        params = [float(v) for v in values.values()] if scene is None else []
+        self.native = base.native.variational_model(self.wanted, params)
 
     def __reduce__(self) -> Tuple[Any, ...]:
         return Variational, (self.base, self.names, self.control)
-
-    # What `_run` reads of a model: the events are the model's, the parameters too.
-    @property
-    def _coordinates(self) -> Any:
-        return self.base._coordinates
-
-    @property
-    def _parameters(self) -> Dict[str, Any]:
-        return self.base._parameters
-
-    @property
-    def parameters(self) -> Dict[str, Any]:
-        return self.base.parameters
-
-    @property
-    def _backend(self) -> str:
-        return self.base._backend
-
-    def _sweep_arguments(self, sweep: Mapping[str, FloatArray], k: int) -> Dict[str, Any]:
-        return self.base._sweep_arguments(sweep, k)
 
     @property
     def error_coordinates(self) -> Optional[int]:
@@ -486,7 +538,7 @@ class Variational:
 
 
 def _check_consistent(
-    base: "Model",
+    base: ModelLike,
     q: FloatArray,
     qd: FloatArray,
     options: Mapping[str, Any],
@@ -499,9 +551,10 @@ def _check_consistent(
         return
     rtol = None if "dt" in options else float(options["rtol"])
     for i in range(q.shape[0]):
-        model = base._rebound({k: float(v[i]) for k, v in sweep.items()}) if sweep else base
+        values = {k: float(v[i]) for k, v in sweep.items()}
+        model = base.with_parameters(**values) if sweep else base
         try:
-            model._native.check_consistent(float(options["t0"]), q[i].tolist(), qd[i].tolist(), rtol)
+            model.native.check_consistent(float(options["t0"]), q[i].tolist(), qd[i].tolist(), rtol)
         except ValueError as e:
             raise ValueError(f"run {i}: {e} (Model.project repairs a state)") from None
 
@@ -513,7 +566,7 @@ def _options(
     dt: Optional[float],
     rtol: float,
     atol: float,
-    t_eval: Optional[TimesLike],
+    t_eval: Optional[ArrayLike],
     max_steps: Optional[int],
     final_only: bool,
 ) -> Tuple[float, Dict[str, Any]]:
@@ -533,8 +586,24 @@ def _options(
     return t_end_, options
 
 
+# What the runs are of: a model, or its variational system (``sensitivities=``).
+Runner = Union[ModelLike, "Variational"]
+
+
+def _sweep_arguments(model: ModelLike, sweep: Mapping[str, FloatArray], k: int) -> Dict[str, Any]:
+    """The native ``simulate_many``'s arguments that bind k runs to the values ``sweep`` (the
+    other parameters fixed): a row of parameter values per run for a compiled model; a scene
+    is built per run from its arguments instead."""
+    values = model.parameters
+    if model.scene is None:
+        return {"params": parameter_columns(list(values), sweep, values, k)}
+    columns = {name: v.tolist() for name, v in sweep.items()}
+    each = [{**values, **{c: v[i] for c, v in columns.items()}} for i in range(k)]
+    return {"scenes": (model.scene, each)}
+
+
 def _run(
-    model: "Model",
+    runner: Runner,
     q: FloatArray,
     qd: FloatArray,
     t_end: float,
@@ -544,29 +613,30 @@ def _run(
     workers: int,
 ) -> Raw:
     """The runs on this machine, on ``workers`` threads (0: every core)."""
+    model = runner.base if isinstance(runner, Variational) else runner
     k = len(q)
     per_run: Dict[str, Any] = {}
     if events:
-        specs, reads = event_specs(events, model._coordinates, model._parameters)
         values = model.parameters
+        specs, reads = event_specs(events, model.coordinates, values)
         per_run["events"] = specs
-        per_run["backend"] = model._backend
+        per_run["backend"] = model.backend
         # An event that reads a swept parameter is bound to each run's value.
         per_run["event_params"] = [
             parameter_columns(names, sweep, values, k) if set(names) & set(sweep) else None
             for names in reads
         ]
     if sweep:
-        per_run.update(model._sweep_arguments(sweep, k))
+        per_run.update(_sweep_arguments(model, sweep, k))
     raw: Raw = _lagrangian.simulate_many(
-        model._native, q, qd, t_end, **per_run, **options, workers=workers
+        runner.native, q, qd, t_end, **per_run, **options, workers=workers
     )
     return raw
 
 
 # Models unpickled by the chunks run in this process, by the hash of their pickle: a worker
 # compiles each model once, however many chunks it runs.
-_MODELS: "OrderedDict[str, Model]" = OrderedDict()
+_MODELS: "OrderedDict[str, Any]" = OrderedDict()
 _MODELS_LOCK = threading.Lock()
 
 
@@ -598,7 +668,7 @@ def _run_chunk(
 
 def _run_on(
     executor: Any,
-    model: "Model",
+    runner: Runner,
     q: FloatArray,
     qd: FloatArray,
     t_end: float,
@@ -627,7 +697,7 @@ def _run_on(
     else:
         chunks = at_least_one("chunks", chunks)
     bounds = np.linspace(0, k, min(chunks, k) + 1).round().astype(int)
-    blob = pickle.dumps(model)
+    blob = pickle.dumps(runner)
     key = hashlib.sha256(blob).hexdigest()
     # Dask sends the pickled model to every worker once; other executors send its bytes with
     # each chunk (the worker still compiles it once, see `_MODELS`). `hash=False`: a key of its
@@ -743,7 +813,7 @@ class BatchIntegrator:
     failed (``t_failed[i]``), out of the later calls.
     """
 
-    def __init__(self, model: Any, q0: Any, qd0: Any, *, t0: float, options: Dict[str, Any],
+    def __init__(self, model: ModelLike, q0: Any, qd0: Any, *, t0: float, options: Dict[str, Any],
                  parameters: Optional[Mapping[str, Any]], workers: Optional[int]) -> None:
         self._model = model
         self._q = np.array(q0, dtype=float, ndmin=2)
@@ -801,8 +871,8 @@ class BatchIntegrator:
         if self._parameters is not None:
             parameters = {name: (np.asarray(v)[going] if np.ndim(v) else v)
                           for name, v in self._parameters.items()}
-        ens = self._model.simulate_many(
-            self._q[going], self._qd[going], t, t0=self._t, final_only=True,
+        ens = simulate_many(
+            self._model, self._q[going], self._qd[going], t, t0=self._t, final_only=True,
             parameters=parameters, workers=self._workers, **self._options)
         for j, i in enumerate(going):
             if ens.ok[j]:
@@ -814,3 +884,39 @@ class BatchIntegrator:
                 assert error is not None
                 self._errors[int(i)] = error
         self._t = t
+
+
+def batch_integrator(
+    self: ModelLike,
+    q0: Any,
+    qd0: Any,
+    *,
+    t0: float = 0.0,
+    method: str = "taylor",
+    rtol: float = 1e-6,
+    atol: float = 1e-9,
+    max_steps: Optional[int] = None,
+    parameters: Optional[Mapping[str, Any]] = None,
+    workers: Optional[int] = None,
+) -> BatchIntegrator:
+    """Many runs standing at ``t0`` (rows of ``q0``, ``qd0``), taken piece by piece
+    together: ``bi.propagate_until(t)`` advances every run to ``t`` at once — Taylor runs
+    16 at a time per thread in the lanes of the machine's vectors — and ``bi.q``, ``bi.qd``
+    (runs × coordinates) read where they stand. Each run is bit for bit what
+    :meth:`integrator` gives it; ``parameters`` sweeps as in :meth:`simulate_many`.
+
+    >>> import lagrangian as lg
+    >>> th, = lg.coordinates("th")
+    >>> pendulum = lg.Model(coordinates=[th], kinetic=0.5 * th.d**2, potential=-lg.cos(th))
+    >>> bi = pendulum.batch_integrator([[0.1], [0.2], [0.3]], [[0.0]] * 3, rtol=1e-12,
+    ...                                atol=1e-12)
+    >>> bi.propagate_until(0.5); bi.propagate_until(1.0)
+    >>> ig = pendulum.integrator([0.3], [0.0], method="taylor", rtol=1e-12, atol=1e-12)
+    >>> [ig.propagate_until(t) for t in (0.5, 1.0)]
+    ['finished', 'finished']
+    >>> bool(bi.q[2, 0] == ig.q[0]), bool(bi.ok.all())
+    (True, True)
+    """
+    options: Dict[str, Any] = dict(method=method, rtol=rtol, atol=atol, max_steps=max_steps)
+    return BatchIntegrator(self, q0, qd0, t0=t0, options=options, parameters=parameters,
+                           workers=workers)

@@ -13,22 +13,23 @@ off).
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Dict, Generic, List, Mapping, Optional, Tuple, TypeVar, cast
 
 import numpy as np
 import numpy.typing as npt
 
+from ._protocols import ModelLike
 from ._validate import flag, real
-
-if TYPE_CHECKING:
-    from ._model import Model
 
 FloatArray = npt.NDArray[np.float64]
 
 __all__ = ["Fit", "fit"]
 
+# The model a fit is of (``Model``, a scene's ``SceneModel``): ``Model.fit`` is :func:`fit`.
+M = TypeVar("M", bound=ModelLike)
 
-class Fit:
+
+class Fit(Generic[M]):
     """The result of :meth:`Model.fit`.
 
     Attributes
@@ -83,7 +84,7 @@ class Fit:
     message: str
     nfev: int
     njev: int
-    model: "Model"
+    model: M
     _trials: List["_Trial"]
 
     def data(self, trial: int = 0) -> Tuple[FloatArray, FloatArray]:
@@ -96,7 +97,7 @@ class Fit:
         """A figure of a trial: the data and the fitted run against t (the fitted values and
         their uncertainties in its title), and the weighted residuals below. Needs
         matplotlib; ``path`` also saves it (the suffix picks the format)."""
-        from ._plot import plot_fit
+        from ._plot import plot_fit  # not loaded by `import lagrangian`
 
         return plot_fit(self, path, trial=trial, title=title)
 
@@ -129,7 +130,7 @@ def _array(what: str, value: object, ndim: int) -> FloatArray:
     return arr
 
 
-def _trials(model: "Model", t: Any, q_measured: Any, q0: Any, qd0: Any,
+def _trials(model: ModelLike, t: Any, q_measured: Any, q0: Any, qd0: Any,
             weights: Any) -> Tuple[List[_Trial], bool]:
     """The trials: one (arrays) or several (sequences of them, one per trial), and which."""
     n = model.dof
@@ -177,7 +178,7 @@ def _trials(model: "Model", t: Any, q_measured: Any, q0: Any, qd0: Any,
 
 
 def fit(
-    model: "Model",
+    self: M,
     t: Any,
     q_measured: Any,
     parameters: Mapping[str, float],
@@ -192,8 +193,69 @@ def fit(
     atol: float = 1e-10,
     max_nfev: Optional[int] = None,
     tolerance: float = 1e-10,
-) -> Fit:
-    """:meth:`Model.fit` (documented there)."""
+) -> "Fit[M]":
+    """Fit parameters (and optionally the initial state) to measured coordinates by least
+    squares, with the exact Jacobian from the run's sensitivities (see :meth:`simulate`'s
+    ``sensitivities``); SciPy's ``least_squares`` (trust region, ``x_scale="jac"``) does
+    the iterations. Needs SciPy.
+
+    >>> import numpy as np, lagrangian as lg
+    >>> x, = lg.coordinates("x")
+    >>> k, c = lg.parameters("k c")
+    >>> osc = lg.Model([x], kinetic=0.5 * x.d**2, potential=0.5 * k * x**2,
+    ...                dissipation=0.5 * c * x.d**2, parameters={"k": 4.0, "c": 0.3})
+    >>> t = np.linspace(0.0, 10.0, 200)
+    >>> data = osc.simulate([1.0], [0.0], 10.0, t_eval=t, rtol=1e-10).q
+    >>> fit = osc.fit(t, data, {"k": 3.0, "c": 0.1}, q0=[1.0], qd0=[0.0],
+    ...               bounds={"c": (0.0, np.inf)})
+    >>> round(fit.parameters["k"], 6), round(fit.parameters["c"], 6), fit.success
+    (4.0, 0.3, True)
+
+    Parameters
+    ----------
+    t : array_like, shape (m,)
+        Sample times, strictly increasing; the runs start at ``t[0]``. For several trials,
+        a list of such arrays, one per trial (and lists for ``q_measured``, ``q0``,
+        ``qd0`` and ``weights``).
+    q_measured : array_like, shape (m, dof)
+        The measured coordinates at those times (finite numbers).
+    parameters : mapping of str to float
+        The parameters to fit and their initial guesses; the model's other parameters keep
+        their values.
+    q0, qd0 : array_like, shape (dof,)
+        The state at ``t[0]``: known, or the initial guess with ``fit_initial_state``.
+    fit_initial_state : bool
+        Fit each trial's q0 and qd0 too.
+    weights : float or array_like broadcasting to (m, dof), optional
+        Multiply each residual (1/σ for a sample's standard deviation σ; 0 leaves a sample
+        out).
+    bounds : mapping of str to (low, high), optional
+        Bounds of the fitted parameters (a mass is positive: ``{"m": (0, np.inf)}``); the
+        guess must lie strictly inside.
+    method, rtol, atol
+        The runs' method and tolerances (:meth:`simulate`); the tolerances bound how well
+        the parameters can be determined.
+    max_nfev : int, optional
+        Most runs before giving up (SciPy's default: 100 per unknown).
+    tolerance : float
+        SciPy's ``xtol``, ``ftol`` and ``gtol``.
+
+    Returns
+    -------
+    Fit
+        ``parameters``, ``uncertainties``, ``covariance`` (s²(JᵀJ)⁻¹ with the residual
+        variance s², in the order of ``parameters``, then each trial's q0 and qd0),
+        ``residuals``, ``cost``, ``success``, ``message``, ``initial_states``, ``model``.
+
+    Raises
+    ------
+    ValueError
+        For unknown parameters, non-finite data, shapes that do not match, bad bounds,
+        no more samples than unknowns, or data that do not determine every unknown.
+    ImportError
+        Without SciPy.
+    """
+    model: ModelLike = self
     try:
         from scipy.optimize import least_squares  # type: ignore[import-untyped]
     except ImportError:  # pragma: no cover - scipy is a test dependency
@@ -302,7 +364,7 @@ def fit(
     r, jac = evaluate(result.x)
     values, states = unpack(result.x)
     covariance = _covariance(jac, r, m)
-    out = Fit()
+    out: Fit[M] = Fit()
     out.parameters = values
     diag = np.diag(covariance)
     out.uncertainties = {name: float(math.sqrt(max(diag[j], 0.0))) for j, name in
@@ -325,7 +387,8 @@ def fit(
             "(max_nfev) or fewer unknowns"
         )
     out.nfev, out.njev = int(result.nfev), int(result.njev or 0)
-    out.model = model.with_parameters(**values)
+    # A scene's model rebinds as a scene: the same class as the model fitted.
+    out.model = cast(M, model.with_parameters(**values))
     out._trials = trials
     return out
 

@@ -1,40 +1,36 @@
-"""``Model``: a mechanical system stated by its energies, compiled to Rust once."""
+"""``Model``: a mechanical system stated by its energies, compiled to Rust once.
+
+What a model does with its compiled system itself — evaluate the state functions, run
+``simulate`` and ``integrator`` — is written here. The methods that hand their work to a module
+below (``simulate_many``, ``batch_integrator``, ``fit``, ``equilibrium``, ``linearize``,
+``modes``) are those modules' functions bound as methods: each keyword list, its defaults and its
+documentation live once, beside the work; they read the model by its public members
+(``_protocols.ModelLike``). The statement's compilation, ``repr`` and pickled form are in
+``_statement``."""
 
 from __future__ import annotations
 
-import math
-import numbers
 import os
-from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from pathlib import Path
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
-import numpy.typing as npt
 
-from . import _lagrangian, _sensitivity
+from . import _ensemble, _fit, _lagrangian, _linear, _sensitivity
 from ._drawing import Drawing
 from ._events import Event, event_specs
-from ._expr import (
-    Coordinate,
-    Expr,
-    ExprLike,
-    Parameter,
-    deserialize,
-    serialize,
-    to_raw,
-)
-from ._linear import Equilibrium, Linearization, Modes
+from ._expr import Coordinate, Expr, ExprLike
 from ._lagrangian import Integrator
-from ._solution import Solution
+from ._protocols import ArrayLike, FloatArray
+from ._solution import Solution, keep_leading
+from ._statement import arguments_of, compile_parts, describe, state_of
 from ._validate import (
-    at_least_one,
     check_symbols,
     drawing_points,
-    expressions,
     flag,
-    input_names,
     known_parameters,
+    ModelParts,
     model_parts,
-    parameter_columns,
     positive,
     real,
     run_options,
@@ -44,16 +40,8 @@ from ._validate import (
     vector,
 )
 
-if TYPE_CHECKING:
-    from pathlib import Path
+__all__ = ["ArrayLike", "FloatArray", "Model", "methods"]
 
-    from ._ensemble import BatchIntegrator, Ensemble
-    from ._fit import Fit
-
-__all__ = ["Model", "methods"]
-
-FloatArray = npt.NDArray[np.float64]
-ArrayLike = Union[Sequence[float], FloatArray]
 PathLike = Union[str, "os.PathLike[str]"]
 
 
@@ -68,8 +56,6 @@ def methods() -> List[str]:
     """
     return list(_lagrangian.methods())
 
-
-_PART_NAMES = ("kinetic", "potential", "dissipation")
 
 
 class Model:
@@ -214,54 +200,7 @@ class Model:
         self._parameters = parts.parameters
         self._backend = parts.backend
         self._drawing_points = parts.drawing
-        self._native = self._compile()
-
-    def _compile(self) -> Any:
-        roots: List[Expr] = []
-        slots: Dict[str, Any] = {}
-        for key, e in (
-            ("kinetic", self._kinetic),
-            ("potential", self._potential),
-            ("dissipation", self._dissipation),
-        ):
-            if e is not None:
-                slots[key] = len(roots)
-                roots.append(e)
-        if self._forces is not None:
-            slots["forces"] = list(range(len(roots), len(roots) + len(self._forces)))
-            roots.extend(self._forces)
-        dim = 0
-        if self._positions is not None and self._masses is not None:
-            dim = len(self._positions[0])
-            flat = [x for r in self._positions for x in r]
-            slots["positions"] = list(range(len(roots), len(roots) + len(flat)))
-            roots.extend(flat)
-            slots["masses"] = list(range(len(roots), len(roots) + len(self._masses)))
-            roots.extend(self._masses)
-        names: List[str] = []
-        for key, rows in (
-            ("constraints", self._constraints),
-            ("velocity_constraints", self._velocity_constraints),
-        ):
-            if rows:
-                slots[key] = list(range(len(roots), len(roots) + len(rows)))
-                roots.extend(e for _, e in rows)
-                names.extend(name for name, _ in rows)
-        nodes, ids = serialize(roots)
-        raw = to_raw(nodes, self._coordinates, list(self._parameters))
-
-        def at(x: Any) -> Any:
-            return [ids[i] for i in x] if isinstance(x, list) else ids[x]
-
-        return _lagrangian.NativeModel.compile(
-            raw,
-            len(self._coordinates),
-            [float(v) for v in self._parameters.values()],
-            dim=dim,
-            backend=self._backend,
-            constraint_names=names,
-            **{k: at(v) for k, v in slots.items()},
-        )
+        self._native = compile_parts(parts)
 
     # -- description -------------------------------------------------------------------
     @property
@@ -309,6 +248,27 @@ class Model:
     def drawing(self) -> Optional[Tuple[Tuple[Expr, ...], ...]]:
         """The points given as ``drawing=`` (expressions for :meth:`animate`), or ``None``."""
         return getattr(self, "_drawing_points", None)
+
+    @property
+    def backend(self) -> str:
+        """What evaluates the derived equations of motion, as given to the constructor:
+        ``"native"`` or ``"interpreter"`` (kept by :meth:`with_parameters` and pickling; a
+        scene's events compile natively). ``structure["backend"]`` says what runs."""
+        return self._backend
+
+    @property
+    def scene(self) -> Optional[str]:
+        """The name of the ready-made scene of :mod:`lagrangian.scenes` the model is, or
+        ``None`` for a model stated by expressions."""
+        return None
+
+    @property
+    def native(self) -> Any:
+        """The compiled system in the extension module: what :meth:`simulate`,
+        :meth:`simulate_many` and :meth:`integrator` run. For the package's own workers
+        (ensembles, equilibria, fits), which take a model by its public members; its methods
+        are not a stable interface."""
+        return self._native
 
     @property
     def has_positions(self) -> bool:
@@ -431,7 +391,7 @@ class Model:
         ImportError
             Without matplotlib.
         """
-        from . import _plot
+        from . import _plot  # not loaded by `import lagrangian`
 
         points = self.drawing if drawing is None else drawing_points(drawing, "drawing")
         if drawing is not None and points is not None:
@@ -525,13 +485,6 @@ class Model:
         other._parameters = new
         other._native = self._native.with_parameters([float(v) for v in new.values()])
         return other
-
-    def _sweep_arguments(self, sweep: Mapping[str, FloatArray], k: int) -> Dict[str, Any]:
-        """The native ``simulate_many``'s arguments that bind k runs to the values ``sweep``
-        (the other parameters fixed): a row of parameter values per run (a scene builds a model
-        per run instead)."""
-        values = self._parameters
-        return {"params": parameter_columns(list(values), sweep, values, k)}
 
     # -- evaluation --------------------------------------------------------------------
     def _evaluate(self, name: str, t: object, q: object, qd: object) -> Any:
@@ -924,7 +877,7 @@ class Model:
         if error_control is not False and error_control is not True:
             flag("sensitivity_error_control", error_control)
         n = self.dof
-        scene = getattr(self, "scene", None)
+        scene = self.scene
         wanted, layout = _sensitivity.directions(names, self._parameters, n, scene)
         q0, qd0 = vector("q0", q0, n), vector("qd0", qd0, n)
         (t0, end), (method, dt, rtol, atol, times, max_steps, every) = span, run
@@ -942,45 +895,8 @@ class Model:
         sol.sensitivities = _sensitivity.named(raw, layout)
         sol.event_sensitivities = _sensitivity.named_events(raw_events, layout)
         if dense:
-            sol._dense = _sensitivity.Leading(sol._dense, n)
+            keep_leading(sol, n)
         return sol
-
-    def batch_integrator(
-        self,
-        q0: ArrayLike,
-        qd0: ArrayLike,
-        *,
-        t0: float = 0.0,
-        method: str = "taylor",
-        rtol: float = 1e-6,
-        atol: float = 1e-9,
-        max_steps: Optional[int] = None,
-        parameters: Optional[Mapping[str, Any]] = None,
-        workers: Optional[int] = None,
-    ) -> "BatchIntegrator":
-        """Many runs standing at ``t0`` (rows of ``q0``, ``qd0``), taken piece by piece
-        together: ``bi.propagate_until(t)`` advances every run to ``t`` at once — Taylor runs
-        16 at a time per thread in the lanes of the machine's vectors — and ``bi.q``, ``bi.qd``
-        (runs × coordinates) read where they stand. Each run is bit for bit what
-        :meth:`integrator` gives it; ``parameters`` sweeps as in :meth:`simulate_many`.
-
-        >>> import lagrangian as lg
-        >>> th, = lg.coordinates("th")
-        >>> pendulum = lg.Model(coordinates=[th], kinetic=0.5 * th.d**2, potential=-lg.cos(th))
-        >>> bi = pendulum.batch_integrator([[0.1], [0.2], [0.3]], [[0.0]] * 3, rtol=1e-12,
-        ...                                atol=1e-12)
-        >>> bi.propagate_until(0.5); bi.propagate_until(1.0)
-        >>> ig = pendulum.integrator([0.3], [0.0], method="taylor", rtol=1e-12, atol=1e-12)
-        >>> [ig.propagate_until(t) for t in (0.5, 1.0)]
-        ['finished', 'finished']
-        >>> bool(bi.q[2, 0] == ig.q[0]), bool(bi.ok.all())
-        (True, True)
-        """
-        from ._ensemble import BatchIntegrator
-
-        options: Dict[str, Any] = dict(method=method, rtol=rtol, atol=atol, max_steps=max_steps)
-        return BatchIntegrator(self, q0, qd0, t0=t0, options=options, parameters=parameters,
-                               workers=workers)
 
     def integrator(
         self,
@@ -1064,548 +980,29 @@ class Model:
         )
         return integrator
 
-    def _conserved(self, events: Optional[Sequence[Event]]) -> bool:
-        """Whether h = q̇·p − L is a constant of runs with these events (an ensemble's
-        ``stats["conserved"]``, by the rule ``simulate``'s follows in Rust)."""
-        return bool(self._native.conserved(events is not None and any(e.reset for e in events)))
-
-    def simulate_many(
-        self,
-        q0: Any,
-        qd0: Any,
-        t_end: float,
-        *,
-        parameters: Optional[Mapping[str, Any]] = None,
-        t_eval: Optional[ArrayLike] = None,
-        t0: float = 0.0,
-        method: str = "auto",
-        dt: Optional[float] = None,
-        rtol: float = 1e-6,
-        atol: float = 1e-9,
-        max_steps: Optional[int] = None,
-        final_only: bool = False,
-        events: Optional[Sequence[Event]] = None,
-        workers: Optional[int] = None,
-        executor: Any = None,
-        chunks: Optional[int] = None,
-        timeout: Optional[float] = None,
-        sensitivities: Optional[Sequence[str]] = None,
-        sensitivity_error_control: bool = True,
-    ) -> "Ensemble":
-        """Integrate many runs at once: initial states and parameter values swept together.
-
-        Run i is exactly what :meth:`simulate` computes from ``(q0[i], qd0[i])`` with the
-        parameters ``{name: parameters[name][i]}`` — bit for bit, whatever the number of
-        threads. The runs go in Rust on a thread pool with the GIL released (Ctrl-C stops them
-        with ``KeyboardInterrupt``), or, with ``executor``, in chunks on a Dask cluster or any
-        :class:`concurrent.futures.Executor`. A run that fails does not stop the others: the
-        :class:`Ensemble` marks it, with its error, and keeps what it computed.
-
-        >>> import numpy as np, lagrangian as lg
-        >>> pendulum = lg.scenes.simple_pendulum(m=1.0, l=1.0, g=9.81)
-        >>> ens = pendulum.simulate_many(np.linspace(0.1, 3.0, 50)[:, None], [0.0], 2.0,
-        ...                              t_eval=np.linspace(0.0, 2.0, 21), rtol=1e-9)
-        >>> ens.q.shape, bool(ens.ok.all())
-        ((50, 21, 1), True)
-
-        Parameters
-        ----------
-        q0, qd0 : array_like, shape (k, dof) or (dof,)
-            Initial coordinates and velocities, one row per run; a single row is used for
-            every run.
-        t_end : float
-            End time, shared by the runs (before ``t0``: backwards).
-        parameters : mapping of str to float or array_like of shape (k,), optional
-            Parameter values: one per run (a sweep), or one for all. The model is compiled
-            once and bound to each run's values (a scene is built for each run).
-        t_eval : array_like, optional
-            Output times shared by every run (as in :meth:`simulate`): ``q`` and ``qd`` are
-            then arrays of shape (k, len(t_eval), dof).
-        t0, method, dt, rtol, atol, max_steps
-            As in :meth:`simulate`, for every run, with its checks and messages.
-        final_only : bool
-            Keep only each run's final state: ``t`` of shape (k,), ``q`` and ``qd`` of shape
-            (k, dof), so that millions of runs fit in memory. Not with ``t_eval``.
-        events : sequence of Event, optional
-            As in :meth:`simulate`, in every run: the occurrences are in the ensemble's
-            ``t_events``, ``q_events`` and ``qd_events`` (``[j][i]``: event j in run i) and
-            ``event_counts``; a run a terminal event stopped has status 1. An event that reads a
-            swept parameter takes each run's value (compiled once). With ``final_only``, the
-            events are the sweep's whole output: a period, a first passage, an escape time.
-        workers : int, optional
-            Threads of this machine (default: every core); with ``executor``, threads per chunk
-            on its worker (default 1: the executor's own workers give the parallelism).
-        executor : dask.distributed.Client or concurrent.futures.Executor, optional
-            Run the ensemble there, in ``chunks`` chunks of consecutive runs: the model is
-            pickled once (Dask sends it to each worker once; every worker process compiles it
-            once), each chunk runs ``simulate_many`` on a worker, and the results are gathered
-            in order, identical to a local run. ``pip install lagrangian[dask]`` for Dask.
-        chunks : int, optional
-            Number of chunks for ``executor`` (default: 4 per executor thread).
-        timeout : float, optional
-            Seconds to wait for each chunk's result from ``executor`` before
-            :class:`TimeoutError` (default: no limit).
-        sensitivities, sensitivity_error_control
-            As in :meth:`simulate`, for every run (with its own parameter values): the
-            ensemble's ``sensitivities[name]`` holds them in the layout of ``q`` with 2 dof
-            columns (∂q, ∂q̇) — (k, len(t_eval), 2 dof) with ``t_eval``, (k, 2 dof) with
-            ``final_only``, else a list per run — and a trailing axis of dof for ``"q0"`` and
-            ``"qd0"``. The events' times have no sensitivities here (``simulate`` gives them).
-
-        Returns
-        -------
-        Ensemble
-
-        Raises
-        ------
-        ValueError
-            For bad input, as :meth:`simulate` (and before any run): shapes, non-finite values,
-            runs that do not agree in number, unknown parameters, invalid options.
-        KeyboardInterrupt
-            On Ctrl-C.
-        """
-        from ._ensemble import simulate_many
-
-        return simulate_many(
-            self, q0, qd0, t_end, t0=t0, parameters=parameters, t_eval=t_eval, method=method,
-            dt=dt, rtol=rtol, atol=atol, max_steps=max_steps, final_only=final_only,
-            events=events, workers=workers, executor=executor, chunks=chunks, timeout=timeout,
-            sensitivities=sensitivities, sensitivity_error_control=sensitivity_error_control,
-        )
-
-    def fit(
-        self,
-        t: Any,
-        q_measured: Any,
-        parameters: Mapping[str, float],
-        *,
-        q0: Any = None,
-        qd0: Any = None,
-        fit_initial_state: bool = False,
-        weights: Any = None,
-        bounds: Optional[Mapping[str, Tuple[float, float]]] = None,
-        method: str = "auto",
-        rtol: float = 1e-10,
-        atol: float = 1e-10,
-        max_nfev: Optional[int] = None,
-        tolerance: float = 1e-10,
-    ) -> "Fit":
-        """Fit parameters (and optionally the initial state) to measured coordinates by least
-        squares, with the exact Jacobian from the run's sensitivities (see :meth:`simulate`'s
-        ``sensitivities``); SciPy's ``least_squares`` (trust region, ``x_scale="jac"``) does
-        the iterations. Needs SciPy.
-
-        >>> import numpy as np, lagrangian as lg
-        >>> x, = lg.coordinates("x")
-        >>> k, c = lg.parameters("k c")
-        >>> osc = lg.Model([x], kinetic=0.5 * x.d**2, potential=0.5 * k * x**2,
-        ...                dissipation=0.5 * c * x.d**2, parameters={"k": 4.0, "c": 0.3})
-        >>> t = np.linspace(0.0, 10.0, 200)
-        >>> data = osc.simulate([1.0], [0.0], 10.0, t_eval=t, rtol=1e-10).q
-        >>> fit = osc.fit(t, data, {"k": 3.0, "c": 0.1}, q0=[1.0], qd0=[0.0],
-        ...               bounds={"c": (0.0, np.inf)})
-        >>> round(fit.parameters["k"], 6), round(fit.parameters["c"], 6), fit.success
-        (4.0, 0.3, True)
-
-        Parameters
-        ----------
-        t : array_like, shape (m,)
-            Sample times, strictly increasing; the runs start at ``t[0]``. For several trials,
-            a list of such arrays, one per trial (and lists for ``q_measured``, ``q0``,
-            ``qd0`` and ``weights``).
-        q_measured : array_like, shape (m, dof)
-            The measured coordinates at those times (finite numbers).
-        parameters : mapping of str to float
-            The parameters to fit and their initial guesses; the model's other parameters keep
-            their values.
-        q0, qd0 : array_like, shape (dof,)
-            The state at ``t[0]``: known, or the initial guess with ``fit_initial_state``.
-        fit_initial_state : bool
-            Fit each trial's q0 and qd0 too.
-        weights : float or array_like broadcasting to (m, dof), optional
-            Multiply each residual (1/σ for a sample's standard deviation σ; 0 leaves a sample
-            out).
-        bounds : mapping of str to (low, high), optional
-            Bounds of the fitted parameters (a mass is positive: ``{"m": (0, np.inf)}``); the
-            guess must lie strictly inside.
-        method, rtol, atol
-            The runs' method and tolerances (:meth:`simulate`); the tolerances bound how well
-            the parameters can be determined.
-        max_nfev : int, optional
-            Most runs before giving up (SciPy's default: 100 per unknown).
-        tolerance : float
-            SciPy's ``xtol``, ``ftol`` and ``gtol``.
-
-        Returns
-        -------
-        Fit
-            ``parameters``, ``uncertainties``, ``covariance`` (s²(JᵀJ)⁻¹ with the residual
-            variance s², in the order of ``parameters``, then each trial's q0 and qd0),
-            ``residuals``, ``cost``, ``success``, ``message``, ``initial_states``, ``model``.
-
-        Raises
-        ------
-        ValueError
-            For unknown parameters, non-finite data, shapes that do not match, bad bounds,
-            no more samples than unknowns, or data that do not determine every unknown.
-        ImportError
-            Without SciPy.
-        """
-        from ._fit import fit
-
-        return fit(
-            self, t, q_measured, parameters, q0=q0, qd0=qd0,
-            fit_initial_state=fit_initial_state, weights=weights, bounds=bounds, method=method,
-            rtol=rtol, atol=atol, max_nfev=max_nfev, tolerance=tolerance,
-        )
-
-    def equilibrium(
-        self,
-        q_guess: ArrayLike,
-        loads: Optional[Sequence[ExprLike]] = None,
-        *,
-        t: Optional[float] = None,
-        max_iterations: int = 100,
-        max_step: float = math.inf,
-    ) -> Equilibrium:
-        """An equilibrium near ``q_guess``: where the system at rest (q̇ = 0) stays at rest,
-        q̈ = 0, that is ∂L/∂q + Q − ∂Φ/∂q̇ = 0 at q̇ = 0.
-
-        When the kinetic energy is a quadratic form in q̇ this is the principle of virtual work
-        (seed §3), ∂U/∂q = Q. When it has a part T₀ that does not vanish at rest (a bead on a
-        spinning hoop, coordinates in a rotating frame) its centrifugal force −∂T₀/∂q counts
-        too: the relative equilibria of U − T₀. Stability is decided from the eigenvalues of
-        the equations of motion linearized there (see :meth:`modes`), with the reason given.
-
-        >>> import lagrangian as lg
-        >>> th, = lg.coordinates("th")
-        >>> R, W, g = 0.5, 7.0, 9.81   # a hoop spinning at W about its vertical diameter
-        >>> bead = lg.Model(coordinates=[th],
-        ...                 kinetic=0.5 * R**2 * (th.d**2 + W**2 * lg.sin(th)**2),
-        ...                 potential=-g * R * lg.cos(th))
-        >>> eq = bead.equilibrium([1.0])
-        >>> round(float(eq.q[0]), 6), eq.stability   # cos θ* = g/(R W²)
-        (1.158834, 'stable')
-        >>> bead.equilibrium([0.0]).stability
-        'unstable'
-
-        Parameters
-        ----------
-        q_guess : array_like, shape (dof,)
-            Where Newton's method starts.
-        loads : sequence of expressions, optional
-            Extra generalized loads, one per coordinate, added to the model's forces — the
-            virtual work of the applied loads per unit δqᵢ (expressions in the coordinates,
-            time and the model's parameters, or numbers).
-        t : float, optional
-            The time to solve at, for forces that change with time: the balance of the forces
-            frozen at that instant. Without it the model must not depend on time (a steady
-            rotation written with time in it is fine); otherwise a ``ValueError`` says that no
-            static equilibrium exists in general.
-        max_iterations : int
-            Newton iteration budget.
-        max_step : float
-            Largest change of any coordinate in one iteration (keeps angles in one well).
-
-        Raises
-        ------
-        ConvergenceError
-            When no equilibrium is found from this guess.
-        ValueError
-            For bad input, and when the forces change with time and ``t`` is not given.
-        """
-        n = self.dof
-        guess = vector("q_guess", q_guess, n).tolist()
-        load_spec = None
-        params: List[float] = []
-        if loads is not None:
-            exprs = list(expressions("loads", loads, n))
-            numeric = {k: v for k, v in self._parameters.items() if isinstance(v, numbers.Real)}
-            used: Dict[str, None] = {}
-            names = {c.name for c in self._coordinates}
-            for i, e in enumerate(exprs):
-                check_symbols(f"load on {self._coordinates[i].name}", e, names, numeric, True, used)
-            nodes, roots = serialize(exprs)
-            order = list(used)
-            load_spec = (to_raw(nodes, self._coordinates, order), roots)
-            params = [float(numeric[k]) for k in order]
-        iterations = at_least_one("max_iterations", max_iterations)
-        step = positive("max_step", max_step)
-        at = 0.0 if t is None else real("t", t)
-        try:
-            found = self._native.equilibrium(
-                guess,
-                t=at,
-                loads=load_spec,
-                params=params,
-                max_iterations=iterations,
-                max_step=step,
-                frozen=t is not None,
-            )
-        except _lagrangian.ConvergenceError as e:
-            raise _lagrangian.ConvergenceError(f"{e} (forces at t = {at})") from None
-        q, residual, iterations, stability, eigenvalues, stiffness, reason, re, im, lam, gl = found
-        spectrum = None if re is None else np.asarray(re) + 1j * np.asarray(im)
-        return Equilibrium(
-            q=np.asarray(q),
-            stable=stability == "stable",
-            stability=str(stability),
-            eigenvalues=np.asarray(eigenvalues),
-            stiffness=np.asarray(stiffness),
-            residual=float(residual),
-            iterations=int(iterations),
-            reason=str(reason),
-            spectrum=spectrum,
-            multipliers=None if lam is None else np.asarray(lam),
-            constraint_forces=None if gl is None else np.asarray(gl),
-        )
-
-    def linearize(
-        self,
-        q: ArrayLike,
-        qd: Optional[ArrayLike] = None,
-        t: float = 0.0,
-        inputs: Optional[Sequence[str]] = None,
-    ) -> Linearization:
-        """The equations of motion linearized about the state (t, q, q̇)::
-
-            M (q̈ − a₀) + C δq̇ + K δq = 0,    δẋ = A δx (+ B δu),  x = (q, q̇)
-
-        M, C = −M ∂q̈/∂q̇ (damping, gyroscopic and Coriolis terms), K = −M ∂q̈/∂q (stiffness,
-        centrifugal part included) and the 2n × 2n state matrix A are exact — automatic
-        differentiation of the equations of motion — at any state, moving or at rest.
-
-        The seed's two masses on two springs (eq. 41–44): K is the spring matrix.
-
-        >>> import lagrangian as lg
-        >>> lin = lg.scenes.forced_two_mass(m1=1.0, m2=2.0, k1=30.0, k2=20.0).linearize([0.0, 0.0])
-        >>> lin.K.tolist()
-        [[50.0, -20.0], [-20.0, 20.0]]
-
-        With ``inputs``, parameters of the model (by name) are inputs u and the linearization
-        has the input matrix ``B`` = ∂ẋ/∂u too (2n × len(inputs): zero rows for q, ∂q̈/∂uⱼ in
-        the rows of q̇), exact — differentiated on the expression graph, whether a parameter
-        enters a generalized force, the potential or M itself. A pendulum driven by a torque τ:
-
-        >>> th, = lg.coordinates("theta")
-        >>> m, l, g, tau = lg.parameters("m l g tau")
-        >>> model = lg.Model(
-        ...     [th],
-        ...     kinetic=m * l**2 * th.d**2 / 2,
-        ...     potential=-m * g * l * lg.cos(th),
-        ...     forces=[tau],
-        ...     parameters={m: 2.0, l: 0.5, g: 9.81, tau: 0.0},
-        ... )
-        >>> lin = model.linearize([0.0], inputs=["tau"])
-        >>> lin.B.tolist()  # ∂θ̈/∂τ = 1/(m l²)
-        [[0.0], [2.0]]
-
-        Parameters
-        ----------
-        q : array_like, shape (dof,)
-            Coordinates of the operating point.
-        qd : array_like, shape (dof,), optional
-            Velocities (default zero).
-        t : float
-            Time.
-        inputs : sequence of str, optional
-            Names of parameters (``parameters={...}`` of the model; a ``Parameter`` stands for
-            its name) to take as inputs; the columns of ``B``, in this order. Without it ``B``
-            is ``None``.
-
-        Raises
-        ------
-        ValueError
-            For bad input: an input that is not a parameter of the model, inputs for a model
-            without parameters, or for a ready-made scene of :mod:`lagrangian.scenes` (written in
-            Rust: state it as a ``Model`` with ``parameters=`` to differentiate by them).
-        SingularMassMatrixError
-            Where M cannot be inverted.
-        """
-        n = self.dof
-        qv = vector("q", q, n).tolist()
-        qdv = [0.0] * n if qd is None else vector("qd", qd, n).tolist()
-        at = real("t", t)
-        if inputs is None:
-            raw, _ = self._native.linearize(at, qv, qdv)
-            return Linearization._from_native(raw)
-        stated = self._kinetic is not None or self._positions is not None
-        names = input_names(inputs, self._parameters, stated)
-        order = list(self._parameters)
-        raw, b = self._native.linearize(
-            at,
-            qv,
-            qdv,
-            inputs=[order.index(k) for k in names],
-            params=[float(v) for v in self._parameters.values()],
-        )
-        return Linearization._from_native(raw, b, names)
-
-    def modes(self, q_eq: ArrayLike, t: float = 0.0) -> Modes:
-        """The modes of small oscillation about the equilibrium ``q_eq`` (at rest, time ``t``):
-        natural frequencies (rad/s, ascending), mass-normalized shapes, damping ratios, the
-        eigenvalues of the linearization and the stability they imply, with the reason.
-
-        Without damping or gyroscopic terms the modes solve K φ = ω² M φ; otherwise they come
-        from the eigenvalues of the state matrix A (whirl frequencies, damped modes).
-
-        The seed's two masses on two springs (eq. 41–44): the forced response resonates at
-        the natural frequencies, the roots of det(K − ω² M) = 2ω⁴ − 120ω² + 600 = 0.
-
-        >>> import lagrangian as lg
-        >>> two = lg.scenes.forced_two_mass(m1=1.0, m2=2.0, k1=30.0, k2=20.0)
-        >>> modes = two.modes([0.0, 0.0])
-        >>> [round(float(w), 6) for w in modes.frequencies]
-        [2.346295, 7.382066]
-
-        Forced by F cos Ωt with F = (1, 0), the amplitude (K − Ω² M)⁻¹ F near ω₁ dwarfs the
-        static deflection:
-
-        >>> import numpy as np
-        >>> lin = modes.linearization
-        >>> amplitude = lambda w: np.linalg.norm(np.linalg.solve(lin.K - w**2 * lin.M, [1.0, 0.0]))
-        >>> bool(amplitude(modes.frequencies[0] * (1 + 1e-6)) > 1e5 * amplitude(0.0))
-        True
-
-        Parameters
-        ----------
-        q_eq : array_like, shape (dof,)
-            An equilibrium (from :meth:`equilibrium`, say).
-        t : float
-            Time.
-
-        Raises
-        ------
-        ValueError
-            For bad input, and when ``q_eq`` is not an equilibrium.
-        SingularMassMatrixError
-            Where M cannot be inverted.
-        """
-        qv = vector("q_eq", q_eq, self.dof).tolist()
-        return Modes._from_native(self._native.modes(real("t", t), qv))
+    # -- the workers' functions, bound as methods ---------------------------------------
+    batch_integrator = _ensemble.batch_integrator
+    simulate_many = _ensemble.simulate_many
+    fit = _fit.fit
+    equilibrium = _linear.equilibrium
+    linearize = _linear.linearize
+    modes = _linear.modes
 
     # -- Python protocol ---------------------------------------------------------------
+    def _statement(self) -> ModelParts:
+        """The parts the model is made of (see ``_statement``)."""
+        return ModelParts(
+            self._coordinates, (self._kinetic, self._potential, self._dissipation), self._forces,
+            self._positions, self._masses, self._parameters, self._backend, self.drawing,
+            self._constraints, self._velocity_constraints,
+        )
+
     def __repr__(self) -> str:
-        parts = [f"coordinates=[{', '.join(c.name for c in self._coordinates)}]"]
-        if self._kinetic is not None:
-            parts.append(f"kinetic={self._kinetic!r}")
-        if self._positions is not None and self._masses is not None:
-            parts.append(
-                "positions=["
-                + ", ".join("(" + ", ".join(repr(x) for x in r) + ")" for r in self._positions)
-                + "]"
-            )
-            parts.append("masses=[" + ", ".join(repr(m) for m in self._masses) + "]")
-        if self._potential is not None:
-            parts.append(f"potential={self._potential!r}")
-        if self._dissipation is not None:
-            parts.append(f"dissipation={self._dissipation!r}")
-        if self._forces is not None:
-            parts.append("forces=[" + ", ".join(repr(f) for f in self._forces) + "]")
-        if self._parameters:
-            parts.append(f"parameters={self._parameters!r}")
-        if self._backend != "native":
-            parts.append(f"backend={self._backend!r}")
-        for key, rows in (
-            ("constraints", self._constraints),
-            ("velocity_constraints", self._velocity_constraints),
-        ):
-            if rows:
-                parts.append(
-                    f"{key}={{" + ", ".join(f"{n!r}: {e!r}" for n, e in rows) + "}"
-                )
-        if self.drawing is not None:
-            parts.append(
-                "drawing=["
-                + ", ".join("(" + ", ".join(repr(x) for x in r) + ")" for r in self.drawing)
-                + "]"
-            )
-        return "Model(" + ", ".join(parts) + ")"
+        return describe(self._statement())
 
     def __reduce__(self) -> Tuple[Any, ...]:
-        roots: List[Expr] = []
-        layout: Dict[str, Any] = {}
-
-        def add(key: str, items: Sequence[Expr]) -> None:
-            layout[key] = (len(roots), len(items))
-            roots.extend(items)
-
-        for key, e in (
-            ("kinetic", self._kinetic),
-            ("potential", self._potential),
-            ("dissipation", self._dissipation),
-        ):
-            if e is not None:
-                add(key, [e])
-        if self._forces is not None:
-            add("forces", self._forces)
-        if self._positions is not None and self._masses is not None:
-            layout["dim"] = len(self._positions[0])
-            add("positions", [x for r in self._positions for x in r])
-            add("masses", self._masses)
-        if self.drawing is not None:
-            layout["drawing_dim"] = len(self.drawing[0])
-            add("drawing", [x for r in self.drawing for x in r])
-        names: Dict[str, List[str]] = {}
-        for key, rows in (
-            ("constraints", self._constraints),
-            ("velocity_constraints", self._velocity_constraints),
-        ):
-            if rows:
-                add(key, [e for _, e in rows])
-                names[key] = [n for n, _ in rows]
-        nodes, ids = serialize(roots)
-        state = {
-            "coordinates": [c.name for c in self._coordinates],
-            "nodes": nodes,
-            "roots": ids,
-            "layout": layout,
-            "parameters": dict(self._parameters),
-            "backend": self._backend,
-        }
-        if names:
-            state["constraint_names"] = names
-        return (_model_from_state, (state,))
+        return (_model_from_state, (state_of(self._statement()),))
 
 
 def _model_from_state(state: Dict[str, Any]) -> Model:
-    exprs = deserialize(state["nodes"], state["roots"])
-    layout = state["layout"]
-
-    def get(key: str) -> Optional[List[Expr]]:
-        if key not in layout:
-            return None
-        start, count = layout[key]
-        return exprs[start : start + count]
-
-    one = {k: (v[0] if v else None) for k in _PART_NAMES for v in [get(k)]}
-    positions = None
-    flat = get("positions")
-    if flat is not None:
-        dim = layout["dim"]
-        positions = [tuple(flat[i : i + dim]) for i in range(0, len(flat), dim)]
-    drawing = None
-    flat = get("drawing")
-    if flat is not None:
-        dim = layout["drawing_dim"]
-        drawing = [tuple(flat[i : i + dim]) for i in range(0, len(flat), dim)]
-    named = state.get("constraint_names", {})
-
-    def rows(key: str) -> Optional[Dict[str, Expr]]:
-        exprs = get(key)
-        return None if exprs is None else dict(zip(named[key], exprs))
-
-    return Model(
-        coordinates=[Coordinate(n) for n in state["coordinates"]],
-        kinetic=one["kinetic"],
-        potential=one["potential"],
-        dissipation=one["dissipation"],
-        forces=get("forces"),
-        parameters=state["parameters"],
-        positions=positions,
-        masses=get("masses"),
-        backend=state.get("backend", "native"),
-        drawing=drawing,
-        constraints=rows("constraints"),
-        velocity_constraints=rows("velocity_constraints"),
-    )
+    return Model(**arguments_of(state))

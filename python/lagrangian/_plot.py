@@ -34,15 +34,11 @@ import numpy.typing as npt
 
 from ._drawing import Drawing
 from ._expr import Expr, serialize
+from ._protocols import Drawable, FittedModel, PrecisionDiagram, Trajectory
 from ._validate import at_least_one, file_suffix, finite_positive
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure  # type: ignore[import-not-found, unused-ignore]
-
-    from ._fit import Fit
-    from ._model import Model
-    from ._solution import Solution
-    from ._workprec import WorkPrecision
 
 __all__ = [
     "Drawing",
@@ -74,7 +70,7 @@ def _require_matplotlib() -> None:
         raise ImportError(f"plotting needs matplotlib ({e}): {_INSTALL}") from None
 
 
-def _solution_arrays(sol: "Solution") -> Tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+def _solution_arrays(sol: Trajectory) -> Tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     t = np.asarray(sol.t, dtype=np.float64)
     q = np.asarray(sol.q, dtype=np.float64)
     qd = np.asarray(sol.qd, dtype=np.float64)
@@ -89,7 +85,7 @@ def _solution_arrays(sol: "Solution") -> Tuple[FloatArray, FloatArray, FloatArra
     return t, q, qd, h
 
 
-def _names(sol: "Solution", dof: int) -> List[str]:
+def _names(sol: Trajectory, dof: int) -> List[str]:
     names = list(sol.names) if sol.names is not None else []
     if len(names) != dof:
         names = [f"q{i}" for i in range(dof)]
@@ -160,7 +156,7 @@ def _hermite(t: FloatArray, y: FloatArray, dy: FloatArray, times: FloatArray) ->
     )
 
 
-def trajectory(sol: "Solution", times: FloatArray) -> Tuple[FloatArray, FloatArray]:
+def trajectory(sol: Trajectory, times: FloatArray) -> Tuple[FloatArray, FloatArray]:
     """q and q̇ of the solution at ``times`` within its span (rows), between its points.
 
     q is the cubic Hermite interpolant of the solution's q and q̇ (third order: q̇ is the exact
@@ -211,7 +207,7 @@ def _plain_numbers(ax: Any) -> None:
 
 
 def draw_coordinates(
-    ax_q: Any, ax_v: Any, sol: "Solution", names: Sequence[str]
+    ax_q: Any, ax_v: Any, sol: Trajectory, names: Sequence[str]
 ) -> None:
     """q and q̇ against t on two axes, as smooth curves between the solution's points."""
     t, _ = _monotone(np.asarray(sol.t, dtype=np.float64))
@@ -229,7 +225,7 @@ def draw_coordinates(
 
 
 def _energy_conserved(
-    sol: "Solution", conserved: Optional[bool], h: FloatArray
+    sol: Trajectory, conserved: Optional[bool], h: FloatArray
 ) -> Tuple[bool, bool]:
     """Whether to show h's relative error (a conserved h) or h itself, and whether that is
     known (asked for, or recorded by the run as ``stats["conserved"]``) rather than judged
@@ -247,7 +243,7 @@ def _energy_conserved(
 
 
 def plot_solution(
-    sol: "Solution",
+    sol: Trajectory,
     path: Optional[PathLike] = None,
     *,
     title: Optional[str] = None,
@@ -317,7 +313,7 @@ def plot_solution(
 
 
 def plot_fit(
-    fit: "Fit",
+    fit: FittedModel,
     path: Optional[PathLike] = None,
     *,
     trial: int = 0,
@@ -339,7 +335,7 @@ def plot_fit(
     _require_matplotlib()
     from matplotlib.figure import Figure
 
-    names = list(fit.model._names)
+    names = [c.name for c in fit.model.coordinates]
     fig = Figure(figsize=(7.5, 6.0), layout="constrained")
     ax_q, ax_r = fig.subplots(2, 1, sharex=True, height_ratios=(2.0, 1.0))
     for i, name in enumerate(names):
@@ -420,11 +416,11 @@ def _setting_label(row: Any) -> str:
 
 
 def plot_work_precision(
-    wp: "WorkPrecision",
+    wp: PrecisionDiagram,
     path: Optional[PathLike] = None,
     *,
     ax: Any = None,
-    peers: "Optional[WorkPrecision]" = None,
+    peers: Optional[PrecisionDiagram] = None,
 ) -> "Figure":
     """The figure of :meth:`WorkPrecision.plot`."""
     target = None if path is None else file_suffix(path, _FIGURE_SUFFIXES, "a figure")
@@ -600,8 +596,8 @@ def _frame_times(t: FloatArray, frames: int) -> FloatArray:
 
 
 def animate(
-    model: "Model",
-    sol: "Solution",
+    model: Drawable,
+    sol: Trajectory,
     path: PathLike,
     *,
     fps: float = 30,

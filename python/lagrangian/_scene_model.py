@@ -11,11 +11,12 @@ import numpy as np
 from . import _lagrangian
 from ._drawing import Drawing
 from ._expr import Coordinate
-from ._model import FloatArray, Model
+from ._model import Model
+from ._protocols import FloatArray
 from ._validate import real as _real
 from ._validate import vector as _vector
 
-__all__ = ["SceneModel"]
+__all__ = ["SceneModel", "scene_model"]
 
 
 class SceneModel(Model):
@@ -105,11 +106,6 @@ class SceneModel(Model):
             trail=None if trail is None else tuple(int(i) for i in trail),
         )
 
-    def _sweep_arguments(self, sweep: Mapping[str, FloatArray], k: int) -> Dict[str, Any]:
-        columns = {name: v.tolist() for name, v in sweep.items()}
-        each = [{**self._parameters, **{c: v[i] for c, v in columns.items()}} for i in range(k)]
-        return {"scenes": (self._scene, each)}
-
     def _rebound(self, values: Mapping[str, float]) -> "SceneModel":
         return SceneModel._make(self._scene, {**self._parameters, **values})
 
@@ -119,6 +115,12 @@ class SceneModel(Model):
 
     def __reduce__(self) -> Tuple[Any, ...]:
         return (_scene_from_state, (self._scene, dict(self._parameters)))
+
+
+def scene_model(name: str, arguments: Mapping[str, Any]) -> SceneModel:
+    """The scene ``name`` with these named arguments (checked by name in Rust): what each
+    function of :mod:`lagrangian.scenes` returns."""
+    return SceneModel._make(name, arguments)
 
 
 def _scene_from_state(name: str, parameters: Dict[str, Any]) -> SceneModel:

@@ -11,11 +11,12 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _lagrangian
+from ._sensitivity import Leading
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure  # type: ignore[import-not-found, unused-ignore]
 
-__all__ = ["Solution"]
+__all__ = ["Solution", "keep_leading"]
 
 FloatArray = npt.NDArray[np.float64]
 PathLike = Union[str, "os.PathLike[str]"]
@@ -257,6 +258,13 @@ class Solution(_lagrangian.NativeSolution):
         ImportError
             Without matplotlib.
         """
-        from ._plot import plot_solution
+        from ._plot import plot_solution  # not loaded by `import lagrangian`
 
         return plot_solution(self, path, title=title, conserved=conserved)
+
+
+def keep_leading(sol: Solution, n: int) -> None:
+    """Make a variational run's interpolant the model's: (q, q̇) of its first ``n`` coordinates
+    (the rest are the sensitivities)."""
+    if sol._dense is not None:
+        sol._dense = Leading(sol._dense, n)

@@ -25,7 +25,8 @@ from ._measure import (
     final_state,
     state_error,
 )
-from ._model import ArrayLike, Model
+from ._model import Model
+from ._protocols import ArrayLike
 from ._validate import number, real, vector
 
 __all__ = ["Reference", "Row", "WorkPrecision", "work_precision", "state_error"]
@@ -177,7 +178,7 @@ class WorkPrecision(Sequence[Row]):
         with ``ax`` it is drawn on those axes. Returns the :class:`matplotlib.figure.Figure`
         (not registered with ``pyplot``; a notebook displays it).
         """
-        from ._plot import plot_work_precision
+        from ._plot import plot_work_precision  # not loaded by `import lagrangian`
 
         return plot_work_precision(self, path, ax=ax, peers=peers)
 

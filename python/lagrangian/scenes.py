@@ -41,6 +41,7 @@ from ._constrained_scenes import (
     spring_rhombus_constrained,
 )
 from ._scene_model import SceneModel
+from ._scene_model import scene_model as _scene_model
 
 # The scene functions only: ``SceneModel`` and ``catalog`` are public but not scenes.
 __all__: List[str] = []
@@ -122,7 +123,7 @@ def _function(entry: Dict[str, Any]) -> Callable[..., SceneModel]:
     def scene(*args: Any, **kwargs: Any) -> SceneModel:
         # Binding raises TypeError for unknown, repeated and missing arguments, as a function
         # with this signature would; Rust fills in the defaults and checks the values by name.
-        return SceneModel._make(name, signature.bind(*args, **kwargs).arguments)
+        return _scene_model(name, signature.bind(*args, **kwargs).arguments)
 
     scene.__name__ = scene.__qualname__ = name
     scene.__doc__ = _docstring(entry)
@@ -170,3 +171,10 @@ def _install() -> Tuple[str, ...]:
 
 
 __all__ += _install()
+
+
+def __dir__() -> List[str]:
+    """The public names only (PEP 562): the scenes, the constrained scenes, ``SceneModel``,
+    ``catalog`` and ``CONSTRAINED`` — not the helpers this module imports to make them."""
+    public = {*__all__, *CONSTRAINED, "SceneModel", "catalog", "CONSTRAINED"}
+    return sorted(public | {n for n in globals() if n.startswith("__") and n.endswith("__")})

@@ -167,32 +167,48 @@ impl Arguments {
                 ));
             };
             if values[i].is_some() {
-                return Err(argument_error(scene, &name, "given twice".into()));
-            }
-            let ok = match (&info.parameters[i].kind, &value) {
-                (Kind::Number(_), Value::Number(x)) => x.is_finite(),
-                (Kind::List(_), Value::List(xs)) => xs.iter().all(|x| x.is_finite()),
-                (Kind::Number(_), Value::List(_)) => {
-                    return Err(argument_error(
-                        scene,
-                        &name,
-                        "is a number, not a list".into(),
-                    ));
-                }
-                (Kind::List(_), Value::Number(_)) => {
-                    return Err(argument_error(scene, &name, "is a list of numbers".into()));
-                }
-            };
-            if !ok {
-                let shown = match &value {
-                    Value::Number(x) => x.to_string(),
-                    Value::List(xs) => format!("{xs:?}"),
-                };
                 return Err(argument_error(
                     scene,
                     &name,
-                    format!("the value {shown} is not finite"),
+                    "given twice: give it once".into(),
                 ));
+            }
+            // Each message says what was given and what the parameter needs.
+            match (&info.parameters[i].kind, &value) {
+                (Kind::Number(_), Value::Number(x)) if !x.is_finite() => {
+                    return Err(argument_error(
+                        scene,
+                        &name,
+                        format!("the value {x} is not finite: give a finite number"),
+                    ));
+                }
+                (Kind::List(_), Value::List(xs)) => {
+                    if let Some(j) = xs.iter().position(|x| !x.is_finite()) {
+                        return Err(argument_error(
+                            scene,
+                            &name,
+                            format!(
+                                "entry {j} of {xs:?} is {}, not finite: give finite numbers",
+                                xs[j]
+                            ),
+                        ));
+                    }
+                }
+                (Kind::Number(_), Value::List(xs)) => {
+                    return Err(argument_error(
+                        scene,
+                        &name,
+                        format!("must be a real number, got the list {xs:?}"),
+                    ));
+                }
+                (Kind::List(_), Value::Number(x)) => {
+                    return Err(argument_error(
+                        scene,
+                        &name,
+                        format!("must be a list of numbers, got {x:?}"),
+                    ));
+                }
+                (Kind::Number(_), Value::Number(_)) => {}
             }
             values[i] = Some(value);
         }
@@ -204,10 +220,15 @@ impl Arguments {
                 (Some(v), _) => Ok(v),
                 (None, Kind::Number(Some(x))) => Ok(Value::Number(x)),
                 (None, Kind::List(Some(xs))) => Ok(Value::List(xs.to_vec())),
-                (None, _) => Err(argument_error(
+                (None, Kind::Number(None)) => Err(argument_error(
                     scene,
                     p.name,
-                    "missing, and it has no default".into(),
+                    "missing, and it has no default: give a real number".into(),
+                )),
+                (None, Kind::List(None)) => Err(argument_error(
+                    scene,
+                    p.name,
+                    "missing, and it has no default: give a list of numbers".into(),
                 )),
             })
             .collect::<Result<Vec<_>>>()?;
@@ -569,7 +590,11 @@ mod tests {
     #[test]
     fn new_missing_without_default_names_parameter() {
         let e = Arguments::new(&REQUIRED, given(&[("g", Value::Number(1.0))])).unwrap_err();
-        assert!(e.to_string().contains("missing"), "{e}");
+        assert!(
+            e.to_string()
+                .ends_with("m: missing, and it has no default: give a real number"),
+            "{e}"
+        );
         assert_eq!(parameter_of(e), "m");
         let ok = Arguments::new(&REQUIRED, given(&[("m", Value::Number(2.0))])).unwrap();
         assert_eq!((ok.number("m"), ok.number("g")), (2.0, 9.81));
@@ -579,24 +604,40 @@ mod tests {
     fn new_unknown_repeated_nonfinite_wrong_kind_name_parameter() {
         let info = info("n_pendulum").unwrap();
         let cases = [
-            (given(&[("mass", Value::Number(1.0))]), "mass", "unknown"),
+            (
+                given(&[("mass", Value::Number(1.0))]),
+                "mass",
+                "mass: unknown parameter; the parameters are masses, lengths, g",
+            ),
             (
                 given(&[("g", Value::Number(1.0)), ("g", Value::Number(2.0))]),
                 "g",
-                "twice",
+                "g: given twice: give it once",
             ),
-            (given(&[("g", Value::Number(f64::NAN))]), "g", "not finite"),
+            (
+                given(&[("g", Value::Number(f64::NAN))]),
+                "g",
+                "g: the value NaN is not finite: give a finite number",
+            ),
             (
                 given(&[("lengths", Value::List(vec![1.0, f64::INFINITY]))]),
                 "lengths",
-                "not finite",
+                "lengths: entry 1 of [1.0, inf] is inf, not finite: give finite numbers",
             ),
-            (given(&[("masses", Value::Number(1.0))]), "masses", "list"),
-            (given(&[("g", Value::List(vec![1.0]))]), "g", "number"),
+            (
+                given(&[("masses", Value::Number(5.0))]),
+                "masses",
+                "masses: must be a list of numbers, got 5.0",
+            ),
+            (
+                given(&[("g", Value::List(vec![1.0]))]),
+                "g",
+                "g: must be a real number, got the list [1.0]",
+            ),
         ];
         for (args, name, why) in cases {
             let e = Arguments::new(info, args).unwrap_err();
-            assert!(e.to_string().contains(why), "{e}");
+            assert!(e.to_string().ends_with(why), "{e}");
             assert!(e.to_string().contains(name), "{e}");
             assert_eq!(parameter_of(e), name);
         }

@@ -215,7 +215,8 @@ def test_stubs_match_the_extension_module(tmp_path):
 
 @pytest.mark.parametrize(
     "module", ["lagrangian", "lagrangian._expr", "lagrangian._events", "lagrangian._model", "lagrangian._sympy",
-               "lagrangian.scenes", "lagrangian._workprec", "lagrangian._scipy"]
+               "lagrangian.scenes", "lagrangian._workprec", "lagrangian._scipy",
+               "lagrangian._ensemble", "lagrangian._fit", "lagrangian._linear"]
 )
 def test_docstring_examples_run(module):
     import doctest
@@ -223,10 +224,45 @@ def test_docstring_examples_run(module):
 
     if module == "lagrangian._sympy":
         pytest.importorskip("sympy")
-    if module == "lagrangian._scipy":
+    if module in ("lagrangian._scipy", "lagrangian._fit"):
         pytest.importorskip("scipy")
     result = doctest.testmod(importlib.import_module(module))
     assert result.attempted > 0 and result.failed == 0
+
+
+@pytest.mark.parametrize("method, module, keywords", [
+    ("simulate", "lagrangian._model", ["t0", "method", "dt", "rtol", "atol", "t_eval", "max_steps",
+                                       "output_every", "events", "dense", "sensitivities",
+                                       "sensitivity_error_control"]),
+    ("simulate_many", "lagrangian._ensemble",
+     ["parameters", "t_eval", "t0", "method", "dt", "rtol", "atol", "max_steps", "final_only",
+      "events", "workers", "executor", "chunks", "timeout", "sensitivities",
+      "sensitivity_error_control"]),
+    ("fit", "lagrangian._fit", ["q0", "qd0", "fit_initial_state", "weights", "bounds", "method",
+                                "rtol", "atol", "max_nfev", "tolerance"]),
+])
+def test_run_keywords_are_stated_once_where_the_work_is_done(method, module, keywords):
+    import ast
+    import importlib
+    import pydoc
+    from pathlib import Path
+
+    # The user sees the keywords, their defaults and their documentation on the method ...
+    function = getattr(lg.Model, method)
+    params = inspect.signature(function).parameters
+    assert [p.name for p in params.values() if p.kind is p.KEYWORD_ONLY] == keywords
+    assert params["rtol"].default == (1e-10 if method == "fit" else 1e-6)
+    text = pydoc.render_doc(function, renderer=pydoc.plaintext)
+    line = next(x for x in text.splitlines() if x.startswith(f"{method}("))
+    assert all(f" {k}: " in line for k in keywords) and "Parameters" in text
+    # ... and they are written once, in the module that does the work: no other function of
+    # the package spells that keyword list out again.
+    assert function.__module__ == module
+    package = Path(lg.__file__).parent
+    spelled = [p.name for p in sorted(package.glob("*.py"))
+               for node in ast.walk(ast.parse(p.read_text()))
+               if isinstance(node, ast.FunctionDef) and node.name == method and node.args.kwonlyargs]
+    assert spelled == [importlib.import_module(module).__file__.rsplit("/", 1)[-1]]
 
 
 def test_backend_names_what_computes_the_accelerations():

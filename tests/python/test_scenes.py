@@ -237,9 +237,11 @@ def test_scene_arguments_checked_by_name():
         lg.scenes.kepler(mu=math.nan)
     with pytest.raises(ValueError, match="invalid argument masses.*not finite"):
         lg.scenes.n_pendulum(masses=[1.0, math.inf], lengths=[1.0, 1.0])
-    with pytest.raises(ValueError, match="invalid argument g: is a number, not a list"):
+    with pytest.raises(ValueError, match=r"invalid argument g: must be a real number, got the "
+                       r"list \[9\.81\]"):
         lg.scenes.n_pendulum(g=[9.81])  # type: ignore[arg-type]
-    with pytest.raises(ValueError, match="invalid argument masses: is a list"):
+    with pytest.raises(ValueError, match="invalid argument masses: must be a list of numbers, "
+                       "got 1.0"):
         lg.scenes.n_pendulum(masses=1.0)  # type: ignore[arg-type]
     with pytest.raises(TypeError, match="argument m must be a real number"):
         lg.scenes.simple_pendulum(m="1")  # type: ignore[arg-type]
@@ -251,6 +253,41 @@ def test_scene_arguments_checked_by_name():
         _lagrangian.scene_model("kepler", {"mass": 1.0})
     with pytest.raises(ValueError, match='unknown scene "nope"; the scenes are simple_pendulum, '):
         _lagrangian.scene_model("nope", {})
+
+
+def test_scene_argument_messages_say_what_was_given_and_what_is_needed():
+    # Every kind of mistake, each message naming the argument, what it got and what it needs.
+    cases = [
+        (lambda: lg.scenes.n_pendulum(5),  # type: ignore[arg-type]
+         "n_pendulum: invalid argument masses: must be a list of numbers, got 5.0"),
+        (lambda: lg.scenes.n_pendulum(g=[1.0, 2.0]),  # type: ignore[arg-type]
+         "n_pendulum: invalid argument g: must be a real number, got the list [1.0, 2.0]"),
+        (lambda: lg.scenes.n_pendulum([1.0, math.nan], [1.0, 1.0]),
+         "n_pendulum: invalid argument masses: entry 1 of [1.0, NaN] is NaN, not finite: give "
+         "finite numbers"),
+        (lambda: lg.scenes.kepler(mu=math.inf),
+         "kepler: invalid argument mu: the value inf is not finite: give a finite number"),
+        (lambda: _lagrangian.scene_model("kepler", {"mass": 1.0}),
+         "kepler: invalid argument mass: unknown parameter; the parameters are m, mu"),
+    ]
+    for call, message in cases:
+        with pytest.raises(ValueError) as err:
+            call()
+        assert str(err.value) == message
+    with pytest.raises(TypeError, match="double_pendulum: argument m1 must be a real number, "
+                       "got 'a'"):
+        lg.scenes.double_pendulum(m1="a")  # type: ignore[arg-type]
+
+
+def test_scenes_namespace_shows_only_public_names():
+    names = set(dir(lg.scenes))
+    assert not names & {"Any", "Callable", "Dict", "List", "Tuple", "annotations", "inspect",
+                        "scene_model"}
+    public = {n for n in names if not n.startswith("_")}
+    assert public == (set(lg.scenes.__all__) | set(lg.scenes.CONSTRAINED)
+                      | {"SceneModel", "catalog", "CONSTRAINED"})
+    for name in public:
+        assert getattr(lg.scenes, name) is not None
 
 
 def test_n_pendulum_lists_from_numpy_and_tuples():
