@@ -105,6 +105,11 @@ def from_sympy(
     )
 
 
+def _node_of(op: str) -> Callable[[Expr], Expr]:
+    """The expression ``op(x)`` of an operand ``x``."""
+    return lambda x: Expr(op, (x,))
+
+
 class _Converter:
     """SymPy → :class:`Expr`, without recursion (deep sums stay safe)."""
 
@@ -116,7 +121,7 @@ class _Converter:
         # Every function of one argument that SymPy has under a name of its own (`_expr.UNARY`),
         # and a few that are ours through identities.
         self.unary: Dict[Any, Callable[[Expr], Expr]] = {
-            getattr(sp, e.sympy): (lambda x, _op=op: Expr(_op, (x,)))
+            getattr(sp, e.sympy): _node_of(op)
             for op, e in UNARY.items()
             if e.sympy is not None
         }

@@ -395,9 +395,9 @@ impl GeneralizedForces for Option<Function> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::expr::graph::sign;
     use crate::expr::graph::{Binary, Graph, Unary};
     use crate::program::inputs::Inputs;
-    use crate::expr::graph::sign;
     use approx::assert_relative_eq;
     use num_dual::Dual64;
 
@@ -472,7 +472,7 @@ mod tests {
             dual_num: $($dn:ident)?,
         })*) => {
             fn every_function_exact<D: Scalar>(u: D, mut sum: D) -> D {
-                $(sum = sum + reference!(u; $($dn)?; |$nx| $num);)*
+                $(sum += reference!(u; $($dn)?; |$nx| $num);)*
                 sum
             }
         };

@@ -4,10 +4,9 @@
 //! of each recurrence, order 0 and order k, is in `emit/recurrences.rs`.
 
 use super::abi::{KernelStatus, StepControl};
-use super::series::{LANES, SeriesOp, fresh_ends};
+use super::series::{LANES, fresh_ends};
 use cranelift_codegen::ir::{
-    BlockArg, FuncRef, InstBuilder, MemFlagsData, StackSlotData, StackSlotKind, Value, condcodes,
-    types,
+    BlockArg, FuncRef, InstBuilder, MemFlagsData, Value, condcodes, types,
 };
 use cranelift_frontend::FunctionBuilder;
 use std::collections::{HashMap, HashSet};
@@ -36,7 +35,7 @@ pub(crate) enum Top {
     Degree(usize),
     /// min(k − 1, d): a sum over a polynomial of degree d up to k − 1.
     BelowDegree(usize),
-    /// ⌊(k − 1)/2⌋: the first half of a square's sum ([`SeriesOp::Square`]).
+    /// ⌊(k − 1)/2⌋: the first half of a square's sum ([`SeriesOp::Square`](super::series::SeriesOp::Square)).
     Half,
 }
 
@@ -59,7 +58,7 @@ pub(crate) struct SeriesEmitter<'a> {
     /// `lagrangian_conv`, imported, when convolutions with an index read at run time are calls
     /// of it; `None`: loops in the code.
     pub(crate) calls: Option<FuncRef>,
-    /// The maths library's functions order 0 calls, imported ([`SeriesOp::libm`]).
+    /// The maths library's functions order 0 calls, imported ([`SeriesOp::libm`](super::series::SeriesOp::libm)).
     pub(crate) libm: Vec<(&'static str, FuncRef)>,
     /// Straight-line code (every index fixed, one block): each constant is made once, and an
     /// entry stored in the order at hand is read from the value stored, not from memory (the
@@ -913,7 +912,7 @@ impl<'a> SeriesEmitter<'a> {
         self.b.ins().fadd(low, high)
     }
 
-    /// A square's coefficient k from twice its half sum ([`SeriesOp::Square`]): plus a²ₖ/₂ where k is
+    /// A square's coefficient k from twice its half sum ([`SeriesOp::Square`](super::series::SeriesOp::Square)): plus a²ₖ/₂ where k is
     /// even.
     pub(crate) fn square_middle(&mut self, a: usize, twice: Value) -> Value {
         match self.k {
