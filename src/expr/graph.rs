@@ -332,6 +332,26 @@ mod tests {
     }
 
     #[test]
+    fn names_of_the_functions_are_distinct_and_found_back() {
+        let named: Vec<Unary> = Unary::ALL
+            .into_iter()
+            .filter(|f| f.name().is_some())
+            .collect();
+        for &f in &named {
+            assert_eq!(Unary::from_name(f.name().unwrap()), Some(f), "{f:?}");
+        }
+        assert_eq!(
+            named.len(),
+            Unary::ALL.len() - 1,
+            "only Sign is the crate's own"
+        );
+        assert_eq!(Unary::Sign.name(), None);
+        assert_eq!(Unary::from_name("no such function"), None);
+        // Ln is `log` in the expression language, as in NumPy and SymPy.
+        assert_eq!(Unary::from_name("log"), Some(Unary::Ln));
+    }
+
+    #[test]
     fn graph_rejects_forward_references() {
         let mut g = Graph::new();
         assert!(matches!(
