@@ -48,6 +48,7 @@ use crate::derived::eom_program::{Energies, EomFunction, EomProgram, particle_ki
 use crate::dynamics::{Dynamics, Structure};
 use crate::energies::{Dissipation, GeneralizedForces, KineticEnergy, Potential};
 use crate::error::{Error, Result};
+use crate::expr::functions::unary_functions;
 use crate::expr::graph::{Binary, Graph, Node, Unary};
 use crate::routes::{CartesianForces, ParticleSystem, Particles, System};
 use crate::scalar::Scalar;
@@ -511,7 +512,33 @@ impl Mappable<Traced> for Traced {
     }
 }
 
+/// The `DualNum` methods of the functions of one argument the graph holds (each row of
+/// `expr/functions.rs` with a `dual_num` method): a number folds by the row's `value`, a node
+/// records the function.
+macro_rules! traced_methods {
+    ($($name:ident {
+        doc: $doc:expr,
+        name: $($py:literal)?,
+        value: |$x:ident| $value:expr,
+        tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
+        num: |$nx:ident| $num:expr,
+        jet: |$jx:ident| $jet:expr,
+        series: $series:expr,
+        libm: $($sym:ident = $f:ident)?,
+        ins: $u:ident, $ua:ident: $m:ident,
+        dual_num: $($dn:ident)?,
+    })*) => {
+        $($(
+            fn $dn(&self) -> Self {
+                self.unary(Unary::$name, |$x| $value)
+            }
+        )?)*
+    };
+}
+
 impl DualNum for Traced {
+    unary_functions!(traced_methods);
+
     type Primitive = f64;
     const NDERIV: usize = 0;
     type InnerDual = Traced;
@@ -534,14 +561,8 @@ impl DualNum for Traced {
     fn powd(&self, n: Self) -> Self {
         self.binary(Binary::Pow, n)
     }
-    fn sqrt(&self) -> Self {
-        self.unary(Unary::Sqrt, f64::sqrt)
-    }
     fn cbrt(&self) -> Self {
         self.lacking("cbrt", f64::cbrt)
-    }
-    fn exp(&self) -> Self {
-        self.unary(Unary::Exp, f64::exp)
     }
     fn exp2(&self) -> Self {
         match self.0 {
@@ -554,9 +575,6 @@ impl DualNum for Traced {
             "exp_m1 (eˣ − 1 from exp would lose the digits it keeps)",
             f64::exp_m1,
         )
-    }
-    fn ln(&self) -> Self {
-        self.unary(Unary::Ln, f64::ln)
     }
     fn log(&self, base: f64) -> Self {
         match self.0 {
@@ -581,15 +599,6 @@ impl DualNum for Traced {
             "ln_1p (ln(1 + x) from ln would lose the digits it keeps)",
             f64::ln_1p,
         )
-    }
-    fn sin(&self) -> Self {
-        self.unary(Unary::Sin, f64::sin)
-    }
-    fn cos(&self) -> Self {
-        self.unary(Unary::Cos, f64::cos)
-    }
-    fn tan(&self) -> Self {
-        self.unary(Unary::Tan, f64::tan)
     }
     fn sin_cos(&self) -> (Self, Self) {
         (self.sin(), self.cos())
@@ -619,15 +628,6 @@ impl DualNum for Traced {
     }
     fn atan2(&self, other: Self) -> Self {
         self.binary(Binary::Atan2, other)
-    }
-    fn sinh(&self) -> Self {
-        self.unary(Unary::Sinh, f64::sinh)
-    }
-    fn cosh(&self) -> Self {
-        self.unary(Unary::Cosh, f64::cosh)
-    }
-    fn tanh(&self) -> Self {
-        self.unary(Unary::Tanh, f64::tanh)
     }
     fn asinh(&self) -> Self {
         self.lacking("asinh", f64::asinh)

@@ -21,29 +21,13 @@ Runge–Kutta, symplectic or implicit methods — no Python runs in the integrat
 2
 """
 
-from . import scenes
-# `abs` is exported but left out of __all__, so that `from lagrangian import *` does not shadow
-# the builtin (which works on expressions too).
+from . import _expr, scenes
 from ._events import Event
-from ._expr import (
-    Coordinate,
-    Expr,
-    Parameter,
-    abs,
-    atan2,
-    coordinates,
-    cos,
-    cosh,
-    exp,
-    log,
-    parameters,
-    sin,
-    sinh,
-    sqrt,
-    t,
-    tan,
-    tanh,
-)
+# The expression language — symbols, t and the elementary functions (lg.sin, …) — is _expr's
+# __all__; `abs` is exported but left out of it, so that `from lagrangian import *` does not
+# shadow the builtin (which works on expressions too).
+from ._expr import *  # noqa: F403
+from ._expr import abs
 from ._lagrangian import (
     ConvergenceError,
     Integrator,
@@ -64,13 +48,11 @@ from ._sympy import from_sympy
 from ._workprec import WorkPrecision, work_precision
 
 __all__ = [
-    "Coordinate",
     "ConvergenceError",
     "BatchIntegrator",
     "Ensemble",
     "Equilibrium",
     "Event",
-    "Expr",
     "Fit",
     "Integrator",
     "LagrangianError",
@@ -78,7 +60,6 @@ __all__ = [
     "Model",
     "Modes",
     "NonFiniteError",
-    "Parameter",
     "SingularMassMatrixError",
     "Solution",
     "WorkPrecision",
@@ -86,21 +67,9 @@ __all__ = [
     "StiffnessError",
     "TooManyStepsError",
     "__version__",
-    "atan2",
-    "coordinates",
-    "cos",
-    "cosh",
-    "exp",
     "from_sympy",
-    "log",
     "methods",
-    "parameters",
     "scenes",
-    "sin",
-    "sinh",
-    "sqrt",
-    "t",
-    "tan",
-    "tanh",
     "work_precision",
 ]
+__all__ += _expr.__all__

@@ -10,7 +10,7 @@ from __future__ import annotations
 import builtins
 import math
 import numbers
-from typing import Any, Callable, Dict, Iterable, List, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterable, List, NamedTuple, Optional, Sequence, Tuple, TypeVar, Union
 
 import numpy as np
 
@@ -18,7 +18,6 @@ __all__ = [
     "Expr",
     "Coordinate",
     "Parameter",
-    "ExprLike",
     "coordinates",
     "parameters",
     "t",
@@ -38,8 +37,50 @@ __all__ = [
 ExprLike = Union["Expr", float, int]
 
 _LEAVES = ("const", "param", "t", "q", "qd")
-_UNARY = ("neg", "sin", "cos", "tan", "exp", "log", "sqrt", "sinh", "cosh", "tanh", "abs")
-_BINARY = ("add", "sub", "mul", "div", "pow", "atan2")
+
+
+class Elementary(NamedTuple):
+    """What the Python side needs of one operation besides its Rust row: NumPy's function (for
+    drawing and ``np.<ufunc>`` on expressions) and SymPy's function of the same name, if any."""
+
+    numpy: Callable[..., Any]
+    #: The name of SymPy's function (``None`` where SymPy writes it otherwise: ``sqrt`` is a
+    #: power there, ``neg`` a product by −1).
+    sympy: Optional[str]
+
+
+#: The operations of one argument by their names (the Rust table ``src/expr/functions.rs`` has a
+#: row of each name): unary minus, then every function defined below with :func:`_elementary`.
+UNARY: Dict[str, Elementary] = {"neg": Elementary(np.negative, None)}
+#: The operations of two arguments by their names: the arithmetic, then :func:`atan2`.
+BINARY: Dict[str, Elementary] = {
+    "add": Elementary(np.add, None),
+    "sub": Elementary(np.subtract, None),
+    "mul": Elementary(np.multiply, None),
+    "div": Elementary(np.divide, None),
+    "pow": Elementary(np.power, None),
+}
+
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def _elementary(
+    numpy: Callable[..., Any], sympy: Optional[str], arguments: int = 1
+) -> Callable[[_F], _F]:
+    """Register the decorated function of expressions under its own name, with NumPy's and
+    SymPy's counterparts: the one place the Python side states an elementary function."""
+
+    def register(f: _F) -> _F:
+        name = getattr(f, "__name__")
+        (BINARY if arguments == 2 else UNARY)[name] = Elementary(numpy, sympy)
+        _FUNCTIONS.append(name)
+        return f
+
+    return register
+
+
+# The functions of expressions, as the package exports them, in the order defined.
+_FUNCTIONS: List[str] = []
 
 # Printing precedence: sums < products < unary minus < powers < atoms.
 _PREC = {"add": 1, "sub": 1, "mul": 2, "div": 2, "neg": 3, "pow": 4}
@@ -70,7 +111,7 @@ class Expr:
     _hash: int
 
     def __init__(self, op: str, args: Tuple[Any, ...]) -> None:
-        if op not in _LEAVES and op not in _UNARY and op not in _BINARY:
+        if op not in _LEAVES and op not in UNARY and op not in BINARY:
             raise ValueError(f"unknown operation {op!r}")
         self._op = op
         self._args = args
@@ -319,56 +360,67 @@ def _unary(op: str, a: ExprLike) -> Expr:
     return Expr(op, (Expr.lift(a),))
 
 
+@_elementary(np.sin, "sin")
 def sin(x: ExprLike) -> Expr:
     """sin x."""
     return _unary("sin", x)
 
 
+@_elementary(np.cos, "cos")
 def cos(x: ExprLike) -> Expr:
     """cos x."""
     return _unary("cos", x)
 
 
+@_elementary(np.tan, "tan")
 def tan(x: ExprLike) -> Expr:
     """tan x."""
     return _unary("tan", x)
 
 
+@_elementary(np.exp, "exp")
 def exp(x: ExprLike) -> Expr:
     """eˣ."""
     return _unary("exp", x)
 
 
+@_elementary(np.log, "log")
 def log(x: ExprLike) -> Expr:
     """The natural logarithm ln x."""
     return _unary("log", x)
 
 
+@_elementary(np.sqrt, None)
 def sqrt(x: ExprLike) -> Expr:
     """√x."""
     return _unary("sqrt", x)
 
 
+@_elementary(np.sinh, "sinh")
 def sinh(x: ExprLike) -> Expr:
     """sinh x."""
     return _unary("sinh", x)
 
 
+@_elementary(np.cosh, "cosh")
 def cosh(x: ExprLike) -> Expr:
     """cosh x."""
     return _unary("cosh", x)
 
 
+@_elementary(np.tanh, "tanh")
 def tanh(x: ExprLike) -> Expr:
     """tanh x."""
     return _unary("tanh", x)
 
 
+@_elementary(np.arctan2, "atan2", arguments=2)
 def atan2(y: ExprLike, x: ExprLike) -> Expr:
     """atan2(y, x): the angle of the point (x, y), in (−π, π]."""
     return _binary("atan2", y, x)
 
 
+@_elementary(np.abs, "Abs")
 def abs(x: ExprLike) -> Expr:  # noqa: A001 - mirrors math.fabs / builtins.abs for expressions
     """|x| (``builtins.abs`` works on expressions too)."""
     return _unary("abs", x)
@@ -389,35 +441,28 @@ def _ufunc_operand(name: str, x: object) -> ExprLike:
     )
 
 
-# The functions of expressions, as the package exports them.
-_FUNCTIONS = ("sin", "cos", "tan", "exp", "log", "sqrt", "sinh", "cosh", "tanh", "atan2", "abs")
-
-# NumPy's ufuncs that have an expression counterpart, by name.
+# NumPy's ufuncs that have an expression counterpart, by name: every operation of the tables
+# under its NumPy function's name (``absolute`` for ``abs``, …), and a few more.
 _UFUNCS: Dict[str, Callable[..., Expr]] = {
-    "add": lambda a, b: _binary("add", a, b),
-    "subtract": lambda a, b: _binary("sub", a, b),
-    "multiply": lambda a, b: _binary("mul", a, b),
+    **{
+        e.numpy.__name__: (lambda *a, _op=op: Expr(_op, tuple(Expr.lift(x) for x in a)))
+        for table in (UNARY, BINARY)
+        for op, e in table.items()
+    },
     "divide": lambda a, b: _binary("div", a, b),
     "true_divide": lambda a, b: _binary("div", a, b),
-    "power": lambda a, b: _binary("pow", a, b),
     "float_power": lambda a, b: _binary("pow", a, b),
-    "arctan2": atan2,
-    "negative": lambda a: _unary("neg", a),
     "positive": Expr.lift,
-    "absolute": abs,
     "fabs": abs,
     "square": lambda a: _binary("pow", a, 2),
     "reciprocal": lambda a: _binary("div", 1.0, a),
-    "sin": sin,
-    "cos": cos,
-    "tan": tan,
-    "exp": exp,
-    "log": log,
-    "sqrt": sqrt,
-    "sinh": sinh,
-    "cosh": cosh,
-    "tanh": tanh,
 }
+
+#: NumPy's function of each operation of one argument, by name (drawing evaluates expressions
+#: over many states with them).
+NUMPY_UNARY: Dict[str, Callable[[Any], Any]] = {op: e.numpy for op, e in UNARY.items()}
+#: NumPy's function of each operation of two arguments, by name.
+NUMPY_BINARY: Dict[str, Callable[[Any, Any], Any]] = {op: e.numpy for op, e in BINARY.items()}
 
 
 # -- traversal and serialization ------------------------------------------------------------
@@ -456,7 +501,7 @@ def serialize(roots: Sequence[Expr]) -> Tuple[List[Node], List[int]]:
         if op in _LEAVES:
             payload = args[0] if args else None
             nodes.append((op, payload, -1, -1))
-        elif op in _UNARY:
+        elif op in UNARY:
             nodes.append((op, None, index[args[0]], -1))
         else:
             nodes.append((op, None, index[args[0]], index[args[1]]))
@@ -478,7 +523,7 @@ def deserialize(nodes: Sequence[Node], roots: Sequence[int]) -> List[Expr]:
             built.append(t)
         elif op == "const":
             built.append(Expr("const", (float(payload),)))
-        elif op in _UNARY:
+        elif op in UNARY:
             built.append(Expr(op, (built[i],)))
         else:
             built.append(Expr(op, (built[i], built[j])))
@@ -536,7 +581,7 @@ def _format(root: Expr) -> str:
         elif op == "neg":
             a = args[0]
             s = "-" + (f"({text[a]})" if _prec(a) <= 2 else text[a])
-        elif op in _UNARY:
+        elif op in UNARY:
             s = f"{op}({text[args[0]]})"
         elif op == "atan2":
             s = f"atan2({text[args[0]]}, {text[args[1]]})"

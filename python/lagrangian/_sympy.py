@@ -7,7 +7,7 @@ import importlib
 import math
 from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence
 
-from ._expr import Coordinate, Expr, Parameter, atan2, t
+from ._expr import BINARY, UNARY, Coordinate, Expr, Parameter, atan2, t
 from ._model import Model
 
 __all__ = ["from_sympy"]
@@ -32,8 +32,9 @@ def from_sympy(
     coordinates' argument. Every other symbol must be a key of ``parameters`` (a SymPy symbol or
     its name) with its value.
 
-    Supported: ``+ - * /``, powers, ``sin cos tan exp log sqrt sinh cosh tanh atan atan2 Abs``
-    (and ``sec csc cot``), π and e.
+    Supported: ``+ - * /``, powers, the functions of :mod:`lagrangian` under their SymPy names
+    (``sin``, ``log``, ``Abs``, ``atan2``, …; ``sqrt`` is a power in SymPy), ``atan`` (and
+    ``sec csc cot``), π and e.
 
     >>> import sympy as sp
     >>> import lagrangian as lg
@@ -104,6 +105,11 @@ def from_sympy(
     )
 
 
+def _node_of(op: str) -> Callable[[Expr], Expr]:
+    """The expression ``op(x)`` of an operand ``x``."""
+    return lambda x: Expr(op, (x,))
+
+
 class _Converter:
     """SymPy → :class:`Expr`, without recursion (deep sums stay safe)."""
 
@@ -112,21 +118,24 @@ class _Converter:
         self.table = table
         self.memo: Dict[Any, Expr] = {}
         f = sp.functions
+        # Every function of one argument that SymPy has under a name of its own (`_expr.UNARY`),
+        # and a few that are ours through identities.
         self.unary: Dict[Any, Callable[[Expr], Expr]] = {
-            f.sin: lambda x: Expr("sin", (x,)),
-            f.cos: lambda x: Expr("cos", (x,)),
-            f.tan: lambda x: Expr("tan", (x,)),
-            f.exp: lambda x: Expr("exp", (x,)),
-            f.log: lambda x: Expr("log", (x,)),
-            f.sinh: lambda x: Expr("sinh", (x,)),
-            f.cosh: lambda x: Expr("cosh", (x,)),
-            f.tanh: lambda x: Expr("tanh", (x,)),
-            f.Abs: lambda x: Expr("abs", (x,)),
+            getattr(sp, e.sympy): _node_of(op)
+            for op, e in UNARY.items()
+            if e.sympy is not None
+        }
+        self.binary: Dict[Any, str] = {
+            getattr(sp, e.sympy): op for op, e in BINARY.items() if e.sympy is not None
+        }
+        self.unary.update({
             f.atan: lambda x: atan2(x, 1.0),
             f.sec: lambda x: 1.0 / Expr("cos", (x,)),
             f.csc: lambda x: 1.0 / Expr("sin", (x,)),
             f.cot: lambda x: Expr("cos", (x,)) / Expr("sin", (x,)),
-        }
+        })
+        named = [e.sympy for e in (*UNARY.values(), *BINARY.values()) if e.sympy is not None]
+        self.supported = ", ".join(["+ - * / **", *named, "sqrt, atan, sec, csc, cot"])
 
     def __call__(self, expr: Any, what: str) -> Expr:
         sp = self.sp
@@ -186,12 +195,12 @@ class _Converter:
             return out
         if isinstance(e, sp.Pow):
             return args[0] ** args[1]
-        if isinstance(e, sp.atan2):
-            return atan2(args[0], args[1])
+        for cls, op in self.binary.items():
+            if isinstance(e, cls) and len(args) == 2:
+                return Expr(op, (args[0], args[1]))
         for cls, make in self.unary.items():
             if isinstance(e, cls) and len(args) == 1:
                 return make(args[0])
         raise ValueError(
-            f"{type(e).__name__} in the {what} is not supported (use + - * / **, sin, cos, tan, "
-            "exp, log, sqrt, sinh, cosh, tanh, atan, atan2, Abs)"
+            f"{type(e).__name__} in the {what} is not supported (use {self.supported})"
         )

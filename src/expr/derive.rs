@@ -9,7 +9,7 @@
 //! nothing. Construction simplifies 0·x, 1·x, x ± 0, −(−x) and operations on numbers; parameters
 //! stay symbolic (they are bound later, by [`Function::new`](crate::tape::Function::new)).
 //!
-//! |x| has the derivative x/|x|·ẋ, which is not finite at x = 0 (the graph has no sign function).
+//! |x| has the derivative sign(x)·ẋ ([`Unary::Sign`]: the dual numbers' slope, finite at x = 0).
 
 use super::functions::unary_functions;
 use super::graph::{Binary, Graph, Node, Unary};
@@ -408,10 +408,15 @@ impl Simplify<'_> {
         macro_rules! tangents {
             ($($name:ident {
                 doc: $doc:expr,
+                name: $($py:literal)?,
                 value: |$x:ident| $value:expr,
                 tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
+                num: |$nx:ident| $num:expr,
+                jet: |$jx:ident| $jet:expr,
+                series: $series:expr,
                 libm: $($sym:ident = $f:ident)?,
                 ins: $u:ident, $ua:ident: $m:ident,
+                dual_num: $($dn:ident)?,
             })*) => {
                 match f {
                     $(Unary::$name => {

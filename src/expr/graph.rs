@@ -6,14 +6,29 @@ use crate::error::{Error, Result};
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
 
-/// Generates [`Unary`], `Unary::ALL` and `Unary::apply` from the table of `functions.rs`.
+/// `Some` of a row's optional field, or `None` when the row leaves it out.
+macro_rules! optional {
+    () => {
+        None
+    };
+    ($e:expr) => {
+        Some($e)
+    };
+}
+
+/// Generates [`Unary`] and its methods from the table of `functions.rs`.
 macro_rules! unary_enum {
     ($($name:ident {
         doc: $doc:expr,
+        name: $($py:literal)?,
         value: |$x:ident| $value:expr,
         tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
+        num: |$nx:ident| $num:expr,
+        jet: |$jx:ident| $jet:expr,
+        series: $series:expr,
         libm: $($sym:ident = $f:ident)?,
         ins: $u:ident, $ua:ident: $m:ident,
+        dual_num: $($dn:ident)?,
     })*) => {
         /// Functions of one argument.
         #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -33,6 +48,28 @@ macro_rules! unary_enum {
                         let $x = x;
                         $value
                     })*
+                }
+            }
+
+            /// Its name in the expression language (`lg.<name>`, the operation of the nodes the
+            /// Python side sends); `None` for a function only the crate builds.
+            pub fn name(self) -> Option<&'static str> {
+                match self {
+                    $(Unary::$name => optional!($($py)?),)*
+                }
+            }
+
+            /// The function of this name in the expression language ([`Unary::name`]).
+            pub fn from_name(name: &str) -> Option<Unary> {
+                Unary::ALL.into_iter().find(|f| f.name() == Some(name))
+            }
+
+            /// The maths library's function the compiled code calls for it, by the symbol it is
+            /// registered under (`native/mod.rs`); none for a function that is an instruction
+            /// of its own.
+            pub(crate) fn libm(self) -> &'static [&'static str] {
+                match self {
+                    $(Unary::$name => &[$(stringify!($sym))?],)*
                 }
             }
         }
@@ -292,6 +329,26 @@ mod tests {
         let b = g.unary(Unary::Sin, x).unwrap();
         assert_eq!(a, b);
         assert_eq!(g.len(), 2);
+    }
+
+    #[test]
+    fn names_of_the_functions_are_distinct_and_found_back() {
+        let named: Vec<Unary> = Unary::ALL
+            .into_iter()
+            .filter(|f| f.name().is_some())
+            .collect();
+        for &f in &named {
+            assert_eq!(Unary::from_name(f.name().unwrap()), Some(f), "{f:?}");
+        }
+        assert_eq!(
+            named.len(),
+            Unary::ALL.len() - 1,
+            "only Sign is the crate's own"
+        );
+        assert_eq!(Unary::Sign.name(), None);
+        assert_eq!(Unary::from_name("no such function"), None);
+        // Ln is `log` in the expression language, as in NumPy and SymPy.
+        assert_eq!(Unary::from_name("log"), Some(Unary::Ln));
     }
 
     #[test]

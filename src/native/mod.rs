@@ -116,10 +116,15 @@ wrappers! {
 macro_rules! unary_wrappers {
     ($($name:ident {
         doc: $doc:expr,
+        name: $($py:literal)?,
         value: |$x:ident| $value:expr,
         tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
+        num: |$nx:ident| $num:expr,
+        jet: |$jx:ident| $jet:expr,
+        series: $series:expr,
         libm: $($sym:ident = $f:ident)?,
         ins: $u:ident, $ua:ident: $m:ident,
+        dual_num: $($dn:ident)?,
     })*) => {
         $($(
             extern "C" fn $sym(x: f64) -> f64 {

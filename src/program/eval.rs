@@ -395,13 +395,15 @@ impl GeneralizedForces for Option<Function> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::expr::graph::sign;
     use crate::expr::graph::{Binary, Graph, Unary};
     use crate::program::inputs::Inputs;
     use approx::assert_relative_eq;
     use num_dual::Dual64;
 
-    /// f = sin x cos x + tan y − eˣ ln y + √y + sinh x cosh y tanh x − |x − y| + xʸ + atan2(x, y)
+    /// f = sin x cos x + tan y − eˣ ln y + √y + sinh x cosh y − |x − y| + xʸ + atan2(x, y)
     ///     + x^2.5 + 2ˣ + 3/x + (4 − x) + atan2(1, x) + atan2(x, 2) + x⁻³ + y/x + (x − 1)/2
+    ///     + Σ_f f(x y) over every function of one argument (`Unary::ALL`)
     fn every_operation(g: &mut Graph) -> Result<usize> {
         let (x, y) = (g.coord(0), g.coord(1));
         let (sx, cx) = (g.unary(Unary::Sin, x)?, g.unary(Unary::Cos, x)?);
@@ -410,13 +412,8 @@ mod tests {
         let p = g.binary(Binary::Mul, ex, ly)?;
         terms.push(g.unary(Unary::Neg, p)?);
         terms.push(g.unary(Unary::Sqrt, y)?);
-        let (shx, chy, thx) = (
-            g.unary(Unary::Sinh, x)?,
-            g.unary(Unary::Cosh, y)?,
-            g.unary(Unary::Tanh, x)?,
-        );
-        let p = g.binary(Binary::Mul, shx, chy)?;
-        terms.push(g.binary(Binary::Mul, p, thx)?);
+        let (shx, chy) = (g.unary(Unary::Sinh, x)?, g.unary(Unary::Cosh, y)?);
+        terms.push(g.binary(Binary::Mul, shx, chy)?);
         let d = g.binary(Binary::Sub, x, y)?;
         let a = g.unary(Unary::Abs, d)?;
         terms.push(g.unary(Unary::Neg, a)?);
@@ -437,6 +434,10 @@ mod tests {
         terms.push(g.binary(Binary::Div, y, x)?);
         let xm1 = g.binary(Binary::Sub, x, one)?;
         terms.push(g.binary(Binary::Div, xm1, two)?);
+        let xy = g.binary(Binary::Mul, x, y)?;
+        for f in Unary::ALL {
+            terms.push(g.unary(f, xy)?);
+        }
         let mut sum = terms[0];
         for &t in &terms[1..] {
             sum = g.binary(Binary::Add, sum, t)?;
@@ -444,9 +445,44 @@ mod tests {
         Ok(sum)
     }
 
+    /// num-dual's own method of each function of the table (`expr/functions.rs`, the row's
+    /// `dual_num`), or the row's `num` where num-dual has none.
+    macro_rules! reference {
+        ($u:ident; $dn:ident; |$nx:ident| $num:expr) => {
+            $u.$dn()
+        };
+        ($u:ident; ; |$nx:ident| $num:expr) => {{
+            let $nx = $u;
+            $num
+        }};
+    }
+
+    /// Σ_f f(u) over the table's functions, in `Unary::ALL`'s order, by [`reference!`].
+    macro_rules! reference_sum {
+        ($($name:ident {
+            doc: $doc:expr,
+            name: $($py:literal)?,
+            value: |$x:ident| $value:expr,
+            tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
+            num: |$nx:ident| $num:expr,
+            jet: |$jx:ident| $jet:expr,
+            series: $series:expr,
+            libm: $($sym:ident = $f:ident)?,
+            ins: $u:ident, $ua:ident: $m:ident,
+            dual_num: $($dn:ident)?,
+        })*) => {
+            fn every_function_exact<D: Scalar>(u: D, mut sum: D) -> D {
+                $(sum += reference!(u; $($dn)?; |$nx| $num);)*
+                sum
+            }
+        };
+    }
+
+    crate::expr::functions::unary_functions!(reference_sum);
+
     /// [`every_operation`] written directly in num-dual.
     fn every_operation_exact<D: Scalar>(x: D, y: D) -> D {
-        x.sin() * x.cos() + y.tan() - x.exp() * y.ln() + y.sqrt() + x.sinh() * y.cosh() * x.tanh()
+        let sum = x.sin() * x.cos() + y.tan() - x.exp() * y.ln() + y.sqrt() + x.sinh() * y.cosh()
             - if x.re() > y.re() { x - y } else { y - x }
             + x.powd(y)
             + x.atan2(y)
@@ -458,7 +494,8 @@ mod tests {
             + x.atan2(D::from(2.0))
             + x.powi(-3)
             + y / x
-            + (x - 1.0) / 2.0
+            + (x - 1.0) / 2.0;
+        every_function_exact(x * y, sum)
     }
 
     fn every_operation_function() -> Function {

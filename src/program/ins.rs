@@ -6,8 +6,8 @@
 //! value consumed by the very next instruction never makes a round trip through memory (an
 //! interpreter's store-to-load stalls cost more than the dual-number arithmetic itself).
 //!
-//! To add a function of one argument: its entry in the table of `expr/functions.rs` (which gives
-//! the `unary` block below) and its [`Arith`] arithmetic (`jet.rs`). A function of two
+//! To add a function of one argument: its row in the table of `expr/functions.rs`, which gives
+//! the `unary` block below, its [`Arith`] arithmetic (`jet.rs`) and its [`Emit`] call. A function of two
 //! arguments: one line in `commutative` or `ordered`, which also gives its forms with a constant
 //! operand (`x op c`, and `c op x` for the ordered ones). With the `jit` feature, a new
 //! [`Arith`] method also needs its [`Emit`] twin (its native code, `native/tape.rs`): the compiler
@@ -284,10 +284,15 @@ macro_rules! instruction_set {
 macro_rules! emit_methods {
     ($($name:ident {
         doc: $doc:expr,
+        name: $($py:literal)?,
         value: |$x:ident| $value:expr,
         tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
+        num: |$nx:ident| $num:expr,
+        jet: |$jx:ident| $jet:expr,
+        series: $series:expr,
         libm: $($sym:ident = $f:ident)?,
         ins: $u:ident, $ua:ident: $m:ident,
+        dual_num: $($dn:ident)?,
     })*) => {
         $(fn $m(&mut self, a: Self::V) -> Self::V;)*
     };
@@ -333,10 +338,15 @@ pub(crate) trait Emit {
 macro_rules! instruction_set_of {
     ($($name:ident {
         doc: $doc:expr,
+        name: $($py:literal)?,
         value: |$x:ident| $value:expr,
         tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
+        num: |$nx:ident| $num:expr,
+        jet: |$jx:ident| $jet:expr,
+        series: $series:expr,
         libm: $($sym:ident = $f:ident)?,
         ins: $u:ident, $ua:ident: $m:ident,
+        dual_num: $($dn:ident)?,
     })*) => {
         instruction_set! {
             unary { $($u => $u, $ua: $m;)* }

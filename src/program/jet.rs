@@ -15,6 +15,7 @@
 //! `Option` parts and keep their own arithmetic.
 
 use crate::expr::functions::unary_functions;
+use crate::expr::graph::sign;
 use crate::scalar::Scalar;
 use crate::scalar::is;
 use nalgebra::{Const, SMatrix, SVector};
@@ -25,12 +26,65 @@ use num_dual::{Derivative, DualSVec64, HyperDualVec64};
 macro_rules! arith_methods {
     ($($name:ident {
         doc: $doc:expr,
+        name: $($py:literal)?,
         value: |$x:ident| $value:expr,
         tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
+        num: |$nx:ident| $num:expr,
+        jet: |$jx:ident| $jet:expr,
+        series: $series:expr,
         libm: $($sym:ident = $f:ident)?,
         ins: $u:ident, $ua:ident: $m:ident,
+        dual_num: $($dn:ident)?,
     })*) => {
         $(#[doc = $doc] fn $m(self) -> Self;)*
+    };
+}
+
+/// [`Num`]'s methods of the functions of one argument: each row's `num` on the wrapped scalar.
+macro_rules! num_methods {
+    ($($name:ident {
+        doc: $doc:expr,
+        name: $($py:literal)?,
+        value: |$x:ident| $value:expr,
+        tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
+        num: |$nx:ident| $num:expr,
+        jet: |$jx:ident| $jet:expr,
+        series: $series:expr,
+        libm: $($sym:ident = $f:ident)?,
+        ins: $u:ident, $ua:ident: $m:ident,
+        dual_num: $($dn:ident)?,
+    })*) => {
+        $(
+            #[inline(always)]
+            fn $m(self) -> Self {
+                let $nx = self.0;
+                Num($num)
+            }
+        )*
+    };
+}
+
+/// [`Jet`]'s methods of the functions of one argument: each row's `jet`.
+macro_rules! jet_methods {
+    ($($name:ident {
+        doc: $doc:expr,
+        name: $($py:literal)?,
+        value: |$x:ident| $value:expr,
+        tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
+        num: |$nx:ident| $num:expr,
+        jet: |$jx:ident| $jet:expr,
+        series: $series:expr,
+        libm: $($sym:ident = $f:ident)?,
+        ins: $u:ident, $ua:ident: $m:ident,
+        dual_num: $($dn:ident)?,
+    })*) => {
+        $(
+            #[inline(always)]
+            fn $m(self) -> Self {
+                let $jx = self;
+                $jet
+            }
+        )*
     };
 }
 
@@ -81,27 +135,14 @@ fn atan2<D: Scalar>(y: D, x: D) -> D {
     D::from(yr.atan2(xr)) - (D::from(a.re()) - a)
 }
 
-/// tanh of dual numbers at every argument: num-dual's is sinh/cosh, ∞/∞ = NaN beyond
-/// |x| ≈ 710. −sign(x) e/(e + 2) with e = expm1(−2|x|) (the same derivatives, without
-/// cancellation near 0), its value replaced by `f64::tanh` of the real part bit for bit.
-#[inline(always)]
-fn tanh<D: Scalar>(x: D) -> D {
-    if is::<D, f64>() {
-        return x.tanh();
-    }
-    let e = (x.abs() * D::from(-2.0)).exp_m1();
-    let a = -e / (e + D::from(2.0));
-    let a = if x.re() < 0.0 { -a } else { a };
-    // a.re − a has the value +0.0 and the derivatives of −a.
-    D::from(x.re().tanh()) - (D::from(a.re()) - a)
-}
-
 /// Any [`Scalar`], evaluated with its own (num-dual) arithmetic.
 #[derive(Debug, Clone, Copy)]
 #[repr(transparent)]
 pub(crate) struct Num<D>(pub(crate) D);
 
 impl<D: Scalar> Arith for Num<D> {
+    unary_functions!(num_methods);
+
     #[inline(always)]
     fn cst(x: f64) -> Self {
         Num(D::from(x))
@@ -121,10 +162,6 @@ impl<D: Scalar> Arith for Num<D> {
     #[inline(always)]
     fn div(self, o: Self) -> Self {
         Num(self.0 / o.0)
-    }
-    #[inline(always)]
-    fn neg(self) -> Self {
-        Num(-self.0)
     }
     #[inline(always)]
     fn add_c(self, c: f64) -> Self {
@@ -175,53 +212,9 @@ impl<D: Scalar> Arith for Num<D> {
         Num(atan2(D::from(c), self.0))
     }
     #[inline(always)]
-    fn sin(self) -> Self {
-        Num(self.0.sin())
-    }
-    #[inline(always)]
-    fn cos(self) -> Self {
-        Num(self.0.cos())
-    }
-    #[inline(always)]
     fn sin_cos(self) -> (Self, Self) {
         let (s, c) = self.0.sin_cos();
         (Num(s), Num(c))
-    }
-    #[inline(always)]
-    fn tan(self) -> Self {
-        Num(self.0.tan())
-    }
-    #[inline(always)]
-    fn exp(self) -> Self {
-        Num(self.0.exp())
-    }
-    #[inline(always)]
-    fn ln(self) -> Self {
-        Num(self.0.ln())
-    }
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        Num(self.0.sqrt())
-    }
-    #[inline(always)]
-    fn sinh(self) -> Self {
-        Num(self.0.sinh())
-    }
-    #[inline(always)]
-    fn cosh(self) -> Self {
-        Num(self.0.cosh())
-    }
-    #[inline(always)]
-    fn tanh(self) -> Self {
-        Num(tanh(self.0))
-    }
-    #[inline(always)]
-    fn abs(self) -> Self {
-        Num(self.0.abs())
-    }
-    #[inline(always)]
-    fn sign(self) -> Self {
-        Num(D::from(crate::expr::graph::sign(self.0.re())))
     }
     #[inline(always)]
     fn sqr(self) -> Self {
@@ -498,6 +491,8 @@ impl<const N: usize, const N1: usize> Chain for Lagrange<N, N1> {
 pub(crate) struct Jet<J>(pub(crate) J);
 
 impl<J: Chain> Arith for Jet<J> {
+    unary_functions!(jet_methods);
+
     #[inline(always)]
     fn cst(x: f64) -> Self {
         Jet(J::cst(x))
@@ -529,10 +524,6 @@ impl<J: Chain> Arith for Jet<J> {
             -r * r,
             2.0 * q * r * r,
         ))
-    }
-    #[inline(always)]
-    fn neg(self) -> Self {
-        Jet(self.0.scale(-1.0))
     }
     #[inline(always)]
     fn add_c(self, c: f64) -> Self {
@@ -631,70 +622,9 @@ impl<J: Chain> Arith for Jet<J> {
         Jet(self.0.chain(c.atan2(x), -c * r2, 2.0 * c * x * r2 * r2))
     }
     #[inline(always)]
-    fn sin(self) -> Self {
-        let (s, c) = self.0.re().sin_cos();
-        Jet(self.0.chain(s, c, -s))
-    }
-    #[inline(always)]
-    fn cos(self) -> Self {
-        let (s, c) = self.0.re().sin_cos();
-        Jet(self.0.chain(c, -s, -c))
-    }
-    #[inline(always)]
     fn sin_cos(self) -> (Self, Self) {
         let (s, c) = self.0.re().sin_cos();
         (Jet(self.0.chain(s, c, -s)), Jet(self.0.chain(c, -s, -c)))
-    }
-    #[inline(always)]
-    fn tan(self) -> Self {
-        let t = self.0.re().tan();
-        let d = 1.0 + t * t;
-        Jet(self.0.chain(t, d, 2.0 * t * d))
-    }
-    #[inline(always)]
-    fn exp(self) -> Self {
-        let e = self.0.re().exp();
-        Jet(self.0.chain(e, e, e))
-    }
-    #[inline(always)]
-    fn ln(self) -> Self {
-        let x = self.0.re();
-        let r = x.recip();
-        Jet(self.0.chain(x.ln(), r, -r * r))
-    }
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        let x = self.0.re();
-        let s = x.sqrt();
-        let d = 0.5 / s;
-        Jet(self.0.chain(s, d, -0.5 * d / x))
-    }
-    #[inline(always)]
-    fn sinh(self) -> Self {
-        let x = self.0.re();
-        let (s, c) = (x.sinh(), x.cosh());
-        Jet(self.0.chain(s, c, s))
-    }
-    #[inline(always)]
-    fn cosh(self) -> Self {
-        let x = self.0.re();
-        let (s, c) = (x.sinh(), x.cosh());
-        Jet(self.0.chain(c, s, c))
-    }
-    #[inline(always)]
-    fn tanh(self) -> Self {
-        let t = self.0.re().tanh();
-        let d = 1.0 - t * t;
-        Jet(self.0.chain(t, d, -2.0 * t * d))
-    }
-    #[inline(always)]
-    fn abs(self) -> Self {
-        // As num-dual: −x unless x > 0.
-        if self.0.re() > 0.0 { self } else { self.neg() }
-    }
-    #[inline(always)]
-    fn sign(self) -> Self {
-        Jet(J::cst(crate::expr::graph::sign(self.0.re())))
     }
     #[inline(always)]
     fn sqr(self) -> Self {

@@ -436,23 +436,16 @@ fn graph_node(raw: &RawNode, k: usize, ids: &[usize]) -> Result<Node> {
     };
     let un = |f: Unary| -> Result<Node> { Ok(Node::Unary(f, index(*i)?)) };
     let bin = |f: Binary| -> Result<Node> { Ok(Node::Binary(f, index(*i)?, index(*j)?)) };
+    // The functions of one argument by their names in the table (`expr/functions.rs`).
+    if let Some(f) = Unary::from_name(op) {
+        return un(f);
+    }
     Ok(match op.as_str() {
         "const" => Node::Const(*x),
         "param" => Node::Param(leaf(*i)?),
         "t" => Node::Time,
         "q" => Node::Coord(leaf(*i)?),
         "qd" => Node::Velocity(leaf(*i)?),
-        "neg" => un(Unary::Neg)?,
-        "sin" => un(Unary::Sin)?,
-        "cos" => un(Unary::Cos)?,
-        "tan" => un(Unary::Tan)?,
-        "exp" => un(Unary::Exp)?,
-        "log" => un(Unary::Ln)?,
-        "sqrt" => un(Unary::Sqrt)?,
-        "sinh" => un(Unary::Sinh)?,
-        "cosh" => un(Unary::Cosh)?,
-        "tanh" => un(Unary::Tanh)?,
-        "abs" => un(Unary::Abs)?,
         "add" => bin(Binary::Add)?,
         "sub" => bin(Binary::Sub)?,
         "mul" => bin(Binary::Mul)?,

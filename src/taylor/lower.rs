@@ -3,9 +3,57 @@
 //! state sets, and the folds that make a product or quotient by a number a scaling.
 
 use super::series::SeriesOp;
+use crate::expr::functions::unary_functions;
 use crate::expr::graph::{Binary, Graph, Node, Unary};
 use crate::linalg;
 use std::collections::{HashMap, HashSet};
+
+/// The Taylor recurrence a function of one argument is lowered to: its row's `series` in the
+/// table of `expr/functions.rs`, each a dedicated [`SeriesOp`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Recurrence {
+    /// [`SeriesOp::Neg`].
+    Neg,
+    /// One of the pair [`SeriesOp::SinCos`] computes together (`sine`: the first).
+    SinCos { hyperbolic: bool, sine: bool },
+    /// [`SeriesOp::Tan`], whose order 0 calls the function's own maths-library function.
+    Tan { hyperbolic: bool },
+    /// [`SeriesOp::Exp`].
+    Exp,
+    /// [`SeriesOp::Ln`].
+    Ln,
+    /// [`SeriesOp::Sqrt`].
+    Sqrt,
+    /// [`SeriesOp::Abs`].
+    Abs,
+    /// [`SeriesOp::Sign`] (order 0 only).
+    Sign,
+}
+
+/// `recurrence(f)`: each function's row's `series`.
+macro_rules! recurrences {
+    ($($name:ident {
+        doc: $doc:expr,
+        name: $($py:literal)?,
+        value: |$x:ident| $value:expr,
+        tangent: |$d:ident, $a:ident, $y:ident, $da:ident| $tangent:expr,
+        num: |$nx:ident| $num:expr,
+        jet: |$jx:ident| $jet:expr,
+        series: $series:expr,
+        libm: $($sym:ident = $f:ident)?,
+        ins: $u:ident, $ua:ident: $m:ident,
+        dual_num: $($dn:ident)?,
+    })*) => {
+        /// The recurrence `f` is lowered to.
+        pub(crate) fn recurrence(f: Unary) -> Recurrence {
+            match f {
+                $(Unary::$name => $series,)*
+            }
+        }
+    };
+}
+
+unary_functions!(recurrences);
 
 /// The part of a graph that M and f need, lowered to recurrences: the plain data that the
 /// interpreter runs and the kernels compile.
@@ -585,11 +633,9 @@ impl Recurrences {
                 }
                 Node::Unary(f, a) => {
                     let a = row[a];
-                    let op = match f {
-                        Unary::Neg => SeriesOp::Neg { out, a },
-                        Unary::Sin | Unary::Cos | Unary::Sinh | Unary::Cosh => {
-                            let hyperbolic = matches!(f, Unary::Sinh | Unary::Cosh);
-                            let sine = matches!(f, Unary::Sin | Unary::Sinh);
+                    let op = match recurrence(f) {
+                        Recurrence::Neg => SeriesOp::Neg { out, a },
+                        Recurrence::SinCos { hyperbolic, sine } => {
                             if let Some(&(s, c)) = trig.get(&(a, hyperbolic)) {
                                 // Its partner is computed already (sin(θ₁ − θ₂) beside
                                 // cos(θ₁ − θ₂)): a copy, not a second pair of sums.
@@ -625,18 +671,19 @@ impl Recurrences {
                                 }
                             }
                         }
-                        Unary::Tan | Unary::Tanh => SeriesOp::Tan {
+                        Recurrence::Tan { hyperbolic } => SeriesOp::Tan {
                             out,
                             w: low.row(),
                             a,
-                            hyperbolic: f == Unary::Tanh,
+                            f,
+                            hyperbolic,
                         },
-                        Unary::Exp => SeriesOp::Exp { out, a },
-                        Unary::Ln => SeriesOp::Ln { out, a },
-                        Unary::Sqrt => SeriesOp::Sqrt { out, a },
-                        Unary::Abs => SeriesOp::Abs { out, a },
+                        Recurrence::Exp => SeriesOp::Exp { out, a },
+                        Recurrence::Ln => SeriesOp::Ln { out, a },
+                        Recurrence::Sqrt => SeriesOp::Sqrt { out, a },
+                        Recurrence::Abs => SeriesOp::Abs { out, a },
                         // ±1: nothing beyond order 0.
-                        Unary::Sign => {
+                        Recurrence::Sign => {
                             let r = at(a).min(Reach::Order0);
                             low.push(SeriesOp::Sign { out, a }, r);
                             reach[out] = r;

@@ -3,7 +3,7 @@
 //! power series (products by convolution, quotients, exp, log, sin and cos together, …), and
 //! the convolution every compiled kernel calls so that both sum in the same order.
 
-use crate::expr::graph::sign;
+use crate::expr::graph::{Unary, sign};
 use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
 
 /// A Taylor coefficient as the recurrences compute it: an `f64`, or the same coefficient of
@@ -181,12 +181,13 @@ pub(crate) enum SeriesOp {
         degree: Option<usize>,
         da: Option<usize>,
     },
-    /// t = tan a with w = 1 + t² (`hyperbolic`: tanh, w = 1 − t²): tₖ = Σⱼ₌₁..ₖ j aⱼ wₖ₋ⱼ / k,
-    /// wₖ = ±Σⱼ₌₀..ₖ tⱼ tₖ₋ⱼ.
+    /// t = f(a) with w = 1 + t² (f = tan; `hyperbolic`: w = 1 − t², f its hyperbolic twin):
+    /// tₖ = Σⱼ₌₁..ₖ j aⱼ wₖ₋ⱼ / k, wₖ = ±Σⱼ₌₀..ₖ tⱼ tₖ₋ⱼ; t₀ = f(a₀).
     Tan {
         out: usize,
         w: usize,
         a: usize,
+        f: Unary,
         hyperbolic: bool,
     },
     /// |a|: aₖ with the sign of a₀.
@@ -354,10 +355,7 @@ impl SeriesOp {
                 hyperbolic: true, ..
             } => &["lagrangian_sinh", "lagrangian_cosh"],
             SeriesOp::SinCos { .. } => &["lagrangian_sin_cos"],
-            SeriesOp::Tan {
-                hyperbolic: true, ..
-            } => &["lagrangian_tanh"],
-            SeriesOp::Tan { .. } => &["lagrangian_tan"],
+            SeriesOp::Tan { f, .. } => f.libm(),
             SeriesOp::Atan2 { .. } => &["lagrangian_atan2"],
             _ => &[],
         }
@@ -571,15 +569,11 @@ impl SeriesOp {
                 out,
                 w: wr,
                 a,
+                f,
                 hyperbolic,
             } => {
                 let t = if k == 0 {
-                    let x = at(s, a, 0);
-                    if hyperbolic {
-                        x.map(f64::tanh)
-                    } else {
-                        x.map(f64::tan)
-                    }
+                    at(s, a, 0).map(|x| f.apply(x))
                 } else {
                     conv(s, w, a, wr, 1, k, k, k, true) * inv_k
                 };

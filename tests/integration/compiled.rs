@@ -17,7 +17,7 @@ use std::sync::Arc;
 
 use crate::common::Rng;
 
-const UNARY: [Unary; 12] = Unary::ALL;
+const UNARY: [Unary; Unary::ALL.len()] = Unary::ALL;
 const BINARY: [Binary; 6] = Binary::ALL;
 
 /// Random expressions on a graph; `safe` keeps every function inside its domain and away from
