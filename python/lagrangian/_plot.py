@@ -33,6 +33,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ._drawing import Drawing
+from ._expr import NUMPY_BINARY as _NUMPY_BINARY, NUMPY_UNARY as _NUMPY_UNARY
 from ._expr import Expr, serialize
 from ._protocols import Drawable, FittedModel, PrecisionDiagram, Trajectory
 from ._validate import at_least_one, file_suffix, finite_positive
@@ -490,15 +491,6 @@ def plot_work_precision(
 
 # -- positions for drawing: expressions evaluated over many states --------------------------
 
-_NUMPY_UNARY: Dict[str, Callable[[Any], Any]] = {
-    "neg": np.negative, "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp,
-    "log": np.log, "sqrt": np.sqrt, "sinh": np.sinh, "cosh": np.cosh, "tanh": np.tanh,
-    "abs": np.abs,
-}
-_NUMPY_BINARY: Dict[str, Callable[[Any, Any], Any]] = {
-    "add": np.add, "sub": np.subtract, "mul": np.multiply, "div": np.divide, "pow": np.power,
-    "atan2": np.arctan2,
-}
 
 
 def evaluate_drawing(
