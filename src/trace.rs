@@ -5,8 +5,8 @@
 //!
 //! A [`Traced`] is a number known now (folded as the f64 arithmetic would) or a node of the graph
 //! being recorded; the graph lives in a thread-local for the duration of one [`record`], so the
-//! value stays `Copy` as [`Scalar`](crate::scalar::Scalar) requires. What a graph cannot hold
-//! makes the trace fail with the reason, never a different model: the real part of a node (its value is
+//! value stays `Copy` as [`Scalar`] requires. What a graph cannot hold makes the
+//! trace fail with the reason, never a different model: the real part of a node (its value is
 //! not known while tracing, so a branch on it, a comparison or `re()` fails), and the functions
 //! the graph lacks (`cbrt`, `exp_m1`, `ln_1p`, the inverse hyperbolic functions, `signum`, the
 //! spherical Bessel functions, `%`). `asin`, `acos`, `atan`, `log`, `exp2` are recorded through
@@ -43,6 +43,8 @@
 //! assert!((a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9);
 //! # Ok::<(), lagrangian::Error>(())
 //! ```
+//!
+//! [`Scalar`]: crate::scalar::Scalar
 
 use crate::derived::eom_program::{Energies, EomFunction, EomProgram, particle_kinetic};
 use crate::dynamics::Dynamics;
