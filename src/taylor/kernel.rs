@@ -771,23 +771,16 @@ fn define_order0_code(
 }
 
 /// [`define_order0_code`] for the unrolled expansion.
-fn define_order0(
-    module: &mut JITModule,
-    program: &Recurrences,
-    order: usize,
-) -> Result<Order0Entry> {
-    let code = define_order0_code(module, program, Order0Form::Unrolled { order })?;
+fn define_order0(m: &mut JITModule, program: &Recurrences, order: usize) -> Result<Order0Entry> {
+    let code = define_order0_code(m, program, Order0Form::Unrolled { order })?;
     // SAFETY: `code` is the function just defined with the signature of `Order0Entry` in the
     // host's default calling convention, which is `extern "C"`.
     Ok(unsafe { std::mem::transmute::<*const u8, Order0Entry>(code) })
 }
 
 /// [`define_order0_code`] for the order-by-order kernel: its entry takes w, the table, q₀, q̇₀.
-fn define_series_order0(
-    module: &mut JITModule,
-    program: &Recurrences,
-) -> Result<SeriesOrder0Entry> {
-    let code = define_order0_code(module, program, Order0Form::Series)?;
+fn define_series_order0(m: &mut JITModule, program: &Recurrences) -> Result<SeriesOrder0Entry> {
+    let code = define_order0_code(m, program, Order0Form::Series)?;
     // SAFETY: `code` is the function just defined with the signature of `SeriesOrder0Entry` in
     // the host's default calling convention, which is `extern "C"`.
     Ok(unsafe { std::mem::transmute::<*const u8, SeriesOrder0Entry>(code) })
