@@ -43,15 +43,16 @@
 //! assert!((a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9);
 //! # Ok::<(), lagrangian::Error>(())
 //! ```
+//!
+//! [`Scalar`]: crate::scalar::Scalar
 
 use crate::derived::eom_program::{Energies, EomFunction, EomProgram, particle_kinetic};
-use crate::dynamics::{Dynamics, Structure};
+use crate::dynamics::Dynamics;
 use crate::energies::{Dissipation, GeneralizedForces, KineticEnergy, Potential};
 use crate::error::{Error, Result};
 use crate::expr::functions::unary_functions;
 use crate::expr::graph::{Binary, Graph, Node, Unary};
 use crate::routes::{CartesianForces, ParticleSystem, Particles, System};
-use crate::scalar::Scalar;
 use num_dual::{DualNum, DualStruct, Mappable};
 use num_traits::{FromPrimitive, Inv, Num, One, Signed, Zero};
 use std::cell::RefCell;
@@ -800,48 +801,9 @@ impl<S: TraceEnergies> WithProgram<S> {
 }
 
 impl<S: TraceEnergies> Dynamics for WithProgram<S> {
-    fn dof(&self) -> usize {
-        self.system.dof()
-    }
-    fn structure(&self) -> Structure {
-        self.system.structure()
-    }
-    #[inline]
-    fn kinetic_energy<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
-        self.system.kinetic_energy(t, q, qd)
-    }
-    #[inline]
-    fn potential_energy<D: Scalar>(&self, t: D, q: &[D]) -> D {
-        self.system.potential_energy(t, q)
-    }
-    #[inline]
-    fn potential_gradient_into<D: Scalar>(&self, t: D, q: &[D], out: &mut [D]) {
-        self.system.potential_gradient_into(t, q, out)
-    }
-    #[inline]
-    fn generalized_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        self.system.generalized_forces_into(t, q, qd, out)
-    }
-    #[inline]
-    fn dissipative_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        self.system.dissipative_forces_into(t, q, qd, out)
-    }
-    #[inline]
-    fn momenta_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        self.system.momenta_into(t, q, qd, out)
-    }
-    #[inline]
-    fn mass_matrix_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        self.system.mass_matrix_into(t, q, qd, out)
-    }
-    #[inline]
-    fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
-        self.system.accelerations_into(t, q, qd, out)
-    }
-    #[inline]
-    fn lagrangian<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
-        self.system.lagrangian(t, q, qd)
-    }
+    crate::dynamics::forward_dynamics!(system: dof, structure, kinetic_energy, potential_energy,
+        potential_gradient_into, generalized_forces_into, dissipative_forces_into, momenta_into,
+        mass_matrix_into, accelerations_into, lagrangian, energy);
     /// The traced program, traced and compiled on this first request, or why the system
     /// cannot be traced ([`Error::NotTraceable`]'s message). Only the Taylor method asks:
     /// [`Dynamics::derived_program`] stays `None`, so that every other method runs the Rust
@@ -849,8 +811,5 @@ impl<S: TraceEnergies> Dynamics for WithProgram<S> {
     /// documentation for the measurements).
     fn taylor_program(&self) -> std::result::Result<&dyn crate::dynamics::DerivedProgram, String> {
         self.program().map(|p| p as _).map_err(|e| e.to_string())
-    }
-    fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
-        self.system.energy(t, q, qd)
     }
 }

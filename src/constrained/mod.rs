@@ -951,9 +951,9 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
 /// wrapped system's. It has no eq. 55 program (the Taylor method refuses it, naming the methods
 /// that serve it), and a constraint that moves makes it time-dependent.
 impl<S: Dynamics, C: Constraints> Dynamics for Constrained<S, C> {
-    fn dof(&self) -> usize {
-        self.system.dof()
-    }
+    crate::dynamics::forward_dynamics!(system: dof, kinetic_energy, potential_energy,
+        potential_gradient_into, generalized_forces_into, dissipative_forces_into, momenta_into,
+        mass_matrix_into, energy);
     fn structure(&self) -> crate::dynamics::Structure {
         let s = self.system.structure();
         crate::dynamics::Structure {
@@ -961,27 +961,6 @@ impl<S: Dynamics, C: Constraints> Dynamics for Constrained<S, C> {
                 || (self.rows() > 0 && self.constraints.depends_on_time()),
             ..s
         }
-    }
-    fn kinetic_energy<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
-        self.system.kinetic_energy(t, q, qd)
-    }
-    fn potential_energy<D: Scalar>(&self, t: D, q: &[D]) -> D {
-        self.system.potential_energy(t, q)
-    }
-    fn potential_gradient_into<D: Scalar>(&self, t: D, q: &[D], out: &mut [D]) {
-        self.system.potential_gradient_into(t, q, out)
-    }
-    fn generalized_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        self.system.generalized_forces_into(t, q, qd, out)
-    }
-    fn dissipative_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        self.system.dissipative_forces_into(t, q, qd, out)
-    }
-    fn momenta_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        self.system.momenta_into(t, q, qd, out)
-    }
-    fn mass_matrix_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        self.system.mass_matrix_into(t, q, qd, out)
     }
     fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
         let (n, k) = (self.dof(), self.rows());
@@ -1024,9 +1003,6 @@ impl<S: Dynamics, C: Constraints> Dynamics for Constrained<S, C> {
     }
     fn constraints(&self) -> Option<&dyn crate::dynamics::ConstraintAccess> {
         (self.rows() > 0).then_some(self as &dyn crate::dynamics::ConstraintAccess)
-    }
-    fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
-        self.system.energy(t, q, qd)
     }
 }
 

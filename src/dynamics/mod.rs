@@ -10,9 +10,11 @@
 //! return owned vectors. `qp_form.rs` gives the implicit symplectic methods the (q, p) form of
 //! any `Dynamics` (`ForceParts`).
 
+mod forward;
 mod jacobian;
 mod qp_form;
 
+pub(crate) use forward::forward_dynamics;
 pub(crate) use jacobian::{acceleration_jacobian, jacobian};
 pub(crate) use qp_form::ForceParts;
 

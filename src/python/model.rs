@@ -156,61 +156,10 @@ where
 }
 
 impl Dynamics for AnyModel {
-    fn dof(&self) -> usize {
-        each!(self, s => s.dof())
-    }
-    fn structure(&self) -> Structure {
-        each!(self, s => s.structure())
-    }
-    #[inline]
-    fn kinetic_energy<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
-        each!(self, s => s.kinetic_energy(t, q, qd))
-    }
-    #[inline]
-    fn potential_energy<D: Scalar>(&self, t: D, q: &[D]) -> D {
-        each!(self, s => s.potential_energy(t, q))
-    }
-    #[inline]
-    fn potential_gradient_into<D: Scalar>(&self, t: D, q: &[D], out: &mut [D]) {
-        each!(self, s => s.potential_gradient_into(t, q, out))
-    }
-    #[inline]
-    fn generalized_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        each!(self, s => s.generalized_forces_into(t, q, qd, out))
-    }
-    #[inline]
-    fn dissipative_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        each!(self, s => s.dissipative_forces_into(t, q, qd, out))
-    }
-    #[inline]
-    fn momenta_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        each!(self, s => s.momenta_into(t, q, qd, out))
-    }
-    #[inline]
-    fn mass_matrix_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        each!(self, s => s.mass_matrix_into(t, q, qd, out))
-    }
-    #[inline]
-    fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
-        each!(self, s => s.accelerations_into(t, q, qd, out))
-    }
-    #[inline]
-    fn lagrangian<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
-        each!(self, s => s.lagrangian(t, q, qd))
-    }
-    fn derived_program(&self) -> Option<&dyn crate::dynamics::DerivedProgram> {
-        each!(self, s => s.derived_program())
-    }
-    fn taylor_program(&self) -> std::result::Result<&dyn crate::dynamics::DerivedProgram, String> {
-        each!(self, s => s.taylor_program())
-    }
-    fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
-        each!(self, s => s.energy(t, q, qd))
-    }
-    fn constraints(&self) -> Option<&dyn crate::dynamics::ConstraintAccess> {
-        // By the trait: `Constrained` has an inherent `constraints` (its rows) as well.
-        each!(self, s => Dynamics::constraints(s))
-    }
+    crate::dynamics::forward_dynamics!(each!: dof, structure, kinetic_energy, potential_energy,
+        potential_gradient_into, generalized_forces_into, dissipative_forces_into, momenta_into,
+        mass_matrix_into, accelerations_into, lagrangian, derived_program, taylor_program, energy,
+        constraints);
 }
 
 impl AnyModel {
@@ -264,36 +213,17 @@ pub(crate) struct WithLoads<'a> {
 }
 
 impl Dynamics for WithLoads<'_> {
-    fn dof(&self) -> usize {
-        self.model.dof()
-    }
+    crate::dynamics::forward_dynamics!(model: dof, kinetic_energy, potential_energy,
+        potential_gradient_into, dissipative_forces_into, momenta_into, mass_matrix_into);
     fn structure(&self) -> Structure {
         Structure {
             forced: true,
             ..self.model.structure()
         }
     }
-    fn kinetic_energy<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
-        self.model.kinetic_energy(t, q, qd)
-    }
-    fn potential_energy<D: Scalar>(&self, t: D, q: &[D]) -> D {
-        self.model.potential_energy(t, q)
-    }
-    fn potential_gradient_into<D: Scalar>(&self, t: D, q: &[D], out: &mut [D]) {
-        self.model.potential_gradient_into(t, q, out)
-    }
     fn generalized_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
         self.model.generalized_forces_into(t, q, qd, out);
         crate::energies::GeneralizedForces::forces(self.loads, t, q, qd, out);
-    }
-    fn dissipative_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        self.model.dissipative_forces_into(t, q, qd, out)
-    }
-    fn momenta_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        self.model.momenta_into(t, q, qd, out)
-    }
-    fn mass_matrix_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        self.model.mass_matrix_into(t, q, qd, out)
     }
     /// The model's q̈ plus M⁻¹ times the loads, so that an equilibrium's linearization (its
     /// stability) sees the loads too.

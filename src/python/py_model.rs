@@ -58,22 +58,19 @@ impl PyModel {
 
     /// `eval` at each state of (t, q, q̇) in the fast form ([`States`]), each writing a value of
     /// shape `shape` (`[]`: a float); the values as an array of shape `shape`, or (k, *shape)
-    /// for k states. `None` when the arguments are not in the fast form.
+    /// for k states. `None` when the arguments are not in the fast form. Every evaluation of
+    /// `NativeModel` at given states is this with its own `eval`.
     ///
     /// The one exit of every evaluation at given states, so the one place that no NaN or
     /// infinity passes: finite inputs can still overflow (q̇ = 1e200 squared), and then the
     /// result is [`Error::NonFinite`] naming `what`, not the value.
-    #[allow(clippy::too_many_arguments)]
     fn each_state<'py>(
         &self,
-        py: Python<'py>,
         what: &'static str,
-        t: &Bound<'py, PyAny>,
-        q: &Bound<'py, PyAny>,
-        qd: &Bound<'py, PyAny>,
+        [t, q, qd]: [&Arg<'py>; 3],
         shape: &[usize],
-        eval: impl Fn(f64, &[f64], &[f64], &mut [f64]) -> PyResult<()>,
-    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        eval: impl Fn(f64, &[f64], &[f64], &mut [f64]) -> crate::error::Result<()>,
+    ) -> Evaluated<'py> {
         guard(|| {
             let n = self.model.dof();
             let Some(states) = States::read(t, q, qd, n) else {
@@ -88,6 +85,7 @@ impl PyModel {
             }
             let mut dims = states.rows.map(|k| vec![k]).unwrap_or_default();
             dims.extend_from_slice(shape);
+            let py = t.py();
             Ok(Some(match dims.len() {
                 0 => values[0].into_pyobject(py)?.into_any(),
                 1 => PyArray1::from_vec(py, values).into_any(),
@@ -96,6 +94,13 @@ impl PyModel {
         })
     }
 }
+
+/// A Python argument of an evaluation at given states (t, q or q̇), in the form it came.
+type Arg<'py> = Bound<'py, PyAny>;
+
+/// What an evaluation at given states returns: the values, or `None` when the arguments are not
+/// in the fast form (the package converts them and calls again).
+type Evaluated<'py> = PyResult<Option<Bound<'py, PyAny>>>;
 
 /// The options of a run as `simulate` receives them.
 struct RunSetup<'a> {
@@ -396,17 +401,10 @@ impl PyModel {
     /// Accelerations q̈ at (t, q, q̇) from Lagrange's equations (seed eq. 55): shape (n,), or
     /// (k, n) for k states given as rows. `None` when the arguments are not in the fast form of
     /// [`States`] (the package converts them and calls again).
-    fn accelerations<'py>(
-        &self,
-        py: Python<'py>,
-        t: &Bound<'py, PyAny>,
-        q: &Bound<'py, PyAny>,
-        qd: &Bound<'py, PyAny>,
-    ) -> PyResult<Option<Bound<'py, PyAny>>> {
-        let n = self.model.dof();
-        self.each_state(py, "accelerations", t, q, qd, &[n], |t, q, qd, out| {
-            self.model.accelerations_into(t, q, qd, out)?;
-            Ok(())
+    fn accelerations<'py>(&self, t: &Arg<'py>, q: &Arg<'py>, qd: &Arg<'py>) -> Evaluated<'py> {
+        let (m, n) = (&*self.model, self.model.dof());
+        self.each_state("accelerations", [t, q, qd], &[n], |t, q, qd, out| {
+            m.accelerations_into(t, q, qd, out)
         })
     }
 
@@ -429,31 +427,19 @@ impl PyModel {
     }
 
     /// The Lagrange multipliers λ at (t, q, q̇): shape (k,), or (states, k).
-    fn multipliers<'py>(
-        &self,
-        py: Python<'py>,
-        t: &Bound<'py, PyAny>,
-        q: &Bound<'py, PyAny>,
-        qd: &Bound<'py, PyAny>,
-    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+    fn multipliers<'py>(&self, t: &Arg<'py>, q: &Arg<'py>, qd: &Arg<'py>) -> Evaluated<'py> {
         let c = self.constrained("multipliers")?;
-        self.each_state(py, "multipliers", t, q, qd, &[c.rows()], |t, q, qd, out| {
+        self.each_state("multipliers", [t, q, qd], &[c.rows()], |t, q, qd, out| {
             out.copy_from_slice(c.evaluate(t, q, qd)?.multipliers.as_slice());
             Ok(())
         })
     }
 
     /// The generalized reaction forces Gᵀλ at (t, q, q̇): shape (n,), or (states, n).
-    fn constraint_forces<'py>(
-        &self,
-        py: Python<'py>,
-        t: &Bound<'py, PyAny>,
-        q: &Bound<'py, PyAny>,
-        qd: &Bound<'py, PyAny>,
-    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+    fn constraint_forces<'py>(&self, t: &Arg<'py>, q: &Arg<'py>, qd: &Arg<'py>) -> Evaluated<'py> {
         let c = self.constrained("constraint_forces")?;
         let n = c.dof();
-        self.each_state(py, "constraint forces", t, q, qd, &[n], |t, q, qd, out| {
+        self.each_state("constraint forces", [t, q, qd], &[n], |t, q, qd, out| {
             out.copy_from_slice(c.evaluate(t, q, qd)?.reaction_forces.as_slice());
             Ok(())
         })
@@ -462,13 +448,7 @@ impl PyModel {
     /// The Cartesian reaction on each particle at (t, q, q̇), mᵢ (J M⁻¹ Gᵀλ)ᵢ with J = ∂r/∂q
     /// (the reactions' part of each particle's acceleration, times its mass): shape
     /// (count, dim), or (states, count, dim).
-    fn particle_reactions<'py>(
-        &self,
-        py: Python<'py>,
-        t: &Bound<'py, PyAny>,
-        q: &Bound<'py, PyAny>,
-        qd: &Bound<'py, PyAny>,
-    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+    fn particle_reactions<'py>(&self, t: &Arg<'py>, q: &Arg<'py>, qd: &Arg<'py>) -> Evaluated<'py> {
         let c = self.constrained("particle_reactions")?;
         let Some(p) = self.model.tape_particles() else {
             return Err(PyValueError::new_err(
@@ -476,22 +456,13 @@ impl PyModel {
                  stated by its energies has its reactions as constraint_forces (generalized)",
             ));
         };
-        let (count, dim) = (
+        let shape = [
             crate::routes::Particles::count(p),
             crate::routes::Particles::dim(p),
-        );
-        self.each_state(
-            py,
-            "particle reactions",
-            t,
-            q,
-            qd,
-            &[count, dim],
-            |t, q, qd, out| {
-                particle_reactions(c, p, t, q, qd, out)?;
-                Ok(())
-            },
-        )
+        ];
+        self.each_state("particle reactions", [t, q, qd], &shape, |t, q, qd, out| {
+            particle_reactions(c, p, t, q, qd, out)
+        })
     }
 
     /// The consistent state nearest (q, q̇) at t ([`Constrained::project`]): positions by
@@ -574,59 +545,37 @@ impl PyModel {
     }
 
     /// The mass matrix M = ∂²T/∂q̇² at (t, q, q̇): shape (n, n), or (k, n, n).
-    fn mass_matrix<'py>(
-        &self,
-        py: Python<'py>,
-        t: &Bound<'py, PyAny>,
-        q: &Bound<'py, PyAny>,
-        qd: &Bound<'py, PyAny>,
-    ) -> PyResult<Option<Bound<'py, PyAny>>> {
-        let n = self.model.dof();
-        self.each_state(py, "mass matrix", t, q, qd, &[n, n], |t, q, qd, out| {
-            out.copy_from_slice(self.model.mass_matrix(t, q, qd)?.transpose().as_slice());
+    fn mass_matrix<'py>(&self, t: &Arg<'py>, q: &Arg<'py>, qd: &Arg<'py>) -> Evaluated<'py> {
+        let (m, n) = (&*self.model, self.model.dof());
+        self.each_state("mass matrix", [t, q, qd], &[n, n], |t, q, qd, out| {
+            out.copy_from_slice(m.mass_matrix(t, q, qd)?.transpose().as_slice());
             Ok(())
         })
     }
 
     /// The energy function h = q̇·p − L at (t, q, q̇): a float, or shape (k,).
-    fn energy<'py>(
-        &self,
-        py: Python<'py>,
-        t: &Bound<'py, PyAny>,
-        q: &Bound<'py, PyAny>,
-        qd: &Bound<'py, PyAny>,
-    ) -> PyResult<Option<Bound<'py, PyAny>>> {
-        self.each_state(py, "energy", t, q, qd, &[], |t, q, qd, out| {
-            out[0] = self.model.energy(t, q, qd)?;
+    fn energy<'py>(&self, t: &Arg<'py>, q: &Arg<'py>, qd: &Arg<'py>) -> Evaluated<'py> {
+        let m = &*self.model;
+        self.each_state("energy", [t, q, qd], &[], |t, q, qd, out| {
+            out[0] = m.energy(t, q, qd)?;
             Ok(())
         })
     }
 
     /// The momenta p = ∂L/∂q̇ at (t, q, q̇): shape (n,), or (k, n).
-    fn momenta<'py>(
-        &self,
-        py: Python<'py>,
-        t: &Bound<'py, PyAny>,
-        q: &Bound<'py, PyAny>,
-        qd: &Bound<'py, PyAny>,
-    ) -> PyResult<Option<Bound<'py, PyAny>>> {
-        let n = self.model.dof();
-        self.each_state(py, "momenta", t, q, qd, &[n], |t, q, qd, out| {
-            out.copy_from_slice(self.model.momenta(t, q, qd)?.as_slice());
+    fn momenta<'py>(&self, t: &Arg<'py>, q: &Arg<'py>, qd: &Arg<'py>) -> Evaluated<'py> {
+        let (m, n) = (&*self.model, self.model.dof());
+        self.each_state("momenta", [t, q, qd], &[n], |t, q, qd, out| {
+            out.copy_from_slice(m.momenta(t, q, qd)?.as_slice());
             Ok(())
         })
     }
 
     /// The Lagrangian L = T − U at (t, q, q̇): a float, or shape (k,).
-    fn lagrangian<'py>(
-        &self,
-        py: Python<'py>,
-        t: &Bound<'py, PyAny>,
-        q: &Bound<'py, PyAny>,
-        qd: &Bound<'py, PyAny>,
-    ) -> PyResult<Option<Bound<'py, PyAny>>> {
-        self.each_state(py, "Lagrangian", t, q, qd, &[], |t, q, qd, out| {
-            out[0] = self.model.lagrangian_at(t, q, qd)?;
+    fn lagrangian<'py>(&self, t: &Arg<'py>, q: &Arg<'py>, qd: &Arg<'py>) -> Evaluated<'py> {
+        let m = &*self.model;
+        self.each_state("Lagrangian", [t, q, qd], &[], |t, q, qd, out| {
+            out[0] = m.lagrangian_at(t, q, qd)?;
             Ok(())
         })
     }

@@ -4,7 +4,7 @@
 
 use crate::checks::check_lengths;
 use crate::derived::eom_program::EomFunction;
-use crate::dynamics::{Dynamics, Structure};
+use crate::dynamics::Dynamics;
 use crate::energies::KineticEnergy;
 use crate::eom::Forces;
 use crate::error::{Error, Result};
@@ -220,32 +220,9 @@ impl EnergyModel {
 }
 
 impl Dynamics for EnergyModel {
-    fn dof(&self) -> usize {
-        self.system.dof()
-    }
-    fn structure(&self) -> Structure {
-        self.system.structure()
-    }
-    #[inline]
-    fn kinetic_energy<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
-        self.system.kinetic_energy(t, q, qd)
-    }
-    #[inline]
-    fn potential_energy<D: Scalar>(&self, t: D, q: &[D]) -> D {
-        self.system.potential_energy(t, q)
-    }
-    #[inline]
-    fn potential_gradient_into<D: Scalar>(&self, t: D, q: &[D], out: &mut [D]) {
-        self.system.potential_gradient_into(t, q, out)
-    }
-    #[inline]
-    fn generalized_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        self.system.generalized_forces_into(t, q, qd, out)
-    }
-    #[inline]
-    fn dissipative_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        self.system.dissipative_forces_into(t, q, qd, out)
-    }
+    crate::dynamics::forward_dynamics!(system: dof, structure, kinetic_energy, potential_energy,
+        potential_gradient_into, generalized_forces_into, dissipative_forces_into,
+        mass_matrix_into, lagrangian);
     #[inline]
     fn momenta_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
         if let Some(program) = &self.program
@@ -263,10 +240,6 @@ impl Dynamics for EnergyModel {
             return program.momenta(t, q, qd, out);
         }
         self.system.momenta_into(t, q, qd, out)
-    }
-    #[inline]
-    fn mass_matrix_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        self.system.mass_matrix_into(t, q, qd, out)
     }
     #[inline]
     fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
@@ -295,10 +268,6 @@ impl Dynamics for EnergyModel {
             Some(program) => program.accelerations_dual(t, q, qd, out),
             None => self.system.accelerations_into(t, q, qd, out),
         }
-    }
-    #[inline]
-    fn lagrangian<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
-        self.system.lagrangian(t, q, qd)
     }
     fn derived_program(&self) -> Option<&dyn crate::dynamics::DerivedProgram> {
         self.program.as_ref().map(|p| p as _)

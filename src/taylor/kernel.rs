@@ -705,28 +705,57 @@ impl ExpansionKernel {
     }
 }
 
-/// Generate, compile and link order 0 of the expansion: the leaves' rows, then `order0`'s
-/// recurrences at k = 0.
-fn define_order0(
+/// Order 0 as the two kernels take it.
+#[derive(Clone, Copy)]
+enum Order0Form {
+    /// The unrolled expansion's ([`Order0Entry`]): row width `order + 1`, q₀ and q̇₀ copied into
+    /// the coefficient buffers too.
+    Unrolled { order: usize },
+    /// The order-by-order kernel's ([`SeriesOrder0Entry`]): row width read at run time, the
+    /// coefficient buffers the caller's to fill.
+    Series,
+}
+
+/// Generate, compile and link order 0 of the expansion in `form`: the leaves' rows from q₀
+/// and q̇₀, then `order0`'s recurrences at k = 0; the address of the function, whose
+/// signature is `form`'s entry.
+fn define_order0_code(
     module: &mut JITModule,
     program: &Recurrences,
-    order: usize,
-) -> Result<Order0Entry> {
+    form: Order0Form,
+) -> Result<*const u8> {
     let config = module.target_config();
     let ptr = config.pointer_type();
-    let (id, mut ctx) = declare(module, "order0", &[ptr; 5])?;
+    let params = match form {
+        Order0Form::Unrolled { .. } => vec![ptr; 5],
+        Order0Form::Series => vec![types::I64, ptr, ptr, ptr],
+    };
+    let (id, mut ctx) = declare(module, "order0", &params)?;
     let imports = import_libm(module, program, &mut ctx.func)?;
     let mut fctx = FunctionBuilderContext::new();
     {
         let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
         let p = enter(&mut b);
-        let (table, q0, qd0, qp, vp) = (p[0], p[1], p[2], p[3], p[4]);
-        let mut g = SeriesEmitter::new(b, table, Ix::Fixed(order + 1), None);
+        // The table, q₀, q̇₀, the row width and the coefficient buffers of q and q̇ (if written).
+        let (table, q0, qd0, width, qp, vp) = match form {
+            Order0Form::Unrolled { order } => {
+                let w = Ix::Fixed(order + 1);
+                (p[0], p[1], p[2], w, Some(p[3]), Some(p[4]))
+            }
+            Order0Form::Series => (p[1], p[2], p[3], Ix::Var(p[0]), None, None),
+        };
+        let mut g = SeriesEmitter::new(b, table, width, None);
         g.libm = imports;
         for (from, to, leaf) in [(q0, qp, &program.coords), (qd0, vp, &program.velocities)] {
             for (i, r) in leaf.iter().enumerate() {
+                // Without buffers, only the leaves with a row are read.
+                if to.is_none() && r.is_none() {
+                    continue;
+                }
                 let x = g.load_at(from, i);
-                g.store_at(to, i, x);
+                if let Some(to) = to {
+                    g.store_at(to, i, x);
+                }
                 if let Some(r) = *r {
                     g.store(r, Ix::Fixed(0), x);
                 }
@@ -738,45 +767,20 @@ fn define_order0(
         g.b.ins().return_(&[]);
         g.b.finalize(config);
     }
-    let code = link(module, id, &mut ctx)?;
+    link(module, id, &mut ctx)
+}
+
+/// [`define_order0_code`] for the unrolled expansion.
+fn define_order0(m: &mut JITModule, program: &Recurrences, order: usize) -> Result<Order0Entry> {
+    let code = define_order0_code(m, program, Order0Form::Unrolled { order })?;
     // SAFETY: `code` is the function just defined with the signature of `Order0Entry` in the
     // host's default calling convention, which is `extern "C"`.
     Ok(unsafe { std::mem::transmute::<*const u8, Order0Entry>(code) })
 }
 
-/// [`define_order0`] for any row width w (read at run time): the leaves' rows from q₀ and q̇₀
-/// (the coefficient buffers are the caller's to fill), then `order0`'s recurrences at k = 0.
-/// Its entry: w, the table, q₀, q̇₀.
-fn define_series_order0(
-    module: &mut JITModule,
-    program: &Recurrences,
-) -> Result<SeriesOrder0Entry> {
-    let config = module.target_config();
-    let ptr = config.pointer_type();
-    let (id, mut ctx) = declare(module, "order0", &[types::I64, ptr, ptr, ptr])?;
-    let imports = import_libm(module, program, &mut ctx.func)?;
-    let mut fctx = FunctionBuilderContext::new();
-    {
-        let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
-        let p = enter(&mut b);
-        let (w, table, q0, qd0) = (p[0], p[1], p[2], p[3]);
-        let mut g = SeriesEmitter::new(b, table, Ix::Var(w), None);
-        g.libm = imports;
-        for (from, leaf) in [(q0, &program.coords), (qd0, &program.velocities)] {
-            for (i, r) in leaf.iter().enumerate() {
-                if let Some(r) = *r {
-                    let x = g.load_at(from, i);
-                    g.store(r, Ix::Fixed(0), x);
-                }
-            }
-        }
-        for op in &program.order0 {
-            g.op0(op, ptr);
-        }
-        g.b.ins().return_(&[]);
-        g.b.finalize(config);
-    }
-    let code = link(module, id, &mut ctx)?;
+/// [`define_order0_code`] for the order-by-order kernel: its entry takes w, the table, q₀, q̇₀.
+fn define_series_order0(m: &mut JITModule, program: &Recurrences) -> Result<SeriesOrder0Entry> {
+    let code = define_order0_code(m, program, Order0Form::Series)?;
     // SAFETY: `code` is the function just defined with the signature of `SeriesOrder0Entry` in
     // the host's default calling convention, which is `extern "C"`.
     Ok(unsafe { std::mem::transmute::<*const u8, SeriesOrder0Entry>(code) })

@@ -28,6 +28,7 @@
 //! [`Expansion`]: the one place that chooses compiled or interpreted expansion).
 
 mod abi;
+#[cfg(feature = "parallel")]
 pub(crate) mod batch;
 #[cfg(feature = "jit")]
 mod emit;

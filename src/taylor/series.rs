@@ -54,17 +54,21 @@ impl Coefficient for f64 {
 }
 
 /// The coefficients of `L` runs side by side: one vector register at L = 8 with AVX-512
-/// (aligned to its 64 bytes), operated on lane by lane as `f64`s.
+/// (aligned to its 64 bytes), operated on lane by lane as `f64`s. Only the ensembles' lanes
+/// (`batch.rs`, feature `parallel`) take it.
+#[cfg(feature = "parallel")]
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[repr(C, align(64))]
 pub(crate) struct Lanes<const L: usize>(pub [f64; L]);
 
+#[cfg(feature = "parallel")]
 impl<const L: usize> Default for Lanes<L> {
     fn default() -> Self {
         Self([0.0; L])
     }
 }
 
+#[cfg(feature = "parallel")]
 macro_rules! lanewise {
     ($($trait:ident $method:ident $op:tt),*) => {$(
         impl<const L: usize> $trait for Lanes<L> {
@@ -80,8 +84,10 @@ macro_rules! lanewise {
         }
     )*};
 }
+#[cfg(feature = "parallel")]
 lanewise!(Add add +=, Sub sub -=, Mul mul *=, Div div /=);
 
+#[cfg(feature = "parallel")]
 impl<const L: usize> Neg for Lanes<L> {
     type Output = Self;
     #[inline(always)]
@@ -90,6 +96,7 @@ impl<const L: usize> Neg for Lanes<L> {
     }
 }
 
+#[cfg(feature = "parallel")]
 impl<const L: usize> AddAssign for Lanes<L> {
     #[inline(always)]
     fn add_assign(&mut self, o: Self) {
@@ -97,6 +104,7 @@ impl<const L: usize> AddAssign for Lanes<L> {
     }
 }
 
+#[cfg(feature = "parallel")]
 impl<const L: usize> Coefficient for Lanes<L> {
     #[inline(always)]
     fn splat(x: f64) -> Self {
