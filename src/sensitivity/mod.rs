@@ -46,7 +46,7 @@ mod projected;
 mod tangent;
 
 pub use self::events::EventCondition;
-pub use self::problem::SensitivityProblem;
+pub use self::problem::{SensitivityProblem, check_no_resets, solve_sensitivities};
 use self::tangent::TangentSpace;
 use crate::derived::eom_program::{Energies, EomProgram};
 pub use crate::derived::variational::{ConstraintNodes, Direction};
@@ -55,7 +55,7 @@ use crate::derived::variational::{
 };
 use crate::error::{Error, Result};
 use crate::expr::graph::Graph;
-use crate::integrators::{Method, Options, Solution};
+use crate::integrators::Solution;
 use crate::program::{compile::Tape, eval::Function, inputs::Inputs};
 use crate::routes::EnergyModel;
 use std::sync::Arc;
@@ -276,57 +276,5 @@ impl SensitivitySolution {
         let width = 2 * self.solution.dof;
         let at = (i * self.directions.len() + j) * width;
         &self.sensitivities[at..at + width]
-    }
-}
-
-/// Run the variational system of `variational` — of a model without constraints — at the
-/// parameter values `params` from the model's (q₀, q̇₀) over `span` with `method` and
-/// `options`, and split the result ([`Variational::split`]). A constrained model's run, or one
-/// with the sensitivities of its events' times, is a [`SensitivityProblem`].
-///
-/// Events that reset the state are refused: a reset moves the sensitivities too (by the
-/// reset's own derivatives), which the variational system does not state.
-///
-/// # Errors
-/// As [`Variational::bind`], [`Variational::initial_state`] and
-/// [`solve_partial`](crate::integrators::solve_partial); [`Error::InvalidInput`] for an event
-/// with a reset, or for the variational system of a constrained model (whose run needs the
-/// model's constraints: [`SensitivityProblem`]).
-pub fn solve_sensitivities(
-    variational: &Variational,
-    params: &[f64],
-    q0: &[f64],
-    qd0: &[f64],
-    span: (f64, f64),
-    method: Method,
-    options: &Options,
-) -> Result<SensitivitySolution> {
-    if variational.tangent.is_some() {
-        return Err(Error::InvalidInput {
-            what: "sensitivities",
-            why: "the variational system is a constrained model's, whose run is held to the \
-                  model's constraints: run it with SensitivityProblem::new(&model, \
-                  &variational, params)"
-                .into(),
-        });
-    }
-    SensitivityProblem::<EnergyModel>::without_model(variational, params)
-        .solve(q0, qd0, span, method, options)
-}
-
-/// [`Error::InvalidInput`] when an event of `options` resets the state (see
-/// [`solve_sensitivities`]).
-pub fn check_no_resets(options: &Options) -> Result<()> {
-    match options.events.iter().find(|e| e.reset.is_some()) {
-        Some(e) => Err(Error::InvalidInput {
-            what: "sensitivities",
-            why: format!(
-                "event {:?} resets the state, and a reset would move the sensitivities by its \
-                 own derivatives, which are not derived: run without the reset, or without \
-                 sensitivities",
-                e.name
-            ),
-        }),
-        None => Ok(()),
     }
 }

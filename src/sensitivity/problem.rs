@@ -5,11 +5,12 @@
 
 use super::events::EventCondition;
 use super::projected::Projected;
-use super::{SensitivitySolution, Variational, check_no_resets};
+use super::{SensitivitySolution, Variational};
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
 use crate::integrators::{Failed, Method, Options, Solution, Status, solve_partial};
 use crate::program::eval::Function;
+use crate::routes::EnergyModel;
 
 /// What a run with sensitivities is made of besides its span, method and options: the model,
 /// its variational system along the directions wanted, the parameter values, and the
@@ -56,7 +57,7 @@ use crate::program::eval::Function;
 /// # Ok::<(), lagrangian::Error>(())
 /// ```
 pub struct SensitivityProblem<'a, S: ?Sized> {
-    /// `None` for [`super::solve_sensitivities`]: no constraints, no event times.
+    /// `None` for [`solve_sensitivities`]: no constraints, no event times.
     model: Option<&'a S>,
     variational: &'a Variational,
     params: &'a [f64],
@@ -100,8 +101,8 @@ impl<'a, S: Dynamics + ?Sized> SensitivityProblem<'a, S> {
     }
 
     /// The run of a model without constraints, known by its variational system alone (no
-    /// event times: [`super::solve_sensitivities`]).
-    pub(super) fn without_model(variational: &'a Variational, params: &'a [f64]) -> Self {
+    /// event times: [`solve_sensitivities`]).
+    fn without_model(variational: &'a Variational, params: &'a [f64]) -> Self {
         Self {
             model: None,
             variational,
@@ -269,5 +270,57 @@ impl<'a, S: Dynamics + ?Sized> SensitivityProblem<'a, S> {
                 Err(failure)
             }
         }
+    }
+}
+
+/// Run the variational system of `variational` — of a model without constraints — at the
+/// parameter values `params` from the model's (q₀, q̇₀) over `span` with `method` and
+/// `options`, and split the result ([`Variational::split`]). A constrained model's run, or one
+/// with the sensitivities of its events' times, is a [`SensitivityProblem`].
+///
+/// Events that reset the state are refused: a reset moves the sensitivities too (by the
+/// reset's own derivatives), which the variational system does not state.
+///
+/// # Errors
+/// As [`Variational::bind`], [`Variational::initial_state`] and
+/// [`solve_partial`](crate::integrators::solve_partial); [`Error::InvalidInput`] for an event
+/// with a reset, or for the variational system of a constrained model (whose run needs the
+/// model's constraints: [`SensitivityProblem`]).
+pub fn solve_sensitivities(
+    variational: &Variational,
+    params: &[f64],
+    q0: &[f64],
+    qd0: &[f64],
+    span: (f64, f64),
+    method: Method,
+    options: &Options,
+) -> Result<SensitivitySolution> {
+    if variational.tangent.is_some() {
+        return Err(Error::InvalidInput {
+            what: "sensitivities",
+            why: "the variational system is a constrained model's, whose run is held to the \
+                  model's constraints: run it with SensitivityProblem::new(&model, \
+                  &variational, params)"
+                .into(),
+        });
+    }
+    SensitivityProblem::<EnergyModel>::without_model(variational, params)
+        .solve(q0, qd0, span, method, options)
+}
+
+/// [`Error::InvalidInput`] when an event of `options` resets the state (see
+/// [`solve_sensitivities`]).
+pub fn check_no_resets(options: &Options) -> Result<()> {
+    match options.events.iter().find(|e| e.reset.is_some()) {
+        Some(e) => Err(Error::InvalidInput {
+            what: "sensitivities",
+            why: format!(
+                "event {:?} resets the state, and a reset would move the sensitivities by its \
+                 own derivatives, which are not derived: run without the reset, or without \
+                 sensitivities",
+                e.name
+            ),
+        }),
+        None => Ok(()),
     }
 }
