@@ -77,22 +77,20 @@ pub(crate) fn conditions(
     specs
         .iter()
         .zip(reads)
-        .map(
-            |((nodes, condition, _, _, params, _, _, name, _), reads)| {
-                if reads.len() != params.len() {
-                    return Err(Error::DimensionMismatch {
-                        what: "event parameters",
-                        expected: params.len(),
-                        got: reads.len(),
-                    });
-                }
-                let (g, ids) = node_ids(nodes)?;
-                let root = *ids.get(*condition).ok_or_else(|| Error::InvalidInput {
-                    what: "event",
-                    why: format!("event {name:?}: output {condition} is not a node"),
-                })?;
-                EventCondition::new(&g, root, variational, reads, params)
-            },
-        )
+        .map(|((nodes, condition, _, _, params, _, _, name, _), reads)| {
+            if reads.len() != params.len() {
+                return Err(Error::DimensionMismatch {
+                    what: "event parameters",
+                    expected: params.len(),
+                    got: reads.len(),
+                });
+            }
+            let (g, ids) = node_ids(nodes)?;
+            let root = *ids.get(*condition).ok_or_else(|| Error::InvalidInput {
+                what: "event",
+                why: format!("event {name:?}: output {condition} is not a node"),
+            })?;
+            EventCondition::new(&g, root, variational, reads, params)
+        })
         .collect()
 }

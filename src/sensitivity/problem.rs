@@ -197,8 +197,7 @@ impl<'a, S: Dynamics + ?Sized> SensitivityProblem<'a, S> {
         );
         let run = match (constraints, &v.tangent) {
             (Some(state), Some(tangent)) if projects => {
-                let bound =
-                    Function::new(tangent.tape.clone(), self.params).map_err(early)?;
+                let bound = Function::new(tangent.tape.clone(), self.params).map_err(early)?;
                 let projected = Projected {
                     system: &system,
                     state,

@@ -359,7 +359,9 @@ fn event_time_of_a_ball_thrown_up_against_its_closed_form() {
         (Method::Rk4, Options::fixed(1e-3), 1e-12),
     ];
     for (method, options, tol) in cases {
-        let ground = Event::new("ground", |_t, q, _qd| q[0]).falling().terminal(1);
+        let ground = Event::new("ground", |_t, q, _qd| q[0])
+            .falling()
+            .terminal(1);
         let options = options.with_event(ground).with_output(Output::Final);
         let condition = EventCondition::new(&graph, y, &variational, &[0], &params).unwrap();
         let sol = SensitivityProblem::new(&model, &variational, &params)
@@ -494,8 +496,13 @@ fn constrained_run_with_sensitivities_stays_on_the_rod() {
     let l = params[1];
     let rows = {
         let tape = Tape::new(&g, &[rod], Inputs::potential(2, 2), "rod").unwrap();
-        ExprConstraints::new(2, Some(Function::new(Arc::new(tape), &params).unwrap()), None, Vec::new())
-            .unwrap()
+        ExprConstraints::new(
+            2,
+            Some(Function::new(Arc::new(tape), &params).unwrap()),
+            None,
+            Vec::new(),
+        )
+        .unwrap()
     };
     let model = Constrained::new(energy_model(&g, 2, &parts, &params), rows);
     let wrt = [Direction::Parameter(0), Direction::Parameter(1)];
@@ -554,10 +561,7 @@ fn constrained_run_with_sensitivities_stays_on_the_rod() {
                 .max((run.q_at(i)[1] + l * c).abs());
             let dg = reference.sensitivity(i, 0)[0];
             let dl = reference.sensitivity(i, 1)[0];
-            let want = [
-                [l * c * dg, l * s * dg],
-                [s + l * c * dl, -c + l * s * dl],
-            ];
+            let want = [[l * c * dg, l * s * dg], [s + l * c * dl, -c + l * s * dl]];
             for (j, w) in want.iter().enumerate() {
                 let got = &sol.sensitivity(i, j)[..2];
                 for k in 0..2 {
@@ -566,13 +570,10 @@ fn constrained_run_with_sensitivities_stays_on_the_rod() {
                 }
             }
         }
-        println!(
-            "{method:?}: residual {reported:e} (plain {level:e}), state error {state:e}, \
-             sensitivity error {along:e} of {size:e}"
-        );
-        // The sensitivities are as accurate, relative to their size, as the state.
+        // The sensitivities are as accurate, relative to their size, as the state (both about
+        // 2e-5 here; unprojected, the run drifted off the rod to 1e-3 and both to 1e-2).
         assert!(
-            along / size <= 10.0 * state / l,
+            along / size <= 3.0 * state / l && along / size < 1e-4,
             "{method:?}: sensitivity error {along:e} of {size:e}, state error {state:e}"
         );
     }

@@ -674,8 +674,9 @@ def test_constrained_long_run_reports_its_residual(method):
         got = sc.sensitivities[name]
         size = max(np.abs(wx).max(), np.abs(wy).max())
         error = max(np.abs(got[:, 0] - wx).max(), np.abs(got[:, 1] - wy).max())
-        # As accurate, relative to their size, as the state is.
-        assert error / size <= 10 * state / l, (name, error, size, state)
+        # As accurate, relative to their size, as the state is (both about 2e-5 here; unprojected,
+        # the run drifted off the rod to 1e-3 and both to 1e-2).
+        assert error / size <= 3 * state / l and error / size < 1e-4, (name, error, size, state)
 
 
 def test_constrained_inconsistent_state_and_ensemble_refused():
