@@ -715,6 +715,7 @@ impl PyModel {
             event_names,
         };
         let system = &*self.model;
+        #[allow(clippy::result_large_err)]
         let solve = |interrupt: &dyn Fn(f64) -> bool| {
             solve_partial(
                 system,
@@ -793,13 +794,14 @@ impl PyModel {
         } else {
             &[]
         };
-        let problem = SensitivityProblem::new(&*self.model, &*variational, params)?
+        let problem = SensitivityProblem::new(&*self.model, &variational, params)?
             .with_event_conditions(conditions);
         let wrap = solution::Wrap {
             kind: solution_type,
             names,
             event_names,
         };
+        #[allow(clippy::result_large_err)]
         let solve = |interrupt: &dyn Fn(f64) -> bool| {
             problem
                 .solve_partial(&q0, &qd0, (t0, t_end), method, &options, Some(interrupt))

@@ -154,6 +154,7 @@ impl<'a, S: Dynamics + ?Sized> SensitivityProblem<'a, S> {
     /// event's condition crosses zero at rate 0 (its time has no derivative), with the run.
     ///
     /// [`ConstraintAccess::check_state`]: crate::dynamics::ConstraintAccess::check_state
+    #[allow(clippy::result_large_err)]
     pub fn solve_partial(
         &self,
         q0: &[f64],
