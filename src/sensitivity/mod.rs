@@ -14,6 +14,8 @@
 //! (q, q̇) alone (CVODES's `errconS = false`); by default the sensitivities are
 //! error-controlled too.
 //!
+//! [`Options::with_error_coordinates`]: crate::integrators::Options::with_error_coordinates
+//!
 //! ```
 //! use lagrangian::sensitivity::{Direction, Variational, solve_sensitivities};
 //! use lagrangian::tape::{Binary, Energies, Graph};
