@@ -329,6 +329,41 @@ impl Factors {
     }
 }
 
+/// What the derivative of q̈ = M⁻¹ f along a direction is taken from: eq. 55's M and f
+/// (`roots`: M's upper triangle, then f), M's factors on the graph, q̈ itself and the node 0.
+/// One place for the Jacobian of the implicit methods ([`jacobian_graph`]) and the
+/// variational equations (`derived::variational`).
+pub(crate) struct Along<'a> {
+    pub(crate) eom: &'a EomGraph,
+    pub(crate) factors: &'a Factors,
+    pub(crate) accelerations: &'a [usize],
+    pub(crate) roots: &'a [usize],
+    pub(crate) zero: usize,
+}
+
+impl Along<'_> {
+    /// ∂q̈ along `seeds`: M ∂q̈ = ∂f − (∂M) q̈, from one tangent sweep of M's entries and f,
+    /// solved with the factors (which are not themselves differentiated).
+    pub(crate) fn tangent(&self, graph: &mut Graph, seeds: &Seeds) -> Result<Vec<usize>> {
+        let n = self.eom.dof;
+        let d = tangents(graph, self.roots, seeds)?;
+        let (dm, df) = d.split_at(self.eom.mass.len());
+        let mut s = Simplify(graph);
+        let mut rhs = Vec::with_capacity(n);
+        for i in 0..n {
+            let mut r = df[i];
+            for (k, &a) in self.accelerations.iter().enumerate() {
+                if let Some(dmik) = dm[upper(n, i.min(k), i.max(k))] {
+                    let p = s.mul(dmik, a)?;
+                    r = s.diff(r, Some(p))?;
+                }
+            }
+            rhs.push(r.unwrap_or(self.zero));
+        }
+        self.factors.solve(graph, rhs)
+    }
+}
+
 /// q̈ = M⁻¹ f of a small system written out on the graph: the LDLᵀ factorization of
 /// [`ldlt_in_place`] node by node, then the two triangular solves, so that the accelerations are
 /// one call of machine code. Outputs q̈, the pivots d_j and M's diagonal; the caller checks the
@@ -371,23 +406,16 @@ fn jacobian_graph(graph: &mut Graph, eom: &EomGraph) -> Result<Vec<usize>> {
     let roots: Vec<usize> = eom.mass.iter().chain(&eom.force).copied().collect();
     let zero = graph.constant(0.0);
     let mut outputs = Vec::with_capacity(2 * n * n + 3 * n);
+    let along = Along {
+        eom,
+        factors: &factors,
+        accelerations: &accelerations,
+        roots: &roots,
+        zero,
+    };
     for j in 0..2 * n {
         let seeds = state_seed(graph, n, j);
-        let d = tangents(graph, &roots, &seeds)?;
-        let (dm, df) = d.split_at(eom.mass.len());
-        let mut s = Simplify(graph);
-        let mut rhs = Vec::with_capacity(n);
-        for i in 0..n {
-            let mut r = df[i];
-            for (k, &a) in accelerations.iter().enumerate() {
-                if let Some(dmik) = dm[upper(n, i.min(k), i.max(k))] {
-                    let p = s.mul(dmik, a)?;
-                    r = s.diff(r, Some(p))?;
-                }
-            }
-            rhs.push(r.unwrap_or(zero));
-        }
-        outputs.extend(factors.solve(graph, rhs)?);
+        outputs.extend(along.tangent(graph, &seeds)?);
     }
     outputs.extend(accelerations);
     outputs.extend(factors.checks(eom));

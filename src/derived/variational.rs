@@ -20,7 +20,7 @@
 //! vector in q₀ or q̇₀).
 
 use super::constraint_program::constraint_graph;
-use super::eom_program::{Energies, Factors, eom_graph, upper};
+use super::eom_program::{Along, Energies, Factors, eom_graph};
 use crate::error::{Error, Result};
 use crate::expr::derive::{Seeds, Simplify, tangents};
 use crate::expr::graph::Graph;
@@ -120,23 +120,16 @@ pub fn variational_energies(
     let accelerations = free;
     let roots: Vec<usize> = eom.mass.iter().chain(&eom.force).copied().collect();
     forces = accelerations.clone();
+    let along = Along {
+        eom: &eom,
+        factors: &factors,
+        accelerations: &accelerations,
+        roots: &roots,
+        zero,
+    };
     for (j, &d) in directions.iter().enumerate() {
         let seeds = seeds(graph, j, d);
-        let tangent = tangents(graph, &roots, &seeds)?;
-        let (dm, df) = tangent.split_at(eom.mass.len());
-        let mut s = Simplify(graph);
-        let mut rhs = Vec::with_capacity(n);
-        for i in 0..n {
-            let mut r = df[i];
-            for (k, &a) in accelerations.iter().enumerate() {
-                if let Some(dmik) = dm[upper(n, i.min(k), i.max(k))] {
-                    let p = s.mul(dmik, a)?;
-                    r = s.diff(r, Some(p))?;
-                }
-            }
-            rhs.push(r.unwrap_or(zero));
-        }
-        forces.extend(factors.solve(graph, rhs)?);
+        forces.extend(along.tangent(graph, &seeds)?);
     }
     kinetic_of(graph, n * (1 + directions.len()), forces)
 }

@@ -10,7 +10,7 @@ use super::args::{StepOptions, check_finite, check_vector, count, run_options};
 use super::error::{self, guard, panic_error};
 use super::interrupt::{ctrl_c, interrupted};
 use super::model::{self, AnyModel, Backend, CompiledModel, RawNode, Spec, WithLoads};
-use super::sensitivity::{self, SensitivityRun};
+use super::sensitivity;
 use super::solution::Reactions;
 use super::states::{self, States};
 use super::{events, first_order, integrator, linear, solution};
@@ -18,7 +18,7 @@ use crate::constrained::Constrained;
 use crate::dynamics::Dynamics;
 use crate::error::Error;
 use crate::integrators::{Failed, Method, Options, Solution, Status, solve_partial};
-use crate::sensitivity::{Direction, Variational};
+use crate::sensitivity::{Direction, SensitivityProblem, Variational};
 use crate::statics::{StaticsOptions, constrained_equilibrium, constrained_modes, equilibrium};
 use numpy::ndarray::{Array2, Array3};
 use numpy::{
@@ -113,17 +113,9 @@ struct RunSetup<'a> {
     backend: &'a str,
 }
 
-/// A run ready to go: the system that runs (the model, or its variational system), its
-/// initial state, method, checked options and whether h is a constant of it.
-struct Runnable {
-    system: Arc<AnyModel>,
-    q0: Vec<f64>,
-    qd0: Vec<f64>,
-    span: (f64, f64),
-    method: Method,
-    options: Options,
-    conserved: bool,
-}
+/// What a run hands back: the model's run and, with sensitivities, theirs; or the failure with
+/// what it had computed.
+type Outcome = std::result::Result<(Solution, Option<sensitivity::Sensitivities>), Failed>;
 
 impl PyModel {
     /// The method and checked options of `setup`, with the events compiled for a system of
@@ -171,35 +163,21 @@ impl PyModel {
         }
     }
 
-    /// Run `run` with the GIL released and Ctrl-C polled; the solution (the model's part of it
-    /// and its sensitivities, for a variational run) wrapped by `wrap`, with h (and a
-    /// constrained model's reactions) from this model. A failure raises with the partial
-    /// solution.
+    /// Run `solve` (given the Ctrl-C check) with the GIL released; the solution (the model's
+    /// run, and its sensitivities for a run with them) wrapped by `wrap`, with h (and a
+    /// constrained model's reactions) from this model and `conserved` saying whether h is a
+    /// constant of the run. A failure raises with the partial solution.
     fn run<'py>(
         &self,
         py: Python<'py>,
-        run: Runnable,
-        sensitivities: Option<&SensitivityRun>,
+        conserved: bool,
+        solve: impl FnOnce(&dyn Fn(f64) -> bool) -> Outcome + Send,
         wrap: &solution::Wrap<'_, 'py>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let model = &*self.model;
-        let Runnable {
-            system,
-            q0,
-            qd0,
-            span,
-            method,
-            options,
-            conserved,
-        } = run;
-        // The model's own part of a run of its variational system (the first n coordinates).
         let n = model.dof();
-        let own = |sol: Solution| match sensitivities {
-            Some(s) => s.variational.split(sol).solution,
-            None => sol,
-        };
-        // A failure after the run (h or an event's sensitivity cannot be evaluated): the
-        // solution as far as it goes (cut where h fails), its last state the one named.
+        // A failure after the run (h cannot be evaluated): the solution as far as it goes (cut
+        // where h fails), its last state the one named.
         let failed_at = |sol: Solution, h: Along, error: Error| -> Box<(Failed, Along)> {
             let last = sol.last().map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
             let failed = Failed {
@@ -218,37 +196,17 @@ impl PyModel {
             catch_unwind(AssertUnwindSafe(
                 || -> Result<Done, Box<(Failed, Along)>> {
                     let interrupt = ctrl_c(&pending);
-                    match solve_partial(
-                        &*system,
-                        &q0,
-                        &qd0,
-                        span,
-                        method,
-                        &options,
-                        Some(&interrupt),
-                    ) {
-                        Ok(sol) => {
-                            let (sol, found) = match sensitivities {
-                                Some(s) => match s.finish(model, sol) {
-                                    (sol, Ok(found)) => (sol, Some(found)),
-                                    (sol, Err(error)) => {
-                                        let (sol, h, _) = with_energy(model, sol);
-                                        return Err(failed_at(sol, h, error));
-                                    }
-                                },
-                                None => (sol, None),
-                            };
-                            match with_energy(model, sol) {
-                                (sol, h, None) => Ok((sol, h, found)),
-                                (sol, h, Some(error)) => Err(failed_at(sol, h, error)),
-                            }
-                        }
+                    match solve(&interrupt) {
+                        Ok((sol, found)) => match with_energy(model, sol) {
+                            (sol, h, None) => Ok((sol, h, found)),
+                            (sol, h, Some(error)) => Err(failed_at(sol, h, error)),
+                        },
                         Err(mut failed) => {
                             let h = match failed.partial.take() {
                                 Some(sol) => {
-                                    let (sol, h, cut) = with_energy(model, own(sol));
+                                    let (sol, h, cut) = with_energy(model, sol);
                                     // The last state kept is the one the error names.
-                                    if cut.is_some() || sensitivities.is_some() {
+                                    if cut.is_some() {
                                         failed.last = sol
                                             .last()
                                             .map(|(t, q, qd)| (t, q.to_vec(), qd.to_vec()));
@@ -705,16 +663,21 @@ impl PyModel {
             names,
             event_names,
         };
-        let run = Runnable {
-            system: self.model.clone(),
-            q0,
-            qd0,
-            span: (t0, t_end),
-            method,
-            options,
-            conserved,
+        let system = &*self.model;
+        #[allow(clippy::result_large_err)]
+        let solve = |interrupt: &dyn Fn(f64) -> bool| {
+            solve_partial(
+                system,
+                &q0,
+                &qd0,
+                (t0, t_end),
+                method,
+                &options,
+                Some(interrupt),
+            )
+            .map(|sol| (sol, None))
         };
-        self.run(py, run, None, &wrap).map(Some)
+        self.run(py, conserved, solve, &wrap).map(Some)
     }
 
     /// `simulate` with the sensitivities along `directions` (`("param", index)`, `("q0", i)`,
@@ -757,7 +720,7 @@ impl PyModel {
         check_vector("qd0", &qd0, n)?;
         let directions = sensitivity::directions(&directions)?;
         let variational = self.variational(&directions)?;
-        let sensitivities = SensitivityRun::new(variational.clone(), &events, &event_reads)?;
+        let conditions = sensitivity::conditions(&variational, &events, &event_reads)?;
         let setup = RunSetup {
             span: (t0, t_end),
             method,
@@ -780,27 +743,23 @@ impl PyModel {
         } else {
             &[]
         };
-        // Refused here as a run refuses it: the variational system has no constraints to check.
-        if let Some(c) = self.model.constrained() {
-            c.check_consistent(t0, &q0, &qd0, Some(options.projection_tolerance()))?;
-        }
-        let system = Arc::new(AnyModel::Energy(variational.bind(params)?));
-        let (q0, qd0) = variational.initial_state(t0, &q0, &qd0, params)?;
+        let problem = SensitivityProblem::new(&*self.model, &variational, params)?
+            .with_event_conditions(conditions);
         let wrap = solution::Wrap {
             kind: solution_type,
             names,
             event_names,
         };
-        let run = Runnable {
-            system,
-            q0,
-            qd0,
-            span: (t0, t_end),
-            method,
-            options,
-            conserved,
+        #[allow(clippy::result_large_err)]
+        let solve = |interrupt: &dyn Fn(f64) -> bool| {
+            problem
+                .solve_partial(&q0, &qd0, (t0, t_end), method, &options, Some(interrupt))
+                .map(|sol| {
+                    let (sol, found) = sensitivity::Sensitivities::of(sol);
+                    (sol, Some(found))
+                })
         };
-        self.run(py, run, Some(&sensitivities), &wrap)
+        self.run(py, conserved, solve, &wrap)
     }
 
     /// The variational system along `directions` (as `simulate_sensitivities` names them) as

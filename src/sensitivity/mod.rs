@@ -3,11 +3,18 @@
 //!
 //! [`Variational`] compiles the variational equations of eq. 55 (derived on the graph by
 //! `derived::variational`) into a model of n(1 + m) coordinates, x = (q, s₁, …, sₘ), that
-//! every integrator runs as it runs any model; [`solve_sensitivities`] runs it from the model's
-//! initial state and splits the result into the model's own run and
-//! ∂(q, q̇)/∂θⱼ at each output ([`SensitivitySolution`]). With
-//! [`Options::with_error_coordinates`] the step size is controlled on (q, q̇) alone (CVODES's
-//! `errconS = false`); by default the sensitivities are error-controlled too.
+//! every integrator runs as it runs any model. [`SensitivityProblem`] runs it in the model's
+//! place from the model's initial state — a constrained model's state projected after each
+//! step as its own run is, the sensitivities with it (`projected.rs`, `tangent.rs`) — and
+//! splits the result into the model's own run, ∂(q, q̇)/∂θⱼ at each output and, for the events
+//! whose conditions it is given ([`EventCondition`]), dt*/dθⱼ at each occurrence by the
+//! implicit function theorem (`events.rs`) ([`SensitivitySolution`]).
+//! [`solve_sensitivities`] is the short form for a model without constraints and without
+//! event times. With [`Options::with_error_coordinates`] the step size is controlled on
+//! (q, q̇) alone (CVODES's `errconS = false`); by default the sensitivities are
+//! error-controlled too.
+//!
+//! [`Options::with_error_coordinates`]: crate::integrators::Options::with_error_coordinates
 //!
 //! ```
 //! use lagrangian::sensitivity::{Direction, Variational, solve_sensitivities};
@@ -35,6 +42,14 @@
 //! # Ok::<(), lagrangian::Error>(())
 //! ```
 
+mod events;
+mod problem;
+mod projected;
+mod tangent;
+
+pub use self::events::EventCondition;
+pub use self::problem::{SensitivityProblem, check_no_resets, solve_sensitivities};
+use self::tangent::TangentSpace;
 use crate::derived::eom_program::{Energies, EomProgram};
 pub use crate::derived::variational::{ConstraintNodes, Direction};
 use crate::derived::variational::{
@@ -42,10 +57,9 @@ use crate::derived::variational::{
 };
 use crate::error::{Error, Result};
 use crate::expr::graph::Graph;
-use crate::integrators::{Failed, Method, Options, Solution, solve_partial};
+use crate::integrators::Solution;
 use crate::program::{compile::Tape, eval::Function, inputs::Inputs};
 use crate::routes::EnergyModel;
-use nalgebra::{DMatrix, DVector};
 use std::sync::Arc;
 
 /// The variational system of a model stated on the graph, compiled once: bind it to parameter
@@ -57,17 +71,18 @@ pub struct Variational {
     kinetic: Arc<Tape>,
     forces: Arc<Tape>,
     program: EomProgram,
-    /// For a constrained model: what the initial sensitivities are projected with
-    /// ([`projection_outputs`]), and the number of holonomic and of all rows.
-    projection: Option<(Arc<Tape>, usize, usize)>,
+    /// For a constrained model: what the sensitivities are projected with, at the start and
+    /// after each projected step.
+    tangent: Option<TangentSpace>,
 }
 
 impl Variational {
     /// The variational equations of the model whose energies are `parts` (nodes of `graph`,
     /// `dof` coordinates, `params` parameters), under `constraints` if it has them, along
-    /// `directions`. A constrained model's variational system runs its index-1 equations (no
-    /// projection during the run); its initial sensitivities are projected onto the
-    /// constraints' tangent space ([`Variational::initial_state`]).
+    /// `directions`. A constrained model's variational system runs its index-1 equations, its
+    /// initial sensitivities projected onto the constraints' tangent space
+    /// ([`Variational::initial_state`]), and its steps projected with the model's
+    /// ([`SensitivityProblem`]).
     ///
     /// # Errors
     /// [`Error::InvalidInput`] for a direction outside the model or none; as
@@ -88,13 +103,16 @@ impl Variational {
         let kinetic = Arc::new(Tape::new(&g, &[system.kinetic], inputs, what)?);
         let forces = system.forces.as_deref().unwrap_or_default();
         let forces = Arc::new(Tape::new(&g, forces, inputs, what)?);
-        let projection = match constraints {
+        let tangent = match constraints {
             Some(c) => {
                 let outputs = projection_outputs(&mut g, dof, parts, c, directions)?;
                 let inputs = Inputs::kinetic(dof, params);
                 let tape = Tape::new(&g, &outputs, inputs, "the initial sensitivities")?;
-                let rows = c.holonomic.len() + c.velocity.len();
-                Some((Arc::new(tape), c.holonomic.len(), rows))
+                Some(TangentSpace {
+                    tape: Arc::new(tape),
+                    holonomic: c.holonomic.len(),
+                    rows: c.holonomic.len() + c.velocity.len(),
+                })
             }
             None => None,
         };
@@ -105,7 +123,7 @@ impl Variational {
             kinetic,
             forces,
             program,
-            projection,
+            tangent,
         })
     }
 
@@ -150,7 +168,7 @@ impl Variational {
     /// parameter values `params`: the sensitivities start at zero for a parameter and at a unit
     /// vector for an initial coordinate or velocity — for a constrained model projected onto the
     /// tangent space of the constraints as the parameter or the initial state moves (the
-    /// derivative of [`Constrained::project`](crate::Constrained::project)'s projection in
+    /// derivative of [`Constrained::project`](crate::constrained::Constrained::project)'s projection in
     /// the M metric: G s + ∂g/∂p = 0, then the rows at the velocity level likewise).
     ///
     /// # Errors
@@ -173,67 +191,9 @@ impl Variational {
             }
         }
         let (mut q, mut qd) = variational_initial_state(q0, qd0, &self.directions);
-        let Some((tape, kh, k)) = &self.projection else {
-            return Ok((q, qd));
-        };
-        let (n, kh, k) = (self.dof, *kh, *k);
-        let f = Function::new(tape.clone(), params)?;
-        let mut out = vec![0.0; tape.outputs()];
-        f.eval_into(t0, q0, qd0, &mut out);
-        let mut at = 0;
-        let mut take = |count: usize| {
-            let part = out[at..at + count].to_vec();
-            at += count;
-            part
-        };
-        let upper = take(n * (n + 1) / 2);
-        let mut m = DMatrix::zeros(n, n);
-        let mut i = 0;
-        for r in 0..n {
-            for c in r..n {
-                m[(r, c)] = upper[i];
-                m[(c, r)] = upper[i];
-                i += 1;
-            }
-        }
-        let gh = DMatrix::from_row_slice(kh, n, &take(kh * n));
-        let vq = DMatrix::from_row_slice(k, n, &take(k * n));
-        let vv = DMatrix::from_row_slice(k, n, &take(k * n));
-        let singular = |what: &str| Error::InvalidInput {
-            what: "sensitivities",
-            why: format!(
-                "{what} cannot be solved at t0 = {t0}: the initial sensitivities of the \
-                 constrained model cannot be projected there"
-            ),
-        };
-        let lu = m.clone().lu();
-        let minv = lu.try_inverse().ok_or_else(|| singular("M"))?;
-        // s − M⁻¹Gᵀ (G M⁻¹ Gᵀ)⁻¹ (G s + r): the M-orthogonal correction onto G s = −r.
-        let project = |g: &DMatrix<f64>, s: &mut DVector<f64>, r: DVector<f64>| -> Result<()> {
-            if g.nrows() == 0 {
-                return Ok(());
-            }
-            let mg = &minv * g.transpose();
-            let schur = g * &mg;
-            let residual = g * &*s + r;
-            let y = schur
-                .lu()
-                .solve(&residual)
-                .ok_or_else(|| singular("G M⁻¹ Gᵀ"))?;
-            *s -= mg * y;
-            Ok(())
-        };
-        for j in 0..self.directions.len() {
-            let gp = DVector::from_vec(take(kh));
-            let vp = DVector::from_vec(take(k));
-            let cols = n + j * n..n + (j + 1) * n;
-            let mut sq = DVector::from_column_slice(&q[cols.clone()]);
-            let mut sv = DVector::from_column_slice(&qd[cols.clone()]);
-            project(&gh, &mut sq, gp)?;
-            let r = &vq * &sq + vp;
-            project(&vv, &mut sv, r)?;
-            q[cols.clone()].copy_from_slice(sq.as_slice());
-            qd[cols].copy_from_slice(sv.as_slice());
+        if let Some(tangent) = &self.tangent {
+            let f = Function::new(tangent.tape.clone(), params)?;
+            tangent.project(&f, t0, self.dof, &mut q, &mut qd, true)?;
         }
         Ok((q, qd))
     }
@@ -288,6 +248,7 @@ impl Variational {
             directions: self.directions.clone(),
             sensitivities: values,
             event_states,
+            event_times: Vec::new(),
         }
     }
 }
@@ -303,8 +264,12 @@ pub struct SensitivitySolution {
     /// ∂(q, q̇)/∂θⱼ at each output i: 2n numbers (∂q, then ∂q̇) from `(i m + j) 2n`.
     pub sensitivities: Vec<f64>,
     /// The variational system's state at each event occurrence (n(1 + m) coordinates per
-    /// occurrence), for the sensitivities there (of the event's time, say).
+    /// occurrence), for the sensitivities there.
     pub event_states: Vec<crate::integrators::Occurrences>,
+    /// dt*/dθⱼ per event, m numbers per occurrence (`k m + j` for occurrence k), for a run
+    /// given the events' conditions ([`SensitivityProblem::with_event_conditions`]); empty
+    /// otherwise.
+    pub event_times: Vec<Vec<f64>>,
 }
 
 impl SensitivitySolution {
@@ -313,49 +278,5 @@ impl SensitivitySolution {
         let width = 2 * self.solution.dof;
         let at = (i * self.directions.len() + j) * width;
         &self.sensitivities[at..at + width]
-    }
-}
-
-/// Run the variational system of `variational` at the parameter values `params` from the
-/// model's (q₀, q̇₀) over `span` with `method` and `options`, and split the result
-/// ([`Variational::split`]).
-///
-/// Events that reset the state are refused: a reset moves the sensitivities too (by the
-/// reset's own derivatives), which the variational system does not state.
-///
-/// # Errors
-/// As [`Variational::bind`], [`Variational::initial_state`] and [`solve_partial`];
-/// [`Error::InvalidInput`] for an event with a reset.
-pub fn solve_sensitivities(
-    variational: &Variational,
-    params: &[f64],
-    q0: &[f64],
-    qd0: &[f64],
-    span: (f64, f64),
-    method: Method,
-    options: &Options,
-) -> Result<SensitivitySolution> {
-    check_no_resets(options)?;
-    let system = variational.bind(params)?;
-    let (q, qd) = variational.initial_state(span.0, q0, qd0, params)?;
-    solve_partial(&system, &q, &qd, span, method, options, None)
-        .map(|sol| variational.split(sol))
-        .map_err(|failed: Failed| failed.error)
-}
-
-/// [`Error::InvalidInput`] when an event of `options` resets the state (see
-/// [`solve_sensitivities`]).
-pub fn check_no_resets(options: &Options) -> Result<()> {
-    match options.events.iter().find(|e| e.reset.is_some()) {
-        Some(e) => Err(Error::InvalidInput {
-            what: "sensitivities",
-            why: format!(
-                "event {:?} resets the state, and a reset would move the sensitivities by its \
-                 own derivatives, which are not derived: run without the reset, or without \
-                 sensitivities",
-                e.name
-            ),
-        }),
-        None => Ok(()),
     }
 }

@@ -6,9 +6,16 @@
 use approx::assert_relative_eq;
 use lagrangian::integrators::Event;
 use lagrangian::num_dual::{Dual64, DualNum};
-use lagrangian::sensitivity::{Direction, SensitivitySolution, Variational, solve_sensitivities};
-use lagrangian::tape::{Binary, Energies, Graph};
-use lagrangian::{Error, Method, Options, Output};
+use lagrangian::sensitivity::{
+    ConstraintNodes, Direction, EventCondition, SensitivityProblem, SensitivitySolution,
+    Variational, solve_sensitivities,
+};
+use lagrangian::tape::{
+    Binary, Energies, EnergyModel, EomProgram, ExprConstraints, Function, Graph, Inputs, Tape,
+    Unary,
+};
+use lagrangian::{Constrained, Error, Method, Options, Output, solve};
+use std::sync::Arc;
 
 /// m ẍ + c ẋ + k x = 0 with m = 1 from T = ½ ẋ², U = ½ k x², Φ = ½ c ẋ² (parameters k, c).
 fn oscillator() -> (Graph, Energies) {
@@ -287,5 +294,287 @@ fn interpreted_system_agrees() {
                 assert!((a - b).abs() < 1e-10, "t = {t}, direction {j}: {a} vs {b}");
             }
         }
+    }
+}
+
+/// A model of `dof` coordinates from the energies `parts` of `graph` at the parameter values
+/// `params`, with its eq. 55 program (so that every method, Taylor's too, runs it).
+fn energy_model(graph: &Graph, dof: usize, parts: &Energies, params: &[f64]) -> EnergyModel {
+    let count = params.len();
+    let bind = |node: usize, inputs: Inputs| {
+        let tape = Tape::new(graph, &[node], inputs, "energy").unwrap();
+        Function::new(Arc::new(tape), params).unwrap()
+    };
+    let kinetic = bind(parts.kinetic, Inputs::kinetic(dof, count));
+    let potential = parts
+        .potential
+        .map(|u| bind(u, Inputs::potential(dof, count)));
+    let mut g = graph.clone();
+    let program = EomProgram::new(&mut g, dof, count, parts).unwrap();
+    EnergyModel::new(dof, kinetic, potential, None, None)
+        .unwrap()
+        .with_program(program.bind(params).unwrap())
+        .unwrap()
+}
+
+#[test]
+fn event_time_of_a_ball_thrown_up_against_its_closed_form() {
+    // y″ = −g from (y₀, v₀): it lands (y = 0, falling) at t* = (v₀ + r)/g, r = √(v₀² + 2 g y₀),
+    // so dt*/dg = −(v₀ + r)/g² + y₀/(r g), dt*/dy₀ = 1/r and dt*/dv₀ = (1 + v₀/r)/g.
+    let mut graph = Graph::new();
+    let (g, y, v, half) = (
+        graph.param(0),
+        graph.coord(0),
+        graph.velocity(0),
+        graph.constant(0.5),
+    );
+    let v2 = graph.binary(Binary::Mul, v, v).unwrap();
+    let kinetic = graph.binary(Binary::Mul, half, v2).unwrap();
+    let potential = graph.binary(Binary::Mul, g, y).unwrap();
+    let parts = Energies {
+        kinetic,
+        potential: Some(potential),
+        ..Energies::default()
+    };
+    let (gravity, y0, v0) = (9.81_f64, 0.5, 3.0);
+    let params = [gravity];
+    let model = energy_model(&graph, 1, &parts, &params);
+    let wrt = [
+        Direction::Parameter(0),
+        Direction::Position(0),
+        Direction::Velocity(0),
+    ];
+    let variational = Variational::new(&graph, 1, 1, &parts, None, &wrt).unwrap();
+    let r = (v0 * v0 + 2.0 * gravity * y0).sqrt();
+    let landing = (v0 + r) / gravity;
+    let exact = [
+        -(v0 + r) / (gravity * gravity) + y0 / (r * gravity),
+        1.0 / r,
+        (1.0 + v0 / r) / gravity,
+    ];
+    let cases = [
+        (Method::Dop853, Options::adaptive(1e-12, 1e-12), 1e-12),
+        (Method::Radau5, Options::adaptive(1e-12, 1e-12), 1e-10),
+        (Method::Taylor, Options::adaptive(1e-12, 1e-12), 1e-12),
+        (Method::Rk4, Options::fixed(1e-3), 1e-12),
+    ];
+    for (method, options, tol) in cases {
+        let ground = Event::new("ground", |_t, q, _qd| q[0])
+            .falling()
+            .terminal(1);
+        let options = options.with_event(ground).with_output(Output::Final);
+        let condition = EventCondition::new(&graph, y, &variational, &[0], &params).unwrap();
+        let sol = SensitivityProblem::new(&model, &variational, &params)
+            .unwrap()
+            .with_event_conditions(vec![condition])
+            .solve(&[y0], &[v0], (0.0, 10.0), method, &options)
+            .unwrap();
+        assert_relative_eq!(sol.solution.events[0].t[0], landing, epsilon = 1e-12);
+        assert_eq!(sol.event_times.len(), 1);
+        assert_eq!(sol.event_times[0].len(), 3, "{method:?}");
+        for (j, (&got, want)) in sol.event_times[0].iter().zip(exact).enumerate() {
+            assert!(
+                (got - want).abs() <= tol,
+                "{method:?}, direction {j}: {got} vs {want}"
+            );
+        }
+    }
+    // Without the conditions the events are found but their times not differentiated; a
+    // number of conditions other than the events' is refused.
+    let options = Options::adaptive(1e-10, 1e-10)
+        .with_event(Event::new("ground", |_t, q, _qd| q[0]).falling());
+    let problem = SensitivityProblem::new(&model, &variational, &params).unwrap();
+    let plain = problem
+        .solve(&[y0], &[v0], (0.0, 1.0), Method::Dop853, &options)
+        .unwrap();
+    assert!(plain.event_times.is_empty());
+    let condition = EventCondition::new(&graph, y, &variational, &[0], &params).unwrap();
+    let two = problem.with_event_conditions(vec![condition.clone(), condition]);
+    assert!(matches!(
+        two.solve(&[y0], &[v0], (0.0, 1.0), Method::Dop853, &options),
+        Err(Error::InvalidInput { .. })
+    ));
+    assert!(matches!(
+        EventCondition::new(&graph, y, &variational, &[0, 1], &params),
+        Err(Error::DimensionMismatch { .. })
+    ));
+}
+
+#[test]
+fn event_time_of_a_velocity_condition_against_its_closed_form() {
+    // The oscillator x = cos 2t (k = 4, c = 0, from rest at x₀ = 1): ẋ = −2 sin 2t rises
+    // through 0 at t* = π/ω, ω = √k. Along k, dt*/dk = −π/(2 k^{3/2}); along c, 0 (ω moves
+    // with c² only); along x₀, 0 (the amplitude does not move the turn); along v₀, by the
+    // implicit function theorem, −cos(ωt*)/ẍ(t*) = 1/(x₀ ω²). The condition reads q̇, so its
+    // rate takes q̈ at the root.
+    let (g, parts) = oscillator();
+    let params = [4.0, 0.0];
+    let model = energy_model(&g, 1, &parts, &params);
+    let variational = Variational::new(&g, 1, 2, &parts, None, &ALL).unwrap();
+    let mut graph = g.clone();
+    let v = graph.velocity(0);
+    let condition = EventCondition::new(&graph, v, &variational, &[0, 1], &params).unwrap();
+    let turn = Event::new("turn", |_t, _q, qd| qd[0]).rising().terminal(1);
+    let options = Options::adaptive(1e-12, 1e-12)
+        .with_event(turn)
+        .with_output(Output::Final);
+    let sol = SensitivityProblem::new(&model, &variational, &params)
+        .unwrap()
+        .with_event_conditions(vec![condition])
+        .solve(&[1.0], &[0.0], (0.0, 3.0), Method::Dop853, &options)
+        .unwrap();
+    let pi = std::f64::consts::PI;
+    assert_relative_eq!(sol.solution.events[0].t[0], pi / 2.0, epsilon = 1e-12);
+    let exact = [-pi / 16.0, 0.0, 0.0, 0.25];
+    for (j, (&got, want)) in sol.event_times[0].iter().zip(exact).enumerate() {
+        assert!((got - want).abs() < 1e-10, "direction {j}: {got} vs {want}");
+    }
+}
+
+/// The pendulum in Cartesian coordinates (x, y) under its rod x² + y² = l² (m = 1, parameters
+/// g and l): the graph, its energies and the rod's node.
+fn cartesian_pendulum() -> (Graph, Energies, usize) {
+    let mut g = Graph::new();
+    let (gravity, l, x, y, vx, vy, half) = (
+        g.param(0),
+        g.param(1),
+        g.coord(0),
+        g.coord(1),
+        g.velocity(0),
+        g.velocity(1),
+        g.constant(0.5),
+    );
+    let mut mul = |a, b| g.binary(Binary::Mul, a, b).unwrap();
+    let (vx2, vy2, x2, y2, l2) = (mul(vx, vx), mul(vy, vy), mul(x, x), mul(y, y), mul(l, l));
+    let potential = mul(gravity, y);
+    let twice = g.binary(Binary::Add, vx2, vy2).unwrap();
+    let kinetic = g.binary(Binary::Mul, half, twice).unwrap();
+    let r2 = g.binary(Binary::Add, x2, y2).unwrap();
+    let rod = g.binary(Binary::Sub, r2, l2).unwrap();
+    let parts = Energies {
+        kinetic,
+        potential: Some(potential),
+        ..Energies::default()
+    };
+    (g, parts, rod)
+}
+
+/// The same pendulum in its angle θ (x = l sin θ, y = −l cos θ): T = ½ l² θ̇², U = −g l cos θ.
+fn angle_pendulum() -> (Graph, Energies) {
+    let mut g = Graph::new();
+    let (gravity, l, th, w, half) = (
+        g.param(0),
+        g.param(1),
+        g.coord(0),
+        g.velocity(0),
+        g.constant(0.5),
+    );
+    let cos = g.unary(Unary::Cos, th).unwrap();
+    let mut mul = |a, b| g.binary(Binary::Mul, a, b).unwrap();
+    let (l2, w2, gl) = (mul(l, l), mul(w, w), mul(gravity, l));
+    let l2w2 = mul(l2, w2);
+    let kinetic = mul(half, l2w2);
+    let glc = mul(gl, cos);
+    let potential = g.unary(Unary::Neg, glc).unwrap();
+    let parts = Energies {
+        kinetic,
+        potential: Some(potential),
+        ..Energies::default()
+    };
+    (g, parts)
+}
+
+#[test]
+fn constrained_run_with_sensitivities_stays_on_the_rod() {
+    // Defect 2 of issue 49: a long run at the default tolerances. The variational system is
+    // projected with the model (the state as the plain run projects it, the sensitivities onto
+    // the tangent space at the projected state), so its reported residual is the true residual
+    // of the states it returns, at the plain run's level; and the sensitivities along g and l
+    // stay those of the pendulum in its angle, mapped to (x, y).
+    let (g, parts, rod) = cartesian_pendulum();
+    let params = [9.81, 1.5];
+    let l = params[1];
+    let rows = {
+        let tape = Tape::new(&g, &[rod], Inputs::potential(2, 2), "rod").unwrap();
+        ExprConstraints::new(
+            2,
+            Some(Function::new(Arc::new(tape), &params).unwrap()),
+            None,
+            Vec::new(),
+        )
+        .unwrap()
+    };
+    let model = Constrained::new(energy_model(&g, 2, &parts, &params), rows);
+    let wrt = [Direction::Parameter(0), Direction::Parameter(1)];
+    let nodes = ConstraintNodes {
+        holonomic: &[rod],
+        velocity: &[],
+        moving: false,
+    };
+    let variational = Variational::new(&g, 2, 2, &parts, Some(nodes), &wrt).unwrap();
+    let th0 = 1.0_f64;
+    let (q0, qd0) = ([l * th0.sin(), -l * th0.cos()], [0.0, 0.0]);
+    let t_end = 100.0;
+    let (ag, aparts) = angle_pendulum();
+    let angle = energy_model(&ag, 1, &aparts, &params);
+    let angle_wrt = Variational::new(&ag, 1, 2, &aparts, None, &wrt).unwrap();
+    for method in [Method::Dop853, Method::Radau5] {
+        let options = Options::default();
+        let plain = solve(&model, &q0, &qd0, (0.0, t_end), method, &options).unwrap();
+        let sol = SensitivityProblem::new(&model, &variational, &params)
+            .unwrap()
+            .solve(&q0, &qd0, (0.0, t_end), method, &options)
+            .unwrap();
+        let run = &sol.solution;
+        assert!(run.stats.projections > 0, "{method:?}");
+        // The residual reported is the worst of the states returned (every accepted step).
+        let worst = (1..run.len())
+            .map(|i| {
+                model
+                    .residuals(run.t[i], run.q_at(i), run.qd_at(i))
+                    .unwrap()
+                    .max_abs()
+            })
+            .fold(0.0, f64::max);
+        let reported = run.stats.constraint_residual;
+        assert_eq!(reported, worst, "{method:?}");
+        let level = plain.stats.constraint_residual;
+        assert!(
+            reported > 0.0 && reported <= 3.0 * level,
+            "{method:?}: {reported:e} with sensitivities, {level:e} in the plain run"
+        );
+        // The pendulum in its angle at the same times, to round-off.
+        let times = Options::adaptive(1e-13, 1e-13).with_output(Output::Times(run.t.clone()));
+        let reference = SensitivityProblem::new(&angle, &angle_wrt, &params)
+            .unwrap()
+            .solve(&[th0], &[0.0], (0.0, t_end), Method::Dop853, &times)
+            .unwrap();
+        assert_eq!(reference.solution.len(), run.len());
+        // The run's own error in x, y, and its sensitivities' against x = l sin θ:
+        // ∂x/∂g = l cos θ ∂θ/∂g, ∂x/∂l = sin θ + l cos θ ∂θ/∂l (θ₀ kept as l moves).
+        let (mut state, mut along, mut size) = (0.0_f64, 0.0_f64, 0.0_f64);
+        for i in 0..run.len() {
+            let th = reference.solution.q[i];
+            let (s, c) = th.sin_cos();
+            state = state
+                .max((run.q_at(i)[0] - l * s).abs())
+                .max((run.q_at(i)[1] + l * c).abs());
+            let dg = reference.sensitivity(i, 0)[0];
+            let dl = reference.sensitivity(i, 1)[0];
+            let want = [[l * c * dg, l * s * dg], [s + l * c * dl, -c + l * s * dl]];
+            for (j, w) in want.iter().enumerate() {
+                let got = &sol.sensitivity(i, j)[..2];
+                for k in 0..2 {
+                    along = along.max((got[k] - w[k]).abs());
+                    size = size.max(w[k].abs());
+                }
+            }
+        }
+        // The sensitivities are as accurate, relative to their size, as the state (both about
+        // 2e-5 here; unprojected, the run drifted off the rod to 1e-3 and both to 1e-2).
+        assert!(
+            along / size <= 3.0 * state / l && along / size < 1e-4,
+            "{method:?}: sensitivity error {along:e} of {size:e}, state error {state:e}"
+        );
     }
 }
