@@ -14,10 +14,14 @@ How it measures
     set-up on purpose, on a new model each call). Only one worker runs at a time: the other
     waits on its pipe. A probe's turn on one side is ``--reps`` timings (best of) of ``n``
     units of work each, ``n`` calibrated once on BEFORE so that a turn takes about ``--target``
-    seconds, and the same on both sides. Rounds alternate which side goes first (ABBA), so a
-    change of load hits both. Printed per probe: the best per unit on each side over the
-    rounds, after ÷ before (> 1: after is slower), each side's spread (median ÷ best − 1, the noise) and the accepted steps on each side (a
-    ratio that moves with the steps is a change of numerics, not of speed).
+    CPU seconds, and the same on both sides. Rounds alternate which side goes first (ABBA), so
+    a change of load hits both. The clock is the worker's CPU time (``time.process_time``):
+    on the shared 2-core machine under load the wall time mostly measures the scheduler (wall
+    ratios of a build against itself 0.6–1.1 at load 10, CPU ratios 0.94–1.06, one 1.2); the
+    wall time's ratio is printed beside it. Printed per probe: the best per unit on each side
+    over the rounds, after ÷ before (> 1: after is slower), each side's spread (median ÷ best
+    − 1 over the rounds: the noise) and the accepted steps on each side (a ratio that moves
+    with the steps is a change of numerics, not of speed).
 
 Probes (the double pendulum unless said; q0 = (1, 0.5), q̇0 = 0; rtol = atol where one number)
     build            ``lg.Model(...)`` of the double pendulum from its expressions (derivation and
@@ -45,9 +49,10 @@ Probes (the double pendulum unless said; q0 = (1, 0.5), q̇0 = 0; rtol = atol wh
     events           DOP853 @ 1e-10 to t = 50 with the non-terminal event θ₁ = 0, final state
                      only (``output_every``)
 
-About 2–3 minutes for 5 rounds on the 2-core machine (each worker's set-up ~15 s, then
-16 probes × 2 sides × 5 rounds × ~0.3 s). Not a test: timings depend on the machine and its
-load; run it on a quiet machine, and read the spreads before reading a ratio.
+The defaults (5 rounds × 3 timings, 0.3 CPU s a turn) cost 16 probes × 2 sides × 5 × 0.3 s
+= 48 CPU seconds plus each worker's set-up (a few seconds): about 1.5 minutes of wall time on a
+quiet machine, several times that under load (the wall time stretches, the CPU time does not).
+Not a test: timings depend on the machine and its load; read the spreads before a ratio.
 """
 
 from __future__ import annotations
@@ -181,13 +186,14 @@ def probes() -> Dict[str, Callable[[], Optional[int]]]:
     }
 
 
-def timed(f: Callable[[], Optional[int]], n: int) -> Tuple[float, Optional[int]]:
+def timed(f: Callable[[], Optional[int]], n: int) -> Tuple[float, float, Optional[int]]:
+    """(CPU seconds of this process, wall seconds, steps of the last run) of n runs."""
     gc.collect()
     steps = None
-    start = time.perf_counter()
+    cpu, wall = time.process_time(), time.perf_counter()
     for _ in range(n):
         steps = f()
-    return time.perf_counter() - start, steps
+    return time.process_time() - cpu, time.perf_counter() - wall, steps
 
 
 def warm(name: str, f: Callable[[], Optional[int]]) -> None:
@@ -221,7 +227,7 @@ def worker() -> None:
         if req["cmd"] == "calibrate":
             n, seconds = 1, 0.0
             for _ in range(30):  # bounded: n grows at least 4× a pass
-                seconds, _ = timed(f, n)
+                seconds = timed(f, n)[0]
                 if seconds >= req["target"] / 8:
                     break
                 n *= 8 if seconds < req["target"] / 100 else 4
@@ -231,8 +237,8 @@ def worker() -> None:
         else:
             # The best of `reps` timings of n units: a load spike inside one does not count.
             runs = [timed(f, req["n"]) for _ in range(req["reps"])]
-            seconds, steps = min(runs, key=lambda x: x[0])
-            out.write(json.dumps(dict(seconds=seconds, steps=steps)) + "\n")
+            out.write(json.dumps(dict(cpu=min(r[0] for r in runs), wall=min(r[1] for r in runs),
+                                      steps=runs[-1][2])) + "\n")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -316,14 +322,17 @@ def main() -> None:
     n = {name: before.ask(cmd="calibrate", probe=name, target=args.target / args.reps)["n"]
          for name in names}
     print(f"calibrated ({time.perf_counter() - started:.0f} s)", file=sys.stderr, flush=True)
-    times: Dict[str, Dict[str, List[float]]] = {k: {"before": [], "after": []} for k in names}
+    clocks = ("cpu", "wall")
+    times: Dict[str, Dict[str, Dict[str, List[float]]]] = {
+        k: {c: {"before": [], "after": []} for c in clocks} for k in names}
     steps: Dict[str, Dict[str, Optional[int]]] = {k: {} for k in names}
     for r in range(args.rounds):
         for i, name in enumerate(names):
             order = sides if (r + i) % 2 == 0 else sides[::-1]
             for s in order:
                 ans = s.ask(cmd="time", probe=name, n=n[name], reps=args.reps)
-                times[name][s.label].append(ans["seconds"] / n[name])
+                for c in clocks:
+                    times[name][c][s.label].append(ans[c] / n[name])
                 steps[name][s.label] = ans["steps"]
         print(f"round {r + 1}/{args.rounds} done ({time.perf_counter() - started:.0f} s)",
               file=sys.stderr, flush=True)
@@ -333,23 +342,26 @@ def main() -> None:
     def spread(xs: List[float]) -> str:
         return f"{(statistics.median(xs) / min(xs) - 1) * 100:.0f} %"
 
-    print(f"\nbest of {args.rounds} rounds (ABBA), per unit of work; spread = median ÷ best − 1; "
-          f"total {time.perf_counter() - started:.0f} s; load average at end "
+    print(f"\nbest of {args.rounds} rounds (ABBA) × {args.reps} timings, per unit of work, in CPU "
+          f"time of the worker process (wall time's ratio beside it); spread = median ÷ best − 1 "
+          f"over the rounds; total {time.perf_counter() - started:.0f} s; load average at end "
           f"{os.getloadavg()[0]:.2f}\n")
-    print("| probe | n | before | after | after ÷ before | spread b / a | steps b / a |")
-    print("|---|---|---|---|---|---|---|")
+    print("| probe | n | before | after | after ÷ before | wall: after ÷ before | spread b / a "
+          "| steps b / a |")
+    print("|---|---|---|---|---|---|---|---|")
     ratios = []
     for name in names:
-        b, a = times[name]["before"], times[name]["after"]
+        b, a = times[name]["cpu"]["before"], times[name]["cpu"]["after"]
+        wb, wa = times[name]["wall"]["before"], times[name]["wall"]["after"]
         ratio = min(a) / min(b)
         ratios.append(ratio)
         sb, sa = steps[name].get("before"), steps[name].get("after")
         st = "—" if sb is None and sa is None else (f"{sb}" if sb == sa else f"**{sb} / {sa}**")
         flag = " **" if ratio > 1.10 else ""
-        print(f"| {name} | {n[name]} | {unit(min(b))} | {unit(min(a))} | "
-              f"{ratio:.3f}{flag} | {spread(b)} / {spread(a)} | {st} |")
+        print(f"| {name} | {n[name]} | {unit(min(b))} | {unit(min(a))} | {ratio:.3f}{flag} | "
+              f"{min(wa) / min(wb):.3f} | {spread(b)} / {spread(a)} | {st} |")
     geo = math.exp(sum(math.log(x) for x in ratios) / len(ratios))
-    print(f"\ngeometric mean of after ÷ before: {geo:.3f}; range {min(ratios):.3f} – "
+    print(f"\ngeometric mean of after ÷ before (CPU): {geo:.3f}; range {min(ratios):.3f} – "
           f"{max(ratios):.3f} (** > 1.10)")
     if args.json:
         with open(args.json, "w") as f:
