@@ -27,12 +27,12 @@ after=$(cd "${3:?AFTER_TREE}" && pwd)
 before_target=${BEFORE_TARGET:-/work/targets/before}
 after_target=${AFTER_TARGET:-/work/targets/after}
 
-# name|criterion filter (regex; empty: all)|warm-up and measurement seconds (groups that set
+# name;criterion filter (regex; empty: all);warm-up and measurement seconds (groups that set
 # their own keep theirs)
 benches=(
-  "eom||--warm-up-time 1 --measurement-time 2"
-  "integrators|^(step_double_pendulum|error_1e-8_double_pendulum)/|"
-  "constrained||"
+  "eom;;--warm-up-time 1 --measurement-time 2"
+  "integrators;^(step_double_pendulum|error_1e-8_double_pendulum)/;"
+  "constrained;;"
 )
 
 cargo_bench() {  # tree target name [args after --]
@@ -48,7 +48,7 @@ build)
     [ $side = after ] && tree=$after target=$after_target
     start=$SECONDS
     for entry in "${benches[@]}"; do
-      cargo_bench "$tree" "$target" "${entry%%|*}" --no-run
+      cargo_bench "$tree" "$target" "${entry%%;*}" --no-run
     done
     echo "$side: bench binaries built in $((SECONDS - start)) s ($tree, $target)"
   done
@@ -61,7 +61,7 @@ run)
     [ $side = after ] && tree=$after target=$after_target
     rm -rf "$target/criterion"
     for entry in "${benches[@]}"; do
-      IFS='|' read -r name filter timing <<<"$entry"
+      IFS=';' read -r name filter timing <<<"$entry"
       # shellcheck disable=SC2086  # $timing is a list of flags
       cargo_bench "$tree" "$target" "$name" -- --noplot $timing --save-baseline "$side" \
         ${filter:+"$filter"} >"$target/before_after_$name.log" 2>&1 \
