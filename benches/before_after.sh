@@ -13,7 +13,7 @@
 # trees' wheels were built in (`pip install .`) share their release dependencies. The bench
 # profile is the release one (fat LTO, one codegen unit), as the published numbers: a tree's
 # build takes several minutes on the 2-core machine, hence `build` before `run`. `run` deletes
-# and rewrites $TARGET/criterion in both.
+# and rewrites $TARGET/criterion in both (BEFORE_TARGET = AFTER_TARGET is fine: a noise check).
 #
 # `run` runs each bench in BEFORE then in AFTER (criterion's --save-baseline before / after),
 # then prints per benchmark the medians, after ÷ before, and each tree's AD ÷ closed-form ratio
@@ -56,10 +56,10 @@ build)
 run)
   start=$SECONDS
   echo "load average at start: $(cut -d' ' -f1 /proc/loadavg)"
+  rm -rf "$before_target/criterion" "$after_target/criterion"
   for side in before after; do
     tree=$before target=$before_target
     [ $side = after ] && tree=$after target=$after_target
-    rm -rf "$target/criterion"
     for entry in "${benches[@]}"; do
       IFS=';' read -r name filter timing <<<"$entry"
       # shellcheck disable=SC2086  # $timing is a list of flags
