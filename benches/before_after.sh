@@ -6,7 +6,7 @@
 #   constrained  andrews_1e-7 and andrews_evaluation (the constrained route)
 #
 #   benches/before_after.sh build BEFORE_TREE AFTER_TREE   # compile the bench binaries (slow)
-#   benches/before_after.sh run   BEFORE_TREE AFTER_TREE   # time them (about 4 min)
+#   benches/before_after.sh run   BEFORE_TREE AFTER_TREE   # time them (about 4.5 min a round)
 #
 # BEFORE_TARGET and AFTER_TARGET (default /work/targets/before, /work/targets/after) are the
 # trees' CARGO_TARGET_DIRs, one each so that neither rebuilds the other's crate; the ones the
@@ -15,10 +15,14 @@
 # build takes several minutes on the 2-core machine, hence `build` before `run`. `run` deletes
 # and rewrites $TARGET/criterion in both (BEFORE_TARGET = AFTER_TARGET is fine: a noise check).
 #
-# `run` runs each bench in BEFORE then in AFTER (criterion's --save-baseline before / after),
-# then prints per benchmark the medians, after ÷ before, and each tree's AD ÷ closed-form ratio
-# (measured in the same run of the same binary: the load-robust number docs/site/crate.rst and
-# integrators.rst quote). Not a test: timings depend on the machine and its load.
+# `run` runs every bench in BEFORE then in AFTER (ROUNDS rounds, default 1, the order swapped
+# each round; criterion's --save-baseline <side>_<round>), then prints per benchmark the best
+# over the rounds of criterion's median on each side, after ÷ before, and each tree's AD ÷
+# closed-form ratio (the ratio docs/site/crate.rst and integrators.rst quote, both measured by
+# the same binary in the same run). Criterion times wall clock: on the shared 2-core machine at
+# load 5–7 the same build against itself gave after ÷ before 0.60–1.51 (geometric mean 0.99
+# over 56 benchmarks), so read it on a quiet machine only; benches/before_after.py (CPU time)
+# is the robust check. Not a test: timings depend on the machine and its load.
 set -euo pipefail
 
 mode=${1:?usage: before_after.sh build|run BEFORE_TREE AFTER_TREE}
@@ -57,17 +61,22 @@ run)
   start=$SECONDS
   echo "load average at start: $(cut -d' ' -f1 /proc/loadavg)"
   rm -rf "$before_target/criterion" "$after_target/criterion"
-  for side in before after; do
-    tree=$before target=$before_target
-    [ $side = after ] && tree=$after target=$after_target
-    for entry in "${benches[@]}"; do
-      IFS=';' read -r name filter timing <<<"$entry"
-      # shellcheck disable=SC2086  # $timing is a list of flags
-      cargo_bench "$tree" "$target" "$name" -- --noplot $timing --save-baseline "$side" \
-        ${filter:+"$filter"} >"$target/before_after_$name.log" 2>&1 \
-        || { cat "$target/before_after_$name.log"; exit 1; }
+  for round in $(seq 1 "${ROUNDS:-1}"); do
+    order="before after"
+    [ $((round % 2)) = 0 ] && order="after before"
+    for side in $order; do
+      tree=$before target=$before_target
+      [ "$side" = after ] && tree=$after target=$after_target
+      for entry in "${benches[@]}"; do
+        IFS=';' read -r name filter timing <<<"$entry"
+        # shellcheck disable=SC2086  # $timing is a list of flags
+        cargo_bench "$tree" "$target" "$name" -- --noplot $timing \
+          --save-baseline "${side}_$round" ${filter:+"$filter"} \
+          >"$target/before_after_$name.log" 2>&1 \
+          || { cat "$target/before_after_$name.log"; exit 1; }
+      done
+      echo "round $round, $side done ($((SECONDS - start)) s)"
     done
-    echo "$side done ($((SECONDS - start)) s)"
   done
   echo "load average at end: $(cut -d' ' -f1 /proc/loadavg)"
   python3 - "$before_target/criterion" "$after_target/criterion" <<'EOF'
@@ -77,11 +86,13 @@ from pathlib import Path
 before, after = (Path(p) for p in sys.argv[1:3])
 
 
-def medians(root, baseline):
+def medians(root, side):
+    """{benchmark: the best over the rounds of criterion's median}."""
     out = {}
-    for f in root.rglob(f"{baseline}/estimates.json"):
+    for f in root.rglob(f"{side}_*/estimates.json"):
         key = str(f.parent.parent.relative_to(root))
-        out[key] = json.loads(f.read_text())["median"]["point_estimate"]
+        m = json.loads(f.read_text())["median"]["point_estimate"]
+        out[key] = min(m, out.get(key, m))
     return out
 
 
