@@ -205,7 +205,9 @@ def warm(name: str, f: Callable[[], Optional[int]]) -> None:
             f()
 
 
-def worker() -> None:
+def worker(cpu: Optional[int]) -> None:
+    if cpu is not None:
+        os.sched_setaffinity(0, {cpu})
     # The protocol on a private copy of stdout; anything the library prints goes to stderr.
     out = os.fdopen(os.dup(1), "w", buffering=1)
     os.dup2(2, 1)
@@ -246,10 +248,11 @@ def worker() -> None:
 
 
 class Side:
-    def __init__(self, label: str, python: str) -> None:
+    def __init__(self, label: str, python: str, cpu: Optional[int]) -> None:
         self.label = label
         env = dict(os.environ, PYTHONPATH="")  # the interpreter's own install, not a worktree's
-        self.proc = subprocess.Popen([python, os.path.abspath(__file__), "--worker"],
+        pin = [] if cpu is None else ["--cpu", str(cpu)]
+        self.proc = subprocess.Popen([python, os.path.abspath(__file__), "--worker", *pin],
                                      stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
                                      bufsize=1, env=env, cwd="/")
         self.hello = self.read()
@@ -296,38 +299,47 @@ def main() -> None:
                     help="timings per probe, side and round (best of), target ÷ reps each")
     ap.add_argument("--probes", default=None,
                     help="comma-separated subset of: " + ", ".join(ORDER))
+    ap.add_argument("--cpu", type=int, default=None,
+                    help="pin both workers to this CPU (os.sched_setaffinity)")
     ap.add_argument("--json", default=None, help="also write the raw timings here")
     args = ap.parse_args()
     if args.worker:
-        worker()
+        worker(args.cpu)
         return
     if not args.before or not args.after:
         ap.error("--before and --after are required")
     started = time.perf_counter()
     print(f"load average at start: {os.getloadavg()[0]:.2f} (cores: {os.cpu_count()})",
           flush=True)
-    sides = []
-    for label, python in (("before", args.before), ("after", args.after)):
-        s = Side(label, python)  # one at a time: set-ups do not overlap
-        print(f"{label}: {python} → lagrangian {s.hello['version']} from {s.hello['file']} "
-              f"(set-up and warm-up {s.hello['setup']:.1f} s)", flush=True)
-        sides.append(s)
-    before, after = sides
-    if before.hello["file"] == after.hello["file"]:
-        print("note: both sides load the same lagrangian: a noise check, not a comparison")
     names = args.probes.split(",") if args.probes else ORDER
-    for name in names:
-        for s in sides:
-            if name not in s.hello["probes"]:
-                raise SystemExit(f"unknown probe {name!r} on the {s.label} side")
-    n = {name: before.ask(cmd="calibrate", probe=name, target=args.target / args.reps)["n"]
-         for name in names}
-    print(f"calibrated ({time.perf_counter() - started:.0f} s)", file=sys.stderr, flush=True)
     clocks = ("cpu", "wall")
     times: Dict[str, Dict[str, Dict[str, List[float]]]] = {
         k: {c: {"before": [], "after": []} for c in clocks} for k in names}
     steps: Dict[str, Dict[str, Optional[int]]] = {k: {} for k in names}
+    n: Dict[str, int] = {}
+    hello: Dict[str, Dict[str, Any]] = {}
     for r in range(args.rounds):
+        # New workers every round: a process's own bias (where its code and data landed, the
+        # CPU the scheduler keeps it on) is drawn again, not carried through every round.
+        sides = [Side(label, python, args.cpu)  # one at a time: set-ups do not overlap
+                 for label, python in (("before", args.before), ("after", args.after))]
+        if r == 0:
+            for s in sides:
+                hello[s.label] = s.hello
+                print(f"{s.label}: {args.before if s.label == 'before' else args.after} → "
+                      f"lagrangian {s.hello['version']} from {s.hello['file']} (set-up and "
+                      f"warm-up {s.hello['setup']:.1f} s)", flush=True)
+            if sides[0].hello["file"] == sides[1].hello["file"]:
+                print("note: both sides load the same lagrangian: a noise check, not a "
+                      "comparison")
+            for name in names:
+                for s in sides:
+                    if name not in s.hello["probes"]:
+                        raise SystemExit(f"unknown probe {name!r} on the {s.label} side")
+            n = {name: sides[0].ask(cmd="calibrate", probe=name,
+                                    target=args.target / args.reps)["n"] for name in names}
+            print(f"calibrated ({time.perf_counter() - started:.0f} s)", file=sys.stderr,
+                  flush=True)
         for i, name in enumerate(names):
             order = sides if (r + i) % 2 == 0 else sides[::-1]
             for s in order:
@@ -335,10 +347,10 @@ def main() -> None:
                 for c in clocks:
                     times[name][c][s.label].append(ans[c] / n[name])
                 steps[name][s.label] = ans["steps"]
+        for s in sides:
+            s.close()
         print(f"round {r + 1}/{args.rounds} done ({time.perf_counter() - started:.0f} s)",
               file=sys.stderr, flush=True)
-    for s in sides:
-        s.close()
 
     def spread(xs: List[float]) -> str:
         return f"{(statistics.median(xs) / min(xs) - 1) * 100:.0f} %"
@@ -366,7 +378,7 @@ def main() -> None:
           f"{max(ratios):.3f} (** > 1.10)")
     if args.json:
         with open(args.json, "w") as f:
-            json.dump(dict(before=before.hello, after=after.hello, n=n, times=times,
+            json.dump(dict(before=hello["before"], after=hello["after"], n=n, times=times,
                            steps=steps, rounds=args.rounds), f, indent=1)
 
 
