@@ -7,21 +7,28 @@ timing probes through the public Python API in two interpreters, each with its o
         [--json FILE]
 
 How it measures
-    One persistent worker process per interpreter (this file with ``--worker``); each builds
-    every probe's model once and warms it up (the Taylor programs past the 10⁴ expansions after
-    which their expansion is compiled unrolled, ``UNROLL_AFTER`` in src/taylor/kernel.rs), so a
-    round times steady-state work, not set-up (the ``build`` and ``taylor first`` probes time
-    set-up on purpose, on a new model each call). Only one worker runs at a time: the other
-    waits on its pipe. A probe's turn on one side is ``--reps`` timings (best of) of ``n``
-    units of work each, ``n`` calibrated once on BEFORE so that a turn takes about ``--target``
-    CPU seconds, and the same on both sides. Rounds alternate which side goes first (ABBA), so
-    a change of load hits both. The clock is the worker's CPU time (``time.process_time``):
-    on the shared 2-core machine under load the wall time mostly measures the scheduler (wall
-    ratios of a build against itself 0.6–1.1 at load 10, CPU ratios 0.94–1.06, one 1.2); the
-    wall time's ratio is printed beside it. Printed per probe: the best per unit on each side
-    over the rounds, after ÷ before (> 1: after is slower), each side's spread (median ÷ best
-    − 1 over the rounds: the noise) and the accepted steps on each side (a ratio that moves
-    with the steps is a change of numerics, not of speed).
+    Each round starts one worker process per interpreter (this file with ``--worker``); each
+    builds every probe's model once and warms it up (the Taylor programs past the 10⁴
+    expansions after which their expansion is compiled unrolled, ``UNROLL_AFTER`` in
+    src/taylor/kernel.rs), so a round times steady-state work, not set-up (the ``build`` and
+    ``taylor first`` probes time set-up on purpose, on a new model each call). Only one worker
+    runs at a time: the other waits on its pipe. A probe's turn on one side is ``--reps``
+    timings (best of) of ``n`` units of work each, ``n`` calibrated once on BEFORE so that a
+    turn takes about ``--target`` CPU seconds, and the same on both sides. Within a round the
+    probes alternate which side goes first (ABBA), so a change of load hits both; new workers
+    each round, because a process carries a bias of its own through its life (where its code
+    and data landed, the CPU it is kept on: one pair of long-lived workers of the same build
+    once gave 1.21 on one probe with spreads of 1–4 %). The clock is the worker's CPU time
+    (``time.process_time``): on the shared 2-core machine under load the wall time mostly
+    measures the scheduler; the wall time's ratio is printed beside it. Printed per probe: the
+    best per unit on each side over the rounds, after ÷ before (> 1: after is slower), each
+    side's spread (median ÷ best − 1 over the rounds) and the accepted steps on each side (a
+    ratio that moves with the steps is a change of numerics, not of speed).
+
+Noise (the BEFORE build against itself, defaults, load average 6 on the 2 cores): every CPU
+ratio within 0.96–1.07 (geometric mean 1.02); with ``--cpu 1`` 0.92–1.05 (0.99); the wall
+ratios 0.69–1.61. Read a ratio above about 1.10 (flagged **) as a lead, and rerun it with
+``--probes`` and more ``--rounds`` before believing it.
 
 Probes (the double pendulum unless said; q0 = (1, 0.5), q̇0 = 0; rtol = atol where one number)
     build            ``lg.Model(...)`` of the double pendulum from its expressions (derivation and
