@@ -6,6 +6,13 @@ timing probes through the public Python API in two interpreters, each with its o
         --after /work/venvs/after/bin/python [--rounds 5] [--target 0.3] [--probes a,b,...] \\
         [--json FILE]
 
+The two sides: each a release wheel (plain ``pip install .``, the profile the benchmarks
+measure) in its own venv made with ``--system-site-packages``, e.g. for AFTER from its tree:
+``CARGO_TARGET_DIR=/work/targets/after /work/venvs/after/bin/pip install .`` (a copy of
+BEFORE's target directory as a warm start; the fat-LTO build takes 10–30 minutes on the shared
+2-core machine). The workers import ``lagrangian`` with ``PYTHONPATH`` cleared and from ``/``,
+so each side loads its venv's install; the first lines printed say from where.
+
 How it measures
     Each round starts one worker process per interpreter (this file with ``--worker``); each
     builds every probe's model once and warms it up (the Taylor programs past the 10⁴

@@ -20,9 +20,9 @@
 # over the rounds of criterion's median on each side, after ÷ before, and each tree's AD ÷
 # closed-form ratio (the ratio docs/site/crate.rst and integrators.rst quote, both measured by
 # the same binary in the same run). Criterion times wall clock: on the shared 2-core machine at
-# load 5–7 the same build against itself gave after ÷ before 0.60–1.51 (geometric mean 0.99
-# over 56 benchmarks), so read it on a quiet machine only; benches/before_after.py (CPU time)
-# is the robust check. Not a test: timings depend on the machine and its load.
+# load 5–7 the same build against itself gave after ÷ before 0.60–1.51 in one run and 0.45–1.29
+# in another (geometric means 0.99 and 0.86 over 56 benchmarks), so read it on a quiet machine
+# only; benches/before_after.py (CPU time) is the robust check. Not a test.
 set -euo pipefail
 
 mode=${1:?usage: before_after.sh build|run BEFORE_TREE AFTER_TREE}
