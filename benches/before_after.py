@@ -232,7 +232,7 @@ def worker(cpu: Optional[int]) -> None:
     table = probes()
     for name, f in table.items():
         warm(name, f)
-    hello = dict(file=lg.__file__, version=getattr(lg, "__version__", "?"),
+    hello = dict(file=lg.__file__, prefix=sys.prefix, version=getattr(lg, "__version__", "?"),
                  setup=time.perf_counter() - started, probes=list(table))
     out.write(json.dumps(hello) + "\n")
     for line in sys.stdin:
@@ -343,6 +343,9 @@ def main() -> None:
                 print(f"{s.label}: {args.before if s.label == 'before' else args.after} → "
                       f"lagrangian {s.hello['version']} from {s.hello['file']} (set-up and "
                       f"warm-up {s.hello['setup']:.1f} s)", flush=True)
+                if not str(s.hello["file"]).startswith(str(s.hello["prefix"])):
+                    print(f"WARNING: the {s.label} side's lagrangian is not its venv's "
+                          f"({s.hello['prefix']}): is the wheel installed there?")
             if sides[0].hello["file"] == sides[1].hello["file"]:
                 print("note: both sides load the same lagrangian: a noise check, not a "
                       "comparison")
