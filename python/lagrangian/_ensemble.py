@@ -498,10 +498,13 @@ def _check_consistent(
     if not base.constraint_names:
         return
     rtol = None if "dt" in options else float(options["rtol"])
+    atol = None if "dt" in options else float(options["atol"])
     for i in range(q.shape[0]):
         model = base._rebound({k: float(v[i]) for k, v in sweep.items()}) if sweep else base
         try:
-            model._native.check_consistent(float(options["t0"]), q[i].tolist(), qd[i].tolist(), rtol)
+            model._native.check_consistent(
+                float(options["t0"]), q[i].tolist(), qd[i].tolist(), rtol, atol
+            )
         except ValueError as e:
             raise ValueError(f"run {i}: {e} (Model.project repairs a state)") from None
 
