@@ -371,7 +371,7 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         // After the factorization the diagonal holds 1/dⱼ: a pivot below RANK_LOSS of the
         // largest diagonal entry is a rank loss too (see RANK_LOSS).
         if ldlt_in_place(s, k).is_err()
-            || (0..k).any(|j| !(s[j * k + j].re() * (RANK_LOSS * big) < 1.0))
+            || (0..k).any(|j| s[j * k + j].re() * (RANK_LOSS * big) >= 1.0)
         {
             let s: Vec<f64> = (0..k * k).map(|ij| entry(ij / k, ij % k).re()).collect();
             let q: Vec<f64> = q.iter().map(|x| x.re()).collect();
