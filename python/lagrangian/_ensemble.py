@@ -550,11 +550,14 @@ def _check_consistent(
     if not base.constraint_names:
         return
     rtol = None if "dt" in options else float(options["rtol"])
+    atol = None if "dt" in options else float(options["atol"])
     for i in range(q.shape[0]):
         values = {k: float(v[i]) for k, v in sweep.items()}
         model = base.with_parameters(**values) if sweep else base
         try:
-            model.native.check_consistent(float(options["t0"]), q[i].tolist(), qd[i].tolist(), rtol)
+            model.native.check_consistent(
+                float(options["t0"]), q[i].tolist(), qd[i].tolist(), rtol, atol
+            )
         except ValueError as e:
             raise ValueError(f"run {i}: {e} (Model.project repairs a state)") from None
 

@@ -236,7 +236,12 @@ class NativeModel:
         self, t: float, q: List[float], qd: List[float], tol: Optional[float] = None
     ) -> Tuple[List[float], List[float]]: ...
     def check_consistent(
-        self, t: float, q: List[float], qd: List[float], rtol: Optional[float] = None
+        self,
+        t: float,
+        q: List[float],
+        qd: List[float],
+        rtol: Optional[float] = None,
+        atol: Optional[float] = None,
     ) -> None: ...
     def mass_matrix(self, t: object, q: object, qd: object) -> Any: ...
     def taylor_series(

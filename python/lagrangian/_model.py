@@ -638,7 +638,9 @@ class Model:
         """The consistent state nearest (q, q̇) at time ``t``: positions onto g(t, q) = 0 by
         Gauss–Newton in the metric of the mass matrix, then velocities onto the velocity-level
         constraints (ġ = 0 and a·q̇ + b = 0) by the M-orthogonal projection. A state already
-        consistent (to ``tol``, default 1e-12 relative) comes back unchanged.
+        consistent comes back unchanged: each row's residual, as a distance, within
+        ``tol`` (1 + ℓ), ℓ the size of what the row reads (positions up to 1), ``tol``
+        default 1e-12 (the constraints page has the rule).
 
         :meth:`simulate` refuses an inconsistent initial state; this repairs it.
 

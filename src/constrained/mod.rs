@@ -52,21 +52,26 @@ use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 use num_dual::{Dual, Dual2, Dual64};
 use std::sync::OnceLock;
 
+mod projection;
+
 /// Entries of ∂²(a·q̇ + b)/∂q̇² above this fraction of the row's largest |∂(a·q̇ + b)/∂q̇| (or
 /// of 1) make the row nonlinear in q̇ (dual numbers give exact zeros for a linear row).
 const LINEARITY_TOLERANCE: f64 = 1e-12;
 
-/// The default tolerance of [`Constrained::project`] and [`Constrained::check_consistent`]:
-/// a row's residual divided by its gradient's largest entry (a distance in q, or in q̇), relative
-/// to the largest |qᵢ| (|q̇ᵢ|, or 1 when that is zero).
+/// The default tolerance of [`Constrained::project`] and [`Constrained::check_consistent`]
+/// (their rtol and atol alike), and the one a run of fixed steps holds its steps to: each row's
+/// residual as a distance in q (or q̇) within 10⁻¹² (1 + ℓᵢ), ℓᵢ the size of the coordinates
+/// the row reads up to 1 (the rule in `constrained/projection.rs`).
 pub const PROJECTION_TOLERANCE: f64 = 1e-12;
 
-/// Gauss–Newton iterations of [`Constrained::project`] before it gives up.
-const PROJECTION_ITERATIONS: usize = 50;
-
-/// Velocity corrections of [`Constrained::project`] (the rows are linear in q̇, so one is exact
-/// up to round-off).
-const VELOCITY_CORRECTIONS: usize = 3;
+/// A Schur pivot dⱼ of G M⁻¹ Gᵀ below this fraction of its largest diagonal entry is a rank
+/// loss of G ([`Error::DependentConstraints`]), far above LDLᵀ's own floor (10⁻¹³): near a
+/// mechanism's change point (a parallelogram four-bar with its links collinear) the multipliers
+/// divide the state's residual inconsistency by dⱼ, and a Runge–Kutta stage landing there
+/// (dⱼ ~ 10⁻¹³, σ_min(G) ~ 3·10⁻⁷ of its largest) gets a kick large enough to throw the run
+/// onto the other branch. At 10⁻¹⁰ (σ_min ~ 10⁻⁵ of the largest) the kick stays below the
+/// tolerance's own size; rows of scales apart by up to 10⁵ still pass.
+const RANK_LOSS: f64 = 1e-10;
 
 /// A [`Dynamics`] system under [`Constraints`]: Lagrange's equations of the first kind at a
 /// state, seed eq. 55 with the reactions of the constraints (seed §2, §3.1: forces R that do no
@@ -300,157 +305,6 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
         })
     }
 
-    /// The consistent state nearest (t, q, q̇) in the metric of M: positions onto g(t, q) = 0,
-    /// then velocities onto the velocity-level constraints (holonomic rows ġ = G q̇ + ∂g/∂t = 0,
-    /// velocity rows a·q̇ + b = 0). The routine a drift-free integration calls after a step, and
-    /// the repair of an inconsistent initial state ([`check_consistent`](Self::check_consistent)).
-    ///
-    /// Positions, by Gauss–Newton in the M metric, with the holonomic rows' G = ∂g/∂q, M and
-    /// the Schur complement S = G M⁻¹ Gᵀ factored (LDLᵀ) at every iterate:
-    ///
-    /// Δq = −M⁻¹Gᵀ (G M⁻¹ Gᵀ)⁻¹ g(t, q),
-    ///
-    /// iterated until every row's residual |gᵢ| / maxⱼ |Gᵢⱼ| (a distance in q) is at most
-    /// `tol` × maxⱼ |qⱼ|, for at most 50 iterations; once within it, one more step takes the
-    /// residual to round-off (and is kept only if the residual does not grow). Each step is the smallest correction in
-    /// ‖Δq‖_M that zeroes the linearized constraints, so the whole correction is M-orthogonal to
-    /// the constraint manifold up to O(|Δq|²) (exactly, when M⁻¹Gᵀ keeps its direction, as for
-    /// a point on a circle with equal masses: the correction is radial).
-    ///
-    /// Velocities, by the M-orthogonal projection with every row's G at the projected q and the
-    /// velocity residual r (`residuals(t, q, q̇).velocity`, linear in q̇):
-    ///
-    /// q̇ ← q̇ − M⁻¹Gᵀ (G M⁻¹ Gᵀ)⁻¹ r,
-    ///
-    /// to the same tolerance relative to maxⱼ |q̇ⱼ|. A state already within the tolerance is
-    /// returned unchanged, bit for bit. M is evaluated at (t, q, q̇) with the q̇ given. `tol` is
-    /// [`PROJECTION_TOLERANCE`] (10⁻¹²) when `None`.
-    ///
-    /// # Errors
-    /// [`Error::DimensionMismatch`] or [`Error::NonFinite`] for a bad state or a non-finite g, G
-    /// or iterate; [`Error::InvalidInput`] for a `tol` not positive and finite;
-    /// [`Error::SingularMassMatrix`]; [`Error::DependentConstraints`] when G M⁻¹ Gᵀ cannot be
-    /// factored at an iterate (redundant rows, a dead point); [`Error::ProjectionFailed`],
-    /// naming the worst row, when the iterations run out (a start far from the manifold, or
-    /// constraints without a real solution); [`Error::NonlinearVelocityConstraint`].
-    pub fn project(
-        &self,
-        t: f64,
-        q: &[f64],
-        qd: &[f64],
-        tol: Option<f64>,
-    ) -> Result<(Vec<f64>, Vec<f64>)> {
-        let (n, kh, k) = (self.dof(), self.holonomic_rows(), self.rows());
-        check_state(n, t, q, Some(qd))?;
-        let tol = tolerance(tol)?;
-        let mut q = q.to_vec();
-        let mut qd = qd.to_vec();
-        if k == 0 {
-            return Ok((q, qd));
-        }
-        let mut g = vec![0.0; k * n];
-        if kh > 0 {
-            let mut r = vec![0.0; kh];
-            let mut iterations = 0;
-            // The iterate and its scaled residual before the polishing step.
-            let mut polished: Option<(Vec<f64>, f64)> = None;
-            loop {
-                self.constraints.holonomic(t, &q, &mut r);
-                finite(&r, "constraint residual", t)?;
-                self.jacobian_f64(t, &q, &qd, &mut g);
-                finite(&g[..kh * n], "constraint Jacobian", t)?;
-                let (worst, scaled) = worst_row(&r, &g, n, &q);
-                if let Some((before, was)) = polished.take() {
-                    if scaled > was {
-                        q = before;
-                    }
-                    break;
-                }
-                if scaled <= tol {
-                    if iterations == 0 {
-                        break;
-                    }
-                    // One more step once within the tolerance: Newton's quadratic convergence
-                    // takes the residual to round-off (kept only if it does not grow).
-                    polished = Some((q.clone(), scaled));
-                } else if iterations == PROJECTION_ITERATIONS {
-                    return Err(Error::ProjectionFailed {
-                        t,
-                        constraint: self.constraints.name(worst),
-                        residual: r[worst],
-                        iterations,
-                    });
-                }
-                self.correct(t, &q, &qd, &g[..kh * n], &mut r)?;
-                // r is now M⁻¹Gᵀ S⁻¹ g, laid out as n entries.
-                for (x, d) in q.iter_mut().zip(&r) {
-                    *x -= d;
-                }
-                finite(&q, "projected coordinates", t)?;
-                r.resize(kh, 0.0);
-                iterations += 1;
-            }
-        }
-        self.jacobian_f64(t, &q, &qd, &mut g);
-        finite(&g, "constraint Jacobian", t)?;
-        self.check_linear(t, &q, &qd, &g)?;
-        for correction in 0..=VELOCITY_CORRECTIONS {
-            let mut r = self.residuals(t, &q, &qd)?.velocity.as_slice().to_vec();
-            let (worst, scaled) = worst_row(&r, &g, n, &qd);
-            if scaled <= tol {
-                break;
-            }
-            if correction == VELOCITY_CORRECTIONS {
-                return Err(Error::ProjectionFailed {
-                    t,
-                    constraint: self.constraints.name(worst),
-                    residual: r[worst],
-                    iterations: correction,
-                });
-            }
-            self.correct(t, &q, &qd, &g, &mut r)?;
-            for (v, d) in qd.iter_mut().zip(&r) {
-                *v -= d;
-            }
-            finite(&qd, "projected velocities", t)?;
-        }
-        Ok((q, qd))
-    }
-
-    /// Refuse a state that does not satisfy the constraints: [`Error::InconsistentState`]
-    /// naming the worst row, the level ("position": g(t, q); "velocity": ġ = G q̇ + ∂g/∂t or
-    /// a·q̇ + b) and its residual, judged as in [`project`](Self::project) (a row's residual
-    /// over its gradient's largest entry, against `tol` × maxⱼ |qⱼ| or × maxⱼ |q̇ⱼ|; `tol` is
-    /// [`PROJECTION_TOLERANCE`] when `None`). Positions are checked first. A state returned by
-    /// `project` with the same tolerance passes.
-    ///
-    /// # Errors
-    /// [`Error::InconsistentState`]; otherwise as [`constraint_jacobian`](Self::constraint_jacobian)
-    /// and [`residuals`](Self::residuals), and [`Error::InvalidInput`] for a bad `tol`.
-    pub fn check_consistent(&self, t: f64, q: &[f64], qd: &[f64], tol: Option<f64>) -> Result<()> {
-        let tol = tolerance(tol)?;
-        let n = self.dof();
-        let residuals = self.residuals(t, q, qd)?;
-        let g = self.constraint_jacobian(t, q, qd)?;
-        // Row-major, as the private helpers take it.
-        let g: Vec<f64> = g.transpose().as_slice().to_vec();
-        for (level, r, scale) in [
-            ("position", residuals.position.as_slice(), q),
-            ("velocity", residuals.velocity.as_slice(), qd),
-        ] {
-            let (worst, scaled) = worst_row(r, &g, n, scale);
-            if scaled > tol {
-                return Err(Error::InconsistentState {
-                    t,
-                    constraint: self.constraints.name(worst),
-                    level,
-                    residual: r[worst],
-                });
-            }
-        }
-        Ok(())
-    }
-
     /// X = M⁻¹Gᵀ (row i = M⁻¹ Gᵢᵀ) and the LDLᵀ factor of S = G M⁻¹ Gᵀ, for the k = `g.len()` / n
     /// rows of G in `g` (row-major), with M at (t, q, q̇): the one factorization behind the
     /// multipliers and the projections, over any scalar (dual numbers for the integrators'
@@ -513,7 +367,12 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
                 s[j * k + i] = s[i * k + j];
             }
         }
-        if ldlt_in_place(s, k).is_err() {
+        let big = (0..k).fold(0.0_f64, |m, i| m.max(s[i * k + i].re().abs()));
+        // After the factorization the diagonal holds 1/dⱼ: a pivot below RANK_LOSS of the
+        // largest diagonal entry is a rank loss too (see RANK_LOSS).
+        if ldlt_in_place(s, k).is_err()
+            || (0..k).any(|j| s[j * k + j].re() * (RANK_LOSS * big) >= 1.0)
+        {
             let s: Vec<f64> = (0..k * k).map(|ij| entry(ij / k, ij % k).re()).collect();
             let q: Vec<f64> = q.iter().map(|x| x.re()).collect();
             return Err(self.dependent(&s, k, t.re(), &q));
@@ -533,23 +392,6 @@ impl<S: Dynamics, C: Constraints> Constrained<S, C> {
             Ok(m)
         });
         factor.as_deref().map_err(Clone::clone)
-    }
-
-    /// Replace `r` (length k′ ≤ k, the first k′ rows of G in `g`, row-major k′ × n) by the
-    /// M-orthogonal correction M⁻¹Gᵀ (G M⁻¹ Gᵀ)⁻¹ r (length n), with M at (t, q, q̇).
-    fn correct(&self, t: f64, q: &[f64], qd: &[f64], g: &[f64], r: &mut Vec<f64>) -> Result<()> {
-        let n = self.dof();
-        let (x, sf) = self.schur(t, q, qd, g)?;
-        ldlt_solve(&sf, r.len(), r.as_mut_slice());
-        let mut d = vec![0.0; n];
-        for (i, &mu) in r.iter().enumerate() {
-            for j in 0..n {
-                d[j] += x[i * n + j] * mu;
-            }
-        }
-        finite(&d, "projection step", t)?;
-        *r = d;
-        Ok(())
     }
 
     /// q̈, λ and the reactions Gᵀλ at (t, q, q̇) (module docs).
@@ -1019,11 +861,17 @@ impl<S: Dynamics, C: Constraints> crate::dynamics::ConstraintAccess for Constrai
     fn moving(&self) -> bool {
         self.constraints.depends_on_time()
     }
-    fn check_state(&self, t: f64, q: &[f64], qd: &[f64], tol: f64) -> Result<()> {
-        self.check_consistent(t, q, qd, Some(tol))
+    fn check_state(&self, t: f64, q: &[f64], qd: &[f64], tol: (f64, f64)) -> Result<()> {
+        self.check_consistent_within(t, q, qd, tol.0, tol.1)
     }
-    fn project_in_place(&self, t: f64, q: &mut [f64], qd: &mut [f64], tol: f64) -> Result<bool> {
-        let (pq, pqd) = self.project(t, q, qd, Some(tol))?;
+    fn project_in_place(
+        &self,
+        t: f64,
+        q: &mut [f64],
+        qd: &mut [f64],
+        tol: (f64, f64),
+    ) -> Result<bool> {
+        let (pq, pqd) = self.project_within(t, q, qd, tol.0, tol.1)?;
         let moved = pq != q || pqd != qd;
         q.copy_from_slice(&pq);
         qd.copy_from_slice(&pqd);
@@ -1063,41 +911,6 @@ impl<S: Dynamics, C: Constraints> crate::dynamics::ConstraintAccess for Constrai
             *o = r.eps;
         }
     }
-}
-
-/// The tolerance of [`Constrained::project`] and [`Constrained::check_consistent`].
-fn tolerance(tol: Option<f64>) -> Result<f64> {
-    let tol = tol.unwrap_or(PROJECTION_TOLERANCE);
-    if tol.is_finite() && tol > 0.0 {
-        Ok(tol)
-    } else {
-        Err(Error::InvalidInput {
-            what: "projection tolerance",
-            why: format!(
-                "{tol} is not positive and finite; the default is {PROJECTION_TOLERANCE:e}"
-            ),
-        })
-    }
-}
-
-/// The row of `r` farthest from zero, and that distance: |rᵢ| over its gradient's largest entry
-/// (row i of `g`, row-major with n columns; 1 when the row is zero), relative to the largest
-/// |xⱼ| of `scale` (1 when that is zero).
-fn worst_row(r: &[f64], g: &[f64], n: usize, scale: &[f64]) -> (usize, f64) {
-    let big = scale.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-    let big = if big > 0.0 { big } else { 1.0 };
-    let mut worst = (0, 0.0);
-    for (i, &ri) in r.iter().enumerate() {
-        let row = g[i * n..(i + 1) * n]
-            .iter()
-            .fold(0.0_f64, |m, x| m.max(x.abs()));
-        let row = if row > 0.0 { row } else { 1.0 };
-        let d = ri.abs() / (row * big);
-        if d > worst.1 {
-            worst = (i, d);
-        }
-    }
-    worst
 }
 
 /// M (n × n, at (t, q)) replaced by its LDLᵀ factor: [`Error::NonFinite`] for a non-finite M,

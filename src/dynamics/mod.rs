@@ -220,19 +220,26 @@ pub trait ConstraintAccess {
     fn moving(&self) -> bool;
 
     /// Refuse a state off the constraints (or with a velocity row not linear in q̇), judged
-    /// with the relative tolerance `tol`.
+    /// with `tol` = (rtol, atol): each row's residual as a distance within atol + rtol·ℓᵢ
+    /// ([`Constrained::check_consistent_within`](crate::Constrained::check_consistent_within)).
     ///
     /// # Errors
     /// [`Error::InconsistentState`](crate::Error::InconsistentState) naming the row, and the
     /// errors of evaluating the constraints.
-    fn check_state(&self, t: f64, q: &[f64], qd: &[f64], tol: f64) -> Result<()>;
+    fn check_state(&self, t: f64, q: &[f64], qd: &[f64], tol: (f64, f64)) -> Result<()>;
 
-    /// Move (q, q̇) onto the constraints in place when a row's relative residual exceeds
-    /// `tol`; whether it moved.
+    /// Move (q, q̇) onto the constraints in place when a row is outside `tol` = (rtol, atol),
+    /// judged as [`check_state`](Self::check_state) judges; whether it moved.
     ///
     /// # Errors
-    /// Those of [`Constrained::project`](crate::Constrained::project).
-    fn project_in_place(&self, t: f64, q: &mut [f64], qd: &mut [f64], tol: f64) -> Result<bool>;
+    /// Those of [`Constrained::project_within`](crate::Constrained::project_within).
+    fn project_in_place(
+        &self,
+        t: f64,
+        q: &mut [f64],
+        qd: &mut [f64],
+        tol: (f64, f64),
+    ) -> Result<bool>;
 
     /// The largest absolute residual of the rows, positions and velocities.
     ///

@@ -206,12 +206,14 @@ impl Options {
         [0..k, n..n + k]
     }
 
-    /// The relative tolerance a constrained run holds its initial state and its steps' ends
-    /// to: `rtol` when the step size is controlled (the constraints hold to the accuracy asked
-    /// for), at least [`PROJECTION_TOLERANCE`](crate::PROJECTION_TOLERANCE); that tolerance
-    /// itself for fixed steps.
-    pub fn projection_tolerance(&self) -> f64 {
-        projection_tolerance(self.dt.is_none().then_some(self.rtol))
+    /// The tolerances (rtol, atol) a constrained run holds its initial state and its steps'
+    /// ends to, each row's residual as a distance within atol + rtol·ℓᵢ (ℓᵢ the size of the
+    /// coordinates the row reads, up to 1;
+    /// [`Constrained::project_within`](crate::Constrained::project_within)): the run's own `rtol` and `atol` when the step size
+    /// is controlled (the constraints hold to the accuracy asked for), each at least
+    /// [`PROJECTION_TOLERANCE`](crate::PROJECTION_TOLERANCE); that tolerance for fixed steps.
+    pub fn projection_tolerance(&self) -> (f64, f64) {
+        projection_tolerance(self.dt.is_none().then_some((self.rtol, self.atol)))
     }
 
     /// Check every option against the span `t0 → t_end`.
@@ -360,12 +362,14 @@ fn bad<T>(what: &'static str, why: String) -> Result<T> {
     Err(Error::InvalidInput { what, why })
 }
 
-/// [`Options::projection_tolerance`] from the run's `rtol` when its step size is controlled,
-/// `None` for fixed steps: the one statement of the rule, also for the Python binding's checks
-/// before a run.
-pub(crate) fn projection_tolerance(controlled_rtol: Option<f64>) -> f64 {
+/// [`Options::projection_tolerance`] from the run's (rtol, atol) when its step size is
+/// controlled, `None` for fixed steps: the one statement of the rule, also for the Python
+/// binding's checks before a run.
+pub(crate) fn projection_tolerance(controlled: Option<(f64, f64)>) -> (f64, f64) {
     let floor = crate::constrained::PROJECTION_TOLERANCE;
-    controlled_rtol.map_or(floor, |rtol| rtol.max(floor))
+    controlled.map_or((floor, floor), |(rtol, atol)| {
+        (rtol.max(floor), atol.max(floor))
+    })
 }
 
 #[cfg(test)]

@@ -437,20 +437,23 @@ impl PyModel {
         guard(|| Ok(c.project(t, &q, &qd, tol)?))
     }
 
-    /// Refuse a state off the constraints ([`Constrained::check_consistent`]) to the tolerance
-    /// a run with `rtol` holds (`None`: a run of fixed steps), as the run itself would before
-    /// its first step; nothing without constraints.
-    #[pyo3(signature = (t, q, qd, rtol=None))]
+    /// Refuse a state off the constraints ([`Constrained::check_consistent_within`]) to the
+    /// tolerances a run with `rtol` and `atol` holds (`rtol` `None`: a run of fixed steps;
+    /// `atol` `None`: `rtol`), as the run itself would before its first step; nothing without
+    /// constraints.
+    #[pyo3(signature = (t, q, qd, rtol=None, atol=None))]
     fn check_consistent(
         &self,
         t: f64,
         q: Vec<f64>,
         qd: Vec<f64>,
         rtol: Option<f64>,
+        atol: Option<f64>,
     ) -> PyResult<()> {
-        let tol = crate::integrators::projection_tolerance(rtol);
+        let (rtol, atol) =
+            crate::integrators::projection_tolerance(rtol.map(|r| (r, atol.unwrap_or(r))));
         match self.model.constrained() {
-            Some(c) => guard(|| Ok(c.check_consistent(t, &q, &qd, Some(tol))?)),
+            Some(c) => guard(|| Ok(c.check_consistent_within(t, &q, &qd, rtol, atol)?)),
             None => Ok(()),
         }
     }
@@ -834,7 +837,8 @@ impl PyModel {
             options.events = events;
             // Refused here, as a run refuses it.
             if let Some(c) = self.model.constrained() {
-                c.check_consistent(t0, &q0, &qd0, Some(options.projection_tolerance()))?;
+                let (rtol, atol) = options.projection_tolerance();
+                c.check_consistent_within(t0, &q0, &qd0, rtol, atol)?;
             }
             integrator::PyIntegrator::new(
                 self.model.clone(),

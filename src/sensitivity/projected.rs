@@ -90,11 +90,17 @@ impl ConstraintAccess for Projected<'_> {
     fn moving(&self) -> bool {
         self.state.moving()
     }
-    fn check_state(&self, t: f64, q: &[f64], qd: &[f64], tol: f64) -> Result<()> {
+    fn check_state(&self, t: f64, q: &[f64], qd: &[f64], tol: (f64, f64)) -> Result<()> {
         let n = self.n;
         self.state.check_state(t, &q[..n], &qd[..n], tol)
     }
-    fn project_in_place(&self, t: f64, q: &mut [f64], qd: &mut [f64], tol: f64) -> Result<bool> {
+    fn project_in_place(
+        &self,
+        t: f64,
+        q: &mut [f64],
+        qd: &mut [f64],
+        tol: (f64, f64),
+    ) -> Result<bool> {
         let n = self.n;
         let moved = self
             .state

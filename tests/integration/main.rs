@@ -16,6 +16,7 @@ mod common;
 mod compiled;
 mod constrained_motion;
 mod constrained_statics;
+mod constraint_tolerance;
 mod constraints;
 mod energy_model;
 #[cfg(feature = "parallel")]

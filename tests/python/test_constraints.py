@@ -601,3 +601,114 @@ def test_a_solution_from_before_constraints_has_no_reactions():
     old.__setstate__(state)
     assert old.multipliers is None and old.constraint_forces is None
     assert_allclose(old.q, free.q, rtol=0)
+
+
+# -- how closely a run holds the constraints, and change points (issue 49) ---------------------
+def rod_beside_a_free_coordinate():
+    """A pendulum rod x² + y² = 1 (U = g y) beside a free coordinate z."""
+    x, y, z = lg.coordinates("x y z")
+    return lg.Model([x, y, z], kinetic=0.5 * (x.d**2 + y.d**2 + z.d**2), potential=G * y,
+                    constraints={"rod": x**2 + y**2 - 1})
+
+
+@pytest.mark.parametrize("zd", [0.0, 1000.0])
+def test_a_free_coordinate_does_not_loosen_the_rod(zd):
+    # The rod's tolerance is its own: z running to 10⁵ (z = ż t exactly) leaves it at
+    # atol + rtol as a distance, |g| ≤ 2 · 2e-8 (it was judged against the largest |q|:
+    # 2.7e-5 at ż = 1000).
+    model = rod_beside_a_free_coordinate()
+    th, tol = 0.7, 1e-8
+    sol = model.simulate([math.sin(th), -math.cos(th), 0.0], [0.0, 0.0, zd], 100.0, rtol=tol,
+                         atol=tol)
+    residual = np.max(np.abs(sol.q[:, 0] ** 2 + sol.q[:, 1] ** 2 - 1))
+    assert residual <= 4 * tol
+    assert residual <= sol.stats["constraint_residual"] <= 4 * tol
+    assert_allclose(sol.q[:, 2], zd * sol.t, rtol=1e-9, atol=1e-9)
+    energy = 0.5 * (sol.qd[:, 0] ** 2 + sol.qd[:, 1] ** 2) + G * sol.q[:, 1]
+    assert np.max(np.abs(energy - energy[0])) < 1e-5
+
+
+def four_bar(a, b, c, d, g):
+    """A planar four-bar in its link angles: crank a from the origin, coupler b, rocker c from
+    the ground pivot (d, 0); uniform rods of unit mass, gravity g along −y; the loop closed by
+    its x and y rows."""
+    t1, t2, t3 = lg.coordinates("t1 t2 t3")
+    vx = -a * lg.sin(t1) * t1.d - b / 2 * lg.sin(t2) * t2.d
+    vy = a * lg.cos(t1) * t1.d + b / 2 * lg.cos(t2) * t2.d
+    kinetic = (a**2 / 6 * t1.d**2 + c**2 / 6 * t3.d**2 + 0.5 * (vx**2 + vy**2)
+               + b**2 / 24 * t2.d**2)
+    potential = g * (1.5 * a * lg.sin(t1) + b / 2 * lg.sin(t2) + c / 2 * lg.sin(t3))
+    return lg.Model([t1, t2, t3], kinetic=kinetic, potential=potential,
+                    constraints={"loop x": a * lg.cos(t1) + b * lg.cos(t2) - c * lg.cos(t3) - d,
+                                 "loop y": a * lg.sin(t1) + b * lg.sin(t2) - c * lg.sin(t3)})
+
+
+def loop_residual(q, a, b, c, d):
+    t1, t2, t3 = q.T
+    gx = a * np.cos(t1) + b * np.cos(t2) - c * np.cos(t3) - d
+    gy = a * np.sin(t1) + b * np.sin(t2) - c * np.sin(t3)
+    return np.maximum(np.abs(gx), np.abs(gy))
+
+
+def test_a_winding_crank_does_not_drift():
+    # A Grashof crank-rocker (a = 1, b = 3, c = 2, d = 3): the crank winds to θ₁ ≈ 700 by
+    # t = 200, and the loop stays closed to the tolerance, no worse in the second half (judged
+    # against |θ₁| it drifted to 3.6e-4).
+    a, b, c, d = 1.0, 3.0, 2.0, 3.0
+    model = four_bar(a, b, c, d, 0.0)
+    # The far joint of the coupler at θ₁ = π/2: |B − A| = b, |B − (d, 0)| = c.
+    A, D = np.array([0.0, a]), np.array([d, 0.0])
+    e = D - A
+    along = (b * b - c * c + e @ e) / (2 * np.linalg.norm(e))
+    u = e / np.linalg.norm(e)
+    B = A + along * u + math.sqrt(b * b - along * along) * np.array([-u[1], u[0]])
+    q0 = [math.pi / 2, math.atan2(*(B - A)[::-1]), math.atan2(*(B - D)[::-1])]
+    jac = np.array([[-a * math.sin(q0[0]), -b * math.sin(q0[1]), c * math.sin(q0[2])],
+                    [a * math.cos(q0[0]), b * math.cos(q0[1]), -c * math.cos(q0[2])]])
+    qd0 = [3.0, *np.linalg.solve(jac[:, 1:], -3.0 * jac[:, 0])]
+    tol = 1e-6
+    sol = model.simulate(q0, qd0, 200.0, rtol=tol, atol=tol)
+    assert sol.q[-1, 0] > 600
+    r = loop_residual(sol.q, a, b, c, d)
+    half = len(r) // 2
+    assert r[:half].max() <= 6 * tol and r[half:].max() <= 6 * tol
+    assert r.max() <= sol.stats["constraint_residual"]
+    assert np.max(np.abs(sol.energy - sol.energy[0])) < 1e-2 * sol.energy[0]
+
+
+def parallelogram_change_points():
+    """When the parallelogram four-bar (a = c = 1, b = d = 2, g = 9.81) from θ₁ = π/2 at
+    θ̇₁ = 3 on its parallelogram branch (θ₂ = 0, θ₃ = θ₁) has its links collinear, θ₁ = π and
+    2π: on the branch J θ̇²/2 + 2 g sin θ is conserved (J = 5/3), t(θ) = ∫ dθ/θ̇."""
+    from scipy.integrate import quad
+
+    rate = lambda th: math.sqrt(9.0 + 4.0 * G * (1.0 - math.sin(th)) / (5.0 / 3.0))
+    first = quad(lambda th: 1.0 / rate(th), math.pi / 2, math.pi, epsabs=1e-13)[0]
+    return [first, first + quad(lambda th: 1.0 / rate(th), math.pi, 2 * math.pi,
+                                epsabs=1e-13)[0]]
+
+
+@pytest.mark.parametrize("tolerances", [dict(rtol=1e-6, atol=1e-6), dict(),
+                                        dict(rtol=1e-8, atol=1e-8)])
+def test_a_change_point_is_never_crossed_onto_the_other_branch(tolerances):
+    # All links collinear (G of rank 1) at t ≈ 0.40 and 0.86: the run goes on along the
+    # parallelogram with bounded multipliers and its energy, or stops with the typed error at
+    # a change point — never onto the antiparallelogram with multipliers of 10¹³ (which the
+    # defaults did).
+    model = four_bar(1.0, 2.0, 1.0, 2.0, G)
+    q0, qd0 = [math.pi / 2, 0.0, math.pi / 2], [3.0, 0.0, 3.0]
+    typical = np.max(np.abs(model.multipliers(0.0, q0, qd0)))
+    stops = parallelogram_change_points()
+    try:
+        sol = model.simulate(q0, qd0, 1.0, **tolerances)
+    except ValueError as e:
+        message = str(e)
+        assert "constraints are dependent" in message and "loop" in message
+        t = float(re.search(r"at t = ([-+0-9.e]+)", message).group(1))
+        assert min(abs(t - s) for s in stops) < 1e-4, (t, stops)
+        return
+    assert np.max(np.abs(sol.q[:, 1])) < 1e-5
+    assert np.max(np.abs(sol.q[:, 2] - sol.q[:, 0])) < 1e-5
+    assert np.max(np.abs(sol.multipliers)) < 1e3 * typical
+    rtol = tolerances.get("rtol", 1e-6)
+    assert np.max(np.abs(sol.energy - sol.energy[0])) < 1e3 * rtol * abs(sol.energy[0])
