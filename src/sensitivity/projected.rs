@@ -6,11 +6,10 @@
 //! ([`TangentSpace`]). The run's `constraint_residual` is then the model's, as in the plain run.
 
 use super::tangent::TangentSpace;
-use crate::dynamics::{ConstraintAccess, DerivedProgram, Dynamics, Structure};
+use crate::dynamics::{ConstraintAccess, DerivedProgram, Dynamics};
 use crate::error::Result;
 use crate::program::eval::Function;
 use crate::routes::EnergyModel;
-use crate::scalar::Scalar;
 
 /// The bound variational system of n(1 + m) coordinates whose constraints are the model's on
 /// its first n (see the module docs).
@@ -26,51 +25,14 @@ pub(super) struct Projected<'a> {
 }
 
 impl Dynamics for Projected<'_> {
-    fn dof(&self) -> usize {
-        self.system.dof()
-    }
-    fn structure(&self) -> Structure {
-        self.system.structure()
-    }
-    fn kinetic_energy<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
-        self.system.kinetic_energy(t, q, qd)
-    }
-    fn potential_energy<D: Scalar>(&self, t: D, q: &[D]) -> D {
-        self.system.potential_energy(t, q)
-    }
-    fn potential_gradient_into<D: Scalar>(&self, t: D, q: &[D], out: &mut [D]) {
-        self.system.potential_gradient_into(t, q, out)
-    }
-    fn generalized_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        self.system.generalized_forces_into(t, q, qd, out)
-    }
-    fn dissipative_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        self.system.dissipative_forces_into(t, q, qd, out)
-    }
-    fn momenta_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        self.system.momenta_into(t, q, qd, out)
-    }
-    fn mass_matrix_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        self.system.mass_matrix_into(t, q, qd, out)
-    }
-    #[inline]
-    fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
-        self.system.accelerations_into(t, q, qd, out)
-    }
-    fn lagrangian<D: Scalar>(&self, t: D, q: &[D], qd: &[D]) -> D {
-        self.system.lagrangian(t, q, qd)
-    }
-    fn derived_program(&self) -> Option<&dyn DerivedProgram> {
-        self.system.derived_program()
-    }
+    crate::dynamics::forward_dynamics!(system: dof, structure, kinetic_energy, potential_energy,
+        potential_gradient_into, generalized_forces_into, dissipative_forces_into, momenta_into,
+        mass_matrix_into, accelerations_into, lagrangian, derived_program, energy);
     fn taylor_program(&self) -> std::result::Result<&dyn DerivedProgram, String> {
         Err("the Taylor method does not project its steps onto the constraints".into())
     }
     fn constraints(&self) -> Option<&dyn ConstraintAccess> {
         Some(self)
-    }
-    fn energy(&self, t: f64, q: &[f64], qd: &[f64]) -> Result<f64> {
-        self.system.energy(t, q, qd)
     }
 }
 
