@@ -486,7 +486,8 @@ def PlanarBody(  # noqa: N802 - a constructor by its use
         raise ValueError(
             f"body {label}: a planar body's position is two expressions (x, y), got {position!r}"
         )
-    return Body(mass, [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, inertia]],
+    half = _mul(0.5, inertia)
+    return Body(mass, [half, half, inertia],
                 (pos[0], pos[1], 0.0), rotation_z(angle), name=name)
 
 
