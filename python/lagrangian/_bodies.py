@@ -1,6 +1,6 @@
 """Rigid bodies stated by mass, inertia, position and orientation; their kinetic energy
 
-    T = ½ m |ṙ|² + ½ Ωᵀ I Ω,   Ω = vee(Rᵀ Ṙ)
+    T = ½ m ‖ṙ‖² + ½ Ωᵀ I Ω,   Ω = vee(Rᵀ Ṙ)
 
 derived on the expression graph (ṙ and Ṙ are total time derivatives, taken by :func:`derivative`
 below), and the rotation helpers that build R."""
@@ -267,8 +267,8 @@ def euler_rotation(angles: Sequence[ExprLike], sequence: str = "zxz") -> Rotatio
 
 
 def quaternion_rotation(q0: ExprLike, q1: ExprLike, q2: ExprLike, q3: ExprLike) -> Rotation:
-    """R of the quaternion q₀ + q₁i + q₂j + q₃k (scalar first), divided by |q|² so that it is a
-    rotation for every q ≠ 0 and the usual one on |q| = 1. State |q| = 1 as a constraint
+    """R of the quaternion q₀ + q₁i + q₂j + q₃k (scalar first), divided by ‖q‖² so that it is a
+    rotation for every q ≠ 0 and the usual one on ‖q‖ = 1. State ‖q‖ = 1 as a constraint
     (``constraints=[q0**2 + q1**2 + q2**2 + q3**2 - 1]``)."""
     w, x, y, z = (Expr.lift(v) for v in (q0, q1, q2, q3))
     n = w**2 + x**2 + y**2 + z**2
@@ -312,7 +312,7 @@ class Body:
     the body axes in world coordinates (v_world = R v_body). Given to
     :class:`~lagrangian.Model` as ``bodies=[…]``, it adds
 
-        T = ½ m |ṙ|² + ½ Ωᵀ I Ω,   Ω = vee(Rᵀ Ṙ)  (the body-frame angular velocity)
+        T = ½ m ‖ṙ‖² + ½ Ωᵀ I Ω,   Ω = vee(Rᵀ Ṙ)  (the body-frame angular velocity)
 
     to the model's kinetic energy, ṙ and Ṙ taken as total time derivatives on the expression
     graph. ``mass`` is a number or parameter expression; ``inertia`` a 3×3 tensor (nested
@@ -320,7 +320,7 @@ class Body:
 
     With an orientation from :func:`quaternion_rotation`, T is blind to the quaternion's length
     and M would be singular along q; the body then adds ½ c (q·q̇)² with c = 4 tr(I)/3, which
-    vanishes with its force on |q| = 1 (where q·q̇ = 0 and q·q̈ + |q̇|² = 0): the motion on the
+    vanishes with its force on ‖q‖ = 1 (where q·q̇ = 0 and q·q̈ + ‖q̇‖² = 0): the motion on the
     constraint is unchanged, and M is regular.
 
     ``gravity`` (optional, a 3-vector g, e.g. ``(0, 0, -9.81)``): :attr:`potential` is then
