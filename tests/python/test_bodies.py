@@ -258,3 +258,15 @@ def test_bodies_combine_with_kinetic_and_particles():
                     positions=[(x, 1.0)], masses=[2.0])
     M = both.linearize([0.2, 0.1], qd=[0.0, 0.0]).M
     assert np.allclose(M, np.diag([1.0 + 3.0 + 2.0, 0.25]), rtol=0, atol=1e-14)
+
+
+def test_a_model_with_bodies_pickles_and_takes_new_parameters():
+    import pickle
+
+    as_body, by_hand, v = _pendulums("y")
+    again = pickle.loads(pickle.dumps(as_body))
+    assert again.accelerations(0.0, [0.4], [1.1])[0] == as_body.accelerations(0.0, [0.4], [1.1])[0]
+    longer = as_body.with_parameters(L=1.4)
+    ref = by_hand.with_parameters(L=1.4)
+    a, b = longer.accelerations(0.0, [0.4], [1.1])[0], ref.accelerations(0.0, [0.4], [1.1])[0]
+    assert abs(a - b) <= 1e-13 * abs(b)
