@@ -506,6 +506,21 @@ def bodies_kinetic(bodies: Any, coordinates: Sequence[Coordinate],
                    for s in e.free_symbols() if s.op == "param" and s.args[0] not in params]
         if missing:
             raise ValueError(f"body {b.label}: the parameter {missing[0]!r} has no value")
+        names = {c.name for c in coordinates}
+        for what, exprs in (("position", b.position),
+                            ("orientation", [x for r in b.orientation for x in r])):
+            for e in exprs:
+                for sym in e.free_symbols():
+                    if sym.op == "qd":
+                        raise ValueError(
+                            f"body {b.label}: the {what} reads the velocity {sym!r}: state it "
+                            "in t, the coordinates and parameters (the velocities are derived)"
+                        )
+                    if sym.op == "q" and sym.args[0] not in names:
+                        raise ValueError(
+                            f"body {b.label}: the {what} reads {sym!r}, which is not a "
+                            "coordinate of the model"
+                        )
         b.check_values(params)
         b.check_rotation(coordinates, {k: float(v) for k, v in params.items()})
         t_b = b.kinetic(coordinates)

@@ -67,6 +67,24 @@ def test_compound_pendulum_two_formulations_agree(axis):
     assert abs(lin.K[0, 0] / lin.M[0, 0] - omega2) <= 1e-12 * omega2
 
 
+def test_a_rod_on_a_turntable_takes_the_time_derivative():
+    # R = R_z(Ωt) R_y(θ): a rod hanging from a pivot on a platform turning at Ω; by hand
+    # T = ½ (mL²/3)(θ̇² + Ω² sin²θ) (the rod has no inertia about its own axis).
+    th, = lg.coordinates("th")
+    m, L, g, W = 1.3, 0.7, 9.81, 2.3
+    R = [list(r) for r in np.array(lg.rotation_z(W * lg.t), dtype=object)
+         @ np.array(lg.rotation_y(th), dtype=object)]
+    pos = [-L / 2 * R[i][2] for i in range(3)]
+    rod = lg.Body(m, [m * L**2 / 12, m * L**2 / 12, 0.0], pos, R, name="rod")
+    as_body = lg.Model([th], potential=-m * g * L / 2 * lg.cos(th), bodies=[rod])
+    by_hand = lg.Model([th], kinetic=0.5 * (m * L**2 / 3) * (th.d**2 + W**2 * lg.sin(th)**2),
+                       potential=-m * g * L / 2 * lg.cos(th))
+    rng = np.random.default_rng(3)
+    for t, q, qd in rng.uniform(-3, 3, (5, 3)):
+        a, b = as_body.accelerations(t, [q], [qd])[0], by_hand.accelerations(t, [q], [qd])[0]
+        assert abs(a - b) <= 1e-13 * (1 + abs(b))
+
+
 def test_planar_body_is_the_body_in_the_plane():
     x, y, th = lg.coordinates("x y th")
     b = lg.PlanarBody(2.0, 0.5, (x, y), th)
@@ -247,6 +265,11 @@ def test_bad_bodies_are_refused_naming_the_body():
         lg.Model([th], bodies=[lg.Body(1.0, [1, 1, 1], pos, mirror, name="r")])
     with pytest.raises(ValueError, match="sequence 'zzx'"):
         lg.euler_rotation([th, th, th], "zzx")
+    x, = lg.coordinates("x")
+    with pytest.raises(ValueError, match="'c'.*position reads x.*not a coordinate"):
+        lg.Model([th], bodies=[lg.Body(1.0, [1, 1, 1], (x, 0, 0), rot, name="c")])
+    with pytest.raises(ValueError, match="'v'.*orientation reads the velocity"):
+        lg.Model([th], bodies=[lg.Body(1.0, [1, 1, 1], pos, lg.rotation_z(th.d), name="v")])
     with pytest.raises(TypeError, match="bodies"):
         lg.Model([th], bodies=["not a body"])
 
