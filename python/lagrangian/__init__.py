@@ -42,12 +42,30 @@ from ._lagrangian import (
 from ._ensemble import BatchIntegrator, Ensemble
 from ._fit import Fit
 from ._linear import Equilibrium, Linearization, Modes
+from ._bodies import (
+    Body,
+    PlanarBody,
+    derivative,
+    euler_rotation,
+    quaternion_rotation,
+    rotation_x,
+    rotation_y,
+    rotation_z,
+)
 from ._model import Model, methods
 from ._solution import Solution
 from ._sympy import from_sympy
 from ._workprec import WorkPrecision, work_precision
 
 __all__ = [
+    "Body",
+    "PlanarBody",
+    "derivative",
+    "euler_rotation",
+    "quaternion_rotation",
+    "rotation_x",
+    "rotation_y",
+    "rotation_z",
     "ConvergenceError",
     "BatchIntegrator",
     "Ensemble",

@@ -19,6 +19,7 @@ import numpy as np
 from . import _ensemble, _fit, _lagrangian, _linear, _sensitivity
 from ._drawing import Drawing
 from ._events import Event, event_specs
+from ._bodies import Body, with_bodies
 from ._expr import Coordinate, Expr, ExprLike
 from ._lagrangian import Integrator
 from ._protocols import ArrayLike, FloatArray
@@ -125,6 +126,10 @@ class Model:
         Velocity (nonholonomic) constraints a(t, q)·q̇ + b(t, q) = 0, linear in the velocities
         (rolling without slipping, a knife edge); named as ``constraints`` (default names
         ``"velocity constraint 0"``, …). Their rows follow the holonomic ones.
+    bodies : sequence of Body, optional
+        Rigid bodies (:class:`Body`, :class:`PlanarBody`): their kinetic energy is derived and
+        added to ``kinetic`` (with particles, the particles' T is derived beside it and their
+        positions become ``drawing`` points); see :doc:`bodies`.
 
     Raises
     ------
@@ -185,7 +190,12 @@ class Model:
         drawing: Optional[Sequence[Sequence[ExprLike]]] = None,
         constraints: Optional[Union[Sequence[ExprLike], Mapping[str, ExprLike]]] = None,
         velocity_constraints: Optional[Union[Sequence[ExprLike], Mapping[str, ExprLike]]] = None,
+        bodies: Optional[Sequence[Body]] = None,
     ) -> None:
+        if bodies is not None:
+            kinetic, positions, masses, drawing = with_bodies(
+                bodies, coordinates, parameters, kinetic, positions, masses, drawing
+            )
         parts = model_parts(
             coordinates, kinetic, potential, dissipation, forces, parameters, positions, masses,
             backend, drawing, constraints, velocity_constraints,

@@ -24,6 +24,7 @@ LAYERS: List[Tuple[str, Set[str]]] = [
     ("native module and expressions", {"_lagrangian", "_expr"}),
     ("protocols of what the workers read", {"_protocols"}),
     ("validation", {"_validate"}),
+    ("rigid bodies", {"_bodies"}),
     ("events, drawing, sensitivities", {"_events", "_drawing", "_sensitivity"}),
     ("pictures", {"_plot"}),
     ("solution", {"_solution"}),

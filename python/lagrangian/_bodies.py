@@ -1,0 +1,558 @@
+"""Rigid bodies stated by mass, inertia, position and orientation; their kinetic energy
+
+    T = ½ m ‖ṙ‖² + ½ Ωᵀ I Ω,   Ω = vee(Rᵀ Ṙ)
+
+derived on the expression graph (ṙ and Ṙ are total time derivatives, taken by :func:`derivative`
+below), and the rotation helpers that build R."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ._expr import (
+    BINARY,
+    NUMPY_BINARY,
+    NUMPY_UNARY,
+    UNARY,
+    Coordinate,
+    Expr,
+    ExprLike,
+    _postorder,
+    cos,
+    cosh,
+    log,
+    sin,
+    sinh,
+    sqrt,
+    t,
+    tan,
+    tanh,
+)
+
+__all__ = [
+    "Body",
+    "PlanarBody",
+    "derivative",
+    "rotation_x",
+    "rotation_y",
+    "rotation_z",
+    "euler_rotation",
+    "quaternion_rotation",
+]
+
+Matrix = Tuple[Tuple[Expr, Expr, Expr], Tuple[Expr, Expr, Expr], Tuple[Expr, Expr, Expr]]
+
+
+# -- exact differentiation of expressions ------------------------------------------------------
+def _is_const(e: ExprLike, value: float) -> bool:
+    if not isinstance(e, Expr):
+        return float(e) == value
+    return e.op == "const" and e.args[0] == value
+
+
+def _add(a: ExprLike, b: ExprLike) -> Expr:
+    a, b = Expr.lift(a), Expr.lift(b)
+    if _is_const(a, 0.0):
+        return b
+    if _is_const(b, 0.0):
+        return a
+    return a + b
+
+
+def _sub(a: ExprLike, b: ExprLike) -> Expr:
+    a, b = Expr.lift(a), Expr.lift(b)
+    if _is_const(b, 0.0):
+        return a
+    if _is_const(a, 0.0):
+        return -b
+    return a - b
+
+
+def _mul(a: ExprLike, b: ExprLike) -> Expr:
+    a, b = Expr.lift(a), Expr.lift(b)
+    if _is_const(a, 0.0) or _is_const(b, 0.0):
+        return Expr.lift(0.0)
+    if _is_const(a, 1.0):
+        return b
+    if _is_const(b, 1.0):
+        return a
+    return a * b
+
+
+def _unary_rule(op: str, a: Expr, node: Expr) -> Expr:
+    """d op(a) / da."""
+    if op == "neg":
+        return Expr.lift(-1.0)
+    if op == "sin":
+        return cos(a)
+    if op == "cos":
+        return -sin(a)
+    if op == "tan":
+        return 1.0 + tan(a) ** 2
+    if op == "exp":
+        return node
+    if op == "log":
+        return 1.0 / a
+    if op == "sqrt":
+        return 0.5 / sqrt(a)
+    if op == "sinh":
+        return cosh(a)
+    if op == "cosh":
+        return sinh(a)
+    if op == "tanh":
+        return 1.0 - tanh(a) ** 2
+    if op == "abs":
+        return a / node
+    raise NotImplementedError(
+        f"no derivative rule for the function {op!r}: add one to lagrangian._bodies"
+    )
+
+
+#: The operations :func:`derivative` knows (checked against ``UNARY``/``BINARY`` by the tests).
+RULES = frozenset(
+    ["neg", "sin", "cos", "tan", "exp", "log", "sqrt", "sinh", "cosh", "tanh", "abs",
+     "add", "sub", "mul", "div", "pow", "atan2"]
+)
+
+
+def derivative(e: ExprLike, s: Expr) -> Expr:
+    """∂e/∂s, exact, for ``s`` a coordinate, a velocity ``q.d`` or the time ``lg.t`` (every other
+    symbol is held fixed). Each node is differentiated once (the graph's shared subtrees stay
+    shared); zeros and ones are folded."""
+    e = Expr.lift(e)
+    if s.op not in ("q", "qd", "t"):
+        raise ValueError(f"derivative with respect to {s!r}: give a coordinate, a velocity or t")
+    zero, one = Expr.lift(0.0), Expr.lift(1.0)
+    d: Dict[Expr, Expr] = {}
+    for node in _postorder([e]):
+        op, args = node.op, node.args
+        if op in ("const", "param", "t", "q", "qd"):
+            d[node] = one if node == s else zero
+        elif op in UNARY:
+            da = d[args[0]]
+            d[node] = zero if _is_const(da, 0.0) else _mul(_unary_rule(op, args[0], node), da)
+        elif op in BINARY:
+            a, b = args
+            da, db = d[a], d[b]
+            if _is_const(da, 0.0) and _is_const(db, 0.0):
+                d[node] = zero
+            elif op == "add":
+                d[node] = _add(da, db)
+            elif op == "sub":
+                d[node] = _sub(da, db)
+            elif op == "mul":
+                d[node] = _add(_mul(da, b), _mul(a, db))
+            elif op == "div":
+                d[node] = _sub(_mul(da, 1.0 / b), _mul(db, a / b**2))
+            elif op == "pow":
+                if _is_const(db, 0.0):
+                    d[node] = _mul(_mul(b, a ** (b - 1.0)), da)
+                else:
+                    d[node] = _mul(node, _add(_mul(db, log(a)), _mul(b, da / a)))
+            elif op == "atan2":  # atan2(y, x)
+                d[node] = _sub(_mul(da, b), _mul(db, a)) / (a**2 + b**2)
+            else:
+                raise NotImplementedError(
+                    f"no derivative rule for the operation {op!r}: add one to lagrangian._bodies"
+                )
+        else:  # pragma: no cover - Expr refuses unknown operations
+            raise NotImplementedError(op)
+    return d[e]
+
+
+def time_derivative(e: ExprLike, coordinates: Sequence[Coordinate]) -> Expr:
+    """The total time derivative Σ ∂e/∂qᵢ q̇ᵢ + ∂e/∂t of ``e`` (an expression of t and q)."""
+    out = derivative(e, t)
+    for q in coordinates:
+        out = _add(out, _mul(derivative(e, q), q.d))
+    return out
+
+
+# -- numbers of expressions --------------------------------------------------------------------
+def evaluate(e: ExprLike, q: Mapping[str, float], params: Mapping[str, float],
+             time: float = 0.0) -> float:
+    """``e`` at the coordinates' values ``q`` (by name), the parameters' values and ``time``."""
+    e = Expr.lift(e)
+    v: Dict[Expr, float] = {}
+    with np.errstate(all="ignore"):
+        for node in _postorder([e]):
+            op, args = node.op, node.args
+            if op == "const":
+                v[node] = float(args[0])
+            elif op == "param":
+                if args[0] not in params:
+                    raise ValueError(f"the parameter {args[0]!r} has no value")
+                v[node] = float(params[args[0]])
+            elif op == "t":
+                v[node] = time
+            elif op == "q":
+                if args[0] not in q:
+                    raise ValueError(f"{node!r} is not a coordinate of the model")
+                v[node] = float(q[args[0]])
+            elif op == "qd":
+                raise ValueError(f"the velocity {node!r} in a body's position or orientation")
+            elif op in UNARY:
+                v[node] = float(NUMPY_UNARY[op](v[args[0]]))
+            else:
+                v[node] = float(NUMPY_BINARY[op](v[args[0]], v[args[1]]))
+    return v[e]
+
+
+# -- rotations ---------------------------------------------------------------------------------
+class Rotation(tuple):  # type: ignore[type-arg]
+    """A rotation matrix R as three rows of expressions; from :func:`quaternion_rotation` it
+    also carries the quaternion, which a :class:`Body` reads to keep M regular (see there)."""
+
+    quaternion: Optional[Tuple[Expr, Expr, Expr, Expr]] = None
+
+
+def _rows(rows: Sequence[Sequence[ExprLike]]) -> Rotation:
+    return Rotation(tuple(tuple(Expr.lift(x) for x in r) for r in rows))
+
+
+def rotation_x(a: ExprLike) -> Rotation:
+    """R of a rotation by the angle ``a`` about the x axis (right-handed)."""
+    c, s = cos(a), sin(a)
+    return _rows(((1.0, 0.0, 0.0), (0.0, c, -s), (0.0, s, c)))
+
+
+def rotation_y(a: ExprLike) -> Rotation:
+    """R of a rotation by the angle ``a`` about the y axis (right-handed)."""
+    c, s = cos(a), sin(a)
+    return _rows(((c, 0.0, s), (0.0, 1.0, 0.0), (-s, 0.0, c)))
+
+
+def rotation_z(a: ExprLike) -> Rotation:
+    """R of a rotation by the angle ``a`` about the z axis (right-handed)."""
+    c, s = cos(a), sin(a)
+    return _rows(((c, -s, 0.0), (s, c, 0.0), (0.0, 0.0, 1.0)))
+
+
+def _matmul(a: Sequence[Sequence[Expr]], b: Sequence[Sequence[Expr]]) -> Rotation:
+    rows = []
+    for i in range(3):
+        row = []
+        for j in range(3):
+            acc = Expr.lift(0.0)
+            for k in range(3):
+                acc = _add(acc, _mul(a[i][k], b[k][j]))
+            row.append(acc)
+        rows.append(tuple(row))
+    return Rotation(tuple(rows))
+
+
+_AXES = {"x": rotation_x, "y": rotation_y, "z": rotation_z}
+
+
+def euler_rotation(angles: Sequence[ExprLike], sequence: str = "zxz") -> Rotation:
+    """R of three intrinsic rotations: ``sequence`` "zxz" gives R = R_z(a₀) R_x(a₁) R_z(a₂) — the
+    first about the world axis, the next about the once-turned axis, and so on. Proper Euler
+    ("zxz", "xyx", …) and Tait–Bryan ("zyx", "xyz", …) sequences: three of x, y, z with no two
+    neighbours equal."""
+    if not isinstance(sequence, str) or len(sequence) != 3 or set(sequence) - set("xyz") \
+            or sequence[0] == sequence[1] or sequence[1] == sequence[2]:
+        raise ValueError(
+            f"euler_rotation: sequence {sequence!r} is not an Euler or Tait–Bryan sequence: give "
+            "three of 'x', 'y', 'z' with no two neighbours equal, such as 'zxz' or 'zyx'"
+        )
+    angles = list(angles)
+    if len(angles) != 3:
+        raise ValueError(f"euler_rotation: {len(angles)} angles; give three")
+    r = _AXES[sequence[0]](angles[0])
+    r = _matmul(r, _AXES[sequence[1]](angles[1]))
+    return _matmul(r, _AXES[sequence[2]](angles[2]))
+
+
+def quaternion_rotation(q0: ExprLike, q1: ExprLike, q2: ExprLike, q3: ExprLike) -> Rotation:
+    """R of the quaternion q₀ + q₁i + q₂j + q₃k (scalar first), divided by ‖q‖² so that it is a
+    rotation for every q ≠ 0 and the usual one on ‖q‖ = 1. State ‖q‖ = 1 as a constraint
+    (``constraints=[q0**2 + q1**2 + q2**2 + q3**2 - 1]``)."""
+    w, x, y, z = (Expr.lift(v) for v in (q0, q1, q2, q3))
+    n = w**2 + x**2 + y**2 + z**2
+    rows = (
+        (w**2 + x**2 - y**2 - z**2, 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)),
+        (2.0 * (x * y + w * z), w**2 - x**2 + y**2 - z**2, 2.0 * (y * z - w * x)),
+        (2.0 * (x * z - w * y), 2.0 * (y * z + w * x), w**2 - x**2 - y**2 + z**2),
+    )
+    r = Rotation(tuple(tuple(e / n for e in row) for row in rows))
+    r.quaternion = (w, x, y, z)
+    return r
+
+
+# -- bodies ------------------------------------------------------------------------------------
+def _lift(name: str, what: str, value: Any) -> Expr:
+    try:
+        return Expr.lift(value)
+    except TypeError as exc:
+        raise TypeError(f"body {name}: {what}: {exc}") from None
+
+
+def _shape(name: str, what: str, value: Any, shape: Tuple[int, ...]) -> Any:
+    try:
+        arr = np.empty(shape, dtype=object)
+        arr[...] = [list(r) for r in value] if len(shape) == 2 else list(value)
+        if len(shape) == 2 and any(len(r) != shape[1] for r in value):
+            raise ValueError
+        if len(value) != shape[0]:
+            raise ValueError
+    except (TypeError, ValueError):
+        size = "×".join(str(s) for s in shape)
+        raise ValueError(
+            f"body {name}: {what} must be {size} (nested row by row), got {value!r}"
+        ) from None
+    return arr
+
+
+class Body:
+    """A rigid body: its mass, its inertia tensor about the centre of mass in body axes, the
+    centre of mass r(t, q) in world coordinates and the orientation R(t, q), whose columns are
+    the body axes in world coordinates (v_world = R v_body). Given to
+    :class:`~lagrangian.Model` as ``bodies=[…]``, it adds
+
+        T = ½ m ‖ṙ‖² + ½ Ωᵀ I Ω,   Ω = vee(Rᵀ Ṙ)  (the body-frame angular velocity)
+
+    to the model's kinetic energy, ṙ and Ṙ taken as total time derivatives on the expression
+    graph. ``mass`` is a number or parameter expression; ``inertia`` a 3×3 tensor (nested
+    sequences) or the three principal moments. Numbers are accepted wherever an expression is.
+
+    With an orientation from :func:`quaternion_rotation`, T is blind to the quaternion's length
+    and M would be singular along q; the body then adds ½ c (q·q̇)² with c = 4 tr(I)/3, which
+    vanishes with its force on ‖q‖ = 1 (where q·q̇ = 0 and q·q̈ + ‖q̇‖² = 0): the motion on the
+    constraint is unchanged, and M is regular.
+
+    ``gravity`` (optional, a 3-vector g, e.g. ``(0, 0, -9.81)``): :attr:`potential` is then
+    −m g·r, to add to the model's potential.
+    """
+
+    __slots__ = ("name", "mass", "inertia", "position", "orientation", "quaternion", "gravity")
+
+    def __init__(
+        self,
+        mass: ExprLike,
+        inertia: Any,
+        position: Sequence[ExprLike],
+        orientation: Sequence[Sequence[ExprLike]],
+        name: Optional[str] = None,
+        gravity: Optional[Sequence[ExprLike]] = None,
+    ) -> None:
+        label = repr(name) if name is not None else "(unnamed)"
+        self.name = name
+        self.mass = _lift(label, "mass", mass)
+        try:
+            n_inertia = len(inertia)
+        except TypeError:
+            n_inertia = -1
+        if n_inertia == 3 and all(not hasattr(r, "__len__") for r in inertia):
+            moments = [_lift(label, "inertia", v) for v in inertia]
+            z = Expr.lift(0.0)
+            rows: Any = [[moments[0], z, z], [z, moments[1], z], [z, z, moments[2]]]
+        else:
+            rows = _shape(label, "inertia", inertia, (3, 3)).tolist()
+        self.inertia = tuple(tuple(_lift(label, "inertia", v) for v in r) for r in rows)
+        pos = list(position) if hasattr(position, "__len__") else None
+        if pos is None or len(pos) != 3:
+            raise ValueError(
+                f"body {label}: position must be three expressions (x, y, z) of the "
+                f"coordinates and t, got {position!r}"
+            )
+        self.position = tuple(_lift(label, "position", x) for x in pos)
+        rr = _shape(label, "orientation", orientation, (3, 3)).tolist()
+        self.orientation = tuple(tuple(_lift(label, "orientation", v) for v in r) for r in rr)
+        self.quaternion = getattr(orientation, "quaternion", None)
+        self.gravity = None if gravity is None else tuple(
+            _lift(label, "gravity", g) for g in _shape(label, "gravity", gravity, (3,)).tolist()
+        )
+        free = [s for s in self.mass.free_symbols() if s.op != "param"]
+        if free:
+            raise ValueError(
+                f"body {label}: the mass depends on {free[0]!r}: give a number or parameters"
+            )
+        if all(e.op == "const" for r in self.inertia for e in r) and self.mass.op == "const":
+            self.check_values({})
+
+    @property
+    def label(self) -> str:
+        return repr(self.name) if self.name is not None else "(unnamed)"
+
+    @property
+    def potential(self) -> Expr:
+        """−m g·r, for ``gravity=g`` (``ValueError`` without it)."""
+        if self.gravity is None:
+            raise ValueError(f"body {self.label} has no gravity=: give gravity=(gx, gy, gz)")
+        acc = Expr.lift(0.0)
+        for g, x in zip(self.gravity, self.position):
+            acc = _sub(acc, _mul(_mul(self.mass, g), x))
+        return acc
+
+    def check_values(self, params: Mapping[str, float]) -> None:
+        """The mass and inertia at the parameters' values: m ≥ 0; I symmetric, positive
+        semidefinite, its principal moments obeying the triangle inequality."""
+        m = evaluate(self.mass, {}, params)
+        if not m >= 0.0:
+            raise ValueError(f"body {self.label}: the mass is {m}; give a mass ≥ 0")
+        inertia = np.array([[evaluate(e, {}, params) for e in r] for r in self.inertia])
+        if not np.all(np.isfinite(inertia)):
+            raise ValueError(f"body {self.label}: the inertia has a non-finite entry: {inertia}")
+        scale = max(float(np.max(np.abs(inertia))), 1e-300)
+        tol = 1e-12 * scale
+        if np.max(np.abs(inertia - inertia.T)) > tol:
+            raise ValueError(
+                f"body {self.label}: the inertia tensor is not symmetric: {inertia.tolist()}"
+            )
+        moments = np.linalg.eigvalsh(inertia)
+        if moments[0] < -tol:
+            raise ValueError(
+                f"body {self.label}: the inertia tensor is not positive semidefinite: principal "
+                f"moments {moments.tolist()}"
+            )
+        if moments[0] + moments[1] < moments[2] - 1e-9 * scale:
+            raise ValueError(
+                f"body {self.label}: the principal moments {moments.tolist()} break the triangle "
+                "inequality I₁ + I₂ ≥ I₃ (no mass distribution has them; a flat plate has "
+                "I₁ + I₂ = I₃)"
+            )
+
+    def check_rotation(self, coordinates: Sequence[Coordinate], params: Mapping[str, float],
+                       samples: int = 3, seed: int = 0) -> None:
+        """RᵀR = I and det R = 1 at a few random states (coordinates in [−π, π], t in [0, 1])."""
+        rng = np.random.default_rng(seed)
+        for _ in range(samples):
+            q = {c.name: float(v) for c, v in zip(coordinates, rng.uniform(-np.pi, np.pi,
+                                                                           len(coordinates)))}
+            time = float(rng.uniform(0.0, 1.0))
+            r = np.array([[evaluate(e, q, params, time) for e in row]
+                          for row in self.orientation])
+            err = float(np.max(np.abs(r.T @ r - np.eye(3)))) if np.all(np.isfinite(r)) else math.inf
+            det = float(np.linalg.det(r)) if np.all(np.isfinite(r)) else math.nan
+            if not (err <= 1e-9 and abs(det - 1.0) <= 1e-9):
+                raise ValueError(
+                    f"body {self.label}: the orientation is not a rotation at q = {q}, t = "
+                    f"{time:.3g}: max |RᵀR − I| = {err:.3g}, det R = {det:.6g}; give R with "
+                    "orthonormal columns (the body axes in world coordinates) and det R = 1, "
+                    "e.g. from lg.rotation_z or lg.euler_rotation"
+                )
+
+    def kinetic(self, coordinates: Sequence[Coordinate]) -> Expr:
+        """T = ½ m |ṙ|² + ½ Ωᵀ I Ω of this body, Ω = vee(RᵀṘ)."""
+        rd = [time_derivative(x, coordinates) for x in self.position]
+        r = self.orientation
+        rdot = [[time_derivative(e, coordinates) for e in row] for row in r]
+
+        def w(i: int, j: int) -> Expr:  # (RᵀṘ)[i][j] = Σ_k R[k][i] Ṙ[k][j]
+            acc = Expr.lift(0.0)
+            for k in range(3):
+                acc = _add(acc, _mul(r[k][i], rdot[k][j]))
+            return acc
+
+        omega = [w(2, 1), w(0, 2), w(1, 0)]
+        trans = Expr.lift(0.0)
+        for v in rd:
+            trans = _add(trans, _mul(v, v))
+        rot = Expr.lift(0.0)
+        for i in range(3):
+            for j in range(3):
+                rot = _add(rot, _mul(_mul(omega[i], self.inertia[i][j]), omega[j]))
+        total = _add(_mul(_mul(0.5, self.mass), trans), _mul(0.5, rot))
+        if self.quaternion is not None:
+            c = _mul(4.0 / 3.0, _add(_add(self.inertia[0][0], self.inertia[1][1]),
+                                     self.inertia[2][2]))
+            qq = Expr.lift(0.0)
+            for e in self.quaternion:
+                qq = _add(qq, _mul(e, time_derivative(e, coordinates)))
+            total = _add(total, _mul(_mul(0.5, c), _mul(qq, qq)))
+        return total
+
+    def __repr__(self) -> str:
+        return (f"Body(mass={self.mass!r}, inertia={self.inertia!r}, position={self.position!r}, "
+                f"orientation={self.orientation!r}, name={self.name!r})")
+
+
+def PlanarBody(  # noqa: N802 - a constructor by its use
+    mass: ExprLike,
+    inertia: ExprLike,
+    position: Sequence[ExprLike],
+    angle: ExprLike,
+    name: Optional[str] = None,
+) -> Body:
+    """A body moving in the x–y plane: centre of mass (x, y), turned by ``angle`` about z, with
+    the moment of inertia ``inertia`` about its centre of mass: the :class:`Body` with z = 0,
+    R = R_z(angle) and inertia (0, 0, I) — whose T is ½ m (ẋ² + ẏ²) + ½ I θ̇²."""
+    pos = list(position) if hasattr(position, "__len__") else None
+    label = repr(name) if name is not None else "(unnamed)"
+    if pos is None or len(pos) != 2:
+        raise ValueError(
+            f"body {label}: a planar body's position is two expressions (x, y), got {position!r}"
+        )
+    half = _mul(0.5, inertia)
+    return Body(mass, [half, half, inertia],
+                (pos[0], pos[1], 0.0), rotation_z(angle), name=name)
+
+
+def bodies_kinetic(bodies: Any, coordinates: Sequence[Coordinate],
+                   params: Mapping[str, float]) -> Optional[Expr]:
+    """Σ T of ``bodies`` (each checked: mass, inertia, a rotation at sample states), or ``None``
+    for no bodies."""
+    if bodies is None:
+        return None
+    items: List[Any] = list(bodies) if not isinstance(bodies, Body) else [bodies]
+    total: Optional[Expr] = None
+    for b in items:
+        if not isinstance(b, Body):
+            raise TypeError(f"bodies: expected lg.Body or lg.PlanarBody, got {type(b).__name__}")
+        missing = [s for e in (b.mass, *(x for r in b.inertia for x in r))
+                   for s in e.free_symbols() if s.op == "param" and s.args[0] not in params]
+        if missing:
+            raise ValueError(f"body {b.label}: the parameter {missing[0]!r} has no value")
+        names = {c.name for c in coordinates}
+        for what, exprs in (("position", b.position),
+                            ("orientation", [x for r in b.orientation for x in r])):
+            for e in exprs:
+                for sym in e.free_symbols():
+                    if sym.op == "qd":
+                        raise ValueError(
+                            f"body {b.label}: the {what} reads the velocity {sym!r}: state it "
+                            "in t, the coordinates and parameters (the velocities are derived)"
+                        )
+                    if sym.op == "q" and sym.args[0] not in names:
+                        raise ValueError(
+                            f"body {b.label}: the {what} reads {sym!r}, which is not a "
+                            "coordinate of the model"
+                        )
+        b.check_values(params)
+        b.check_rotation(coordinates, {k: float(v) for k, v in params.items()})
+        t_b = b.kinetic(coordinates)
+        total = t_b if total is None else total + t_b
+    return total
+
+
+def with_bodies(bodies: Any, coordinates: Any, parameters: Optional[Mapping[str, Any]],
+                kinetic: Any, positions: Any, masses: Any, drawing: Any
+                ) -> Tuple[Any, Any, Any, Any]:
+    """``Model``'s ``kinetic, positions, masses, drawing`` with the bodies' T added: to
+    ``kinetic``, or — with particles — to the particles' T derived here, the particles then
+    kept as drawing points."""
+    coords = list(coordinates)
+    params = dict(parameters or {})
+    total = bodies_kinetic(bodies, coords, params)
+    if total is None:
+        return kinetic, positions, masses, drawing
+    if kinetic is not None:
+        total = Expr.lift(kinetic) + total
+    if positions is not None and masses is not None:
+        for r, m in zip(positions, masses):
+            speed2 = Expr.lift(0.0)
+            for x in r:
+                v = time_derivative(x, coords)
+                speed2 = _add(speed2, _mul(v, v))
+            total = total + _mul(_mul(0.5, Expr.lift(m)), speed2)
+        if len(list(masses)) != len(list(positions)):
+            raise ValueError(
+                f"{len(list(masses))} masses for {len(list(positions))} positions: give one "
+                "mass per position"
+            )
+        drawing = list(drawing or ()) + [tuple(r) for r in positions]
+        positions = masses = None
+    return total, positions, masses, drawing
