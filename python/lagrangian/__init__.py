@@ -45,7 +45,6 @@ from ._linear import Equilibrium, Linearization, Modes
 from ._bodies import (
     Body,
     PlanarBody,
-    derivative,
     euler_rotation,
     quaternion_rotation,
     rotation_x,
@@ -60,7 +59,6 @@ from ._workprec import WorkPrecision, work_precision
 __all__ = [
     "Body",
     "PlanarBody",
-    "derivative",
     "euler_rotation",
     "quaternion_rotation",
     "rotation_x",

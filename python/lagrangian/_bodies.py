@@ -3,39 +3,31 @@
     T = ½ m ‖ṙ‖² + ½ Ωᵀ I Ω,   Ω = vee(Rᵀ Ṙ)
 
 derived on the expression graph (ṙ and Ṙ are total time derivatives, taken by :func:`derivative`
-below), and the rotation helpers that build R."""
+of ``_expr``), and the rotation helpers that build R."""
 
 from __future__ import annotations
 
 import math
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
 from ._expr import (
-    BINARY,
-    NUMPY_BINARY,
-    NUMPY_UNARY,
-    UNARY,
     Coordinate,
     Expr,
     ExprLike,
-    _postorder,
+    _add,
+    _mul,
+    _sub,
     cos,
-    cosh,
-    log,
+    evaluate as evaluate_numpy,
     sin,
-    sinh,
-    sqrt,
-    t,
-    tan,
-    tanh,
+    time_derivative,
 )
 
 __all__ = [
     "Body",
     "PlanarBody",
-    "derivative",
     "rotation_x",
     "rotation_y",
     "rotation_z",
@@ -46,159 +38,14 @@ __all__ = [
 Matrix = Tuple[Tuple[Expr, Expr, Expr], Tuple[Expr, Expr, Expr], Tuple[Expr, Expr, Expr]]
 
 
-# -- exact differentiation of expressions ------------------------------------------------------
-def _is_const(e: ExprLike, value: float) -> bool:
-    if not isinstance(e, Expr):
-        return float(e) == value
-    return e.op == "const" and e.args[0] == value
-
-
-def _add(a: ExprLike, b: ExprLike) -> Expr:
-    a, b = Expr.lift(a), Expr.lift(b)
-    if _is_const(a, 0.0):
-        return b
-    if _is_const(b, 0.0):
-        return a
-    return a + b
-
-
-def _sub(a: ExprLike, b: ExprLike) -> Expr:
-    a, b = Expr.lift(a), Expr.lift(b)
-    if _is_const(b, 0.0):
-        return a
-    if _is_const(a, 0.0):
-        return -b
-    return a - b
-
-
-def _mul(a: ExprLike, b: ExprLike) -> Expr:
-    a, b = Expr.lift(a), Expr.lift(b)
-    if _is_const(a, 0.0) or _is_const(b, 0.0):
-        return Expr.lift(0.0)
-    if _is_const(a, 1.0):
-        return b
-    if _is_const(b, 1.0):
-        return a
-    return a * b
-
-
-def _unary_rule(op: str, a: Expr, node: Expr) -> Expr:
-    """d op(a) / da."""
-    if op == "neg":
-        return Expr.lift(-1.0)
-    if op == "sin":
-        return cos(a)
-    if op == "cos":
-        return -sin(a)
-    if op == "tan":
-        return 1.0 + tan(a) ** 2
-    if op == "exp":
-        return node
-    if op == "log":
-        return 1.0 / a
-    if op == "sqrt":
-        return 0.5 / sqrt(a)
-    if op == "sinh":
-        return cosh(a)
-    if op == "cosh":
-        return sinh(a)
-    if op == "tanh":
-        return 1.0 - tanh(a) ** 2
-    if op == "abs":
-        return a / node
-    raise NotImplementedError(
-        f"no derivative rule for the function {op!r}: add one to lagrangian._bodies"
-    )
-
-
-#: The operations :func:`derivative` knows (checked against ``UNARY``/``BINARY`` by the tests).
-RULES = frozenset(
-    ["neg", "sin", "cos", "tan", "exp", "log", "sqrt", "sinh", "cosh", "tanh", "abs",
-     "add", "sub", "mul", "div", "pow", "atan2"]
-)
-
-
-def derivative(e: ExprLike, s: Expr) -> Expr:
-    """∂e/∂s, exact, for ``s`` a coordinate, a velocity ``q.d`` or the time ``lg.t`` (every other
-    symbol is held fixed). Each node is differentiated once (the graph's shared subtrees stay
-    shared); zeros and ones are folded."""
-    e = Expr.lift(e)
-    if s.op not in ("q", "qd", "t"):
-        raise ValueError(f"derivative with respect to {s!r}: give a coordinate, a velocity or t")
-    zero, one = Expr.lift(0.0), Expr.lift(1.0)
-    d: Dict[Expr, Expr] = {}
-    for node in _postorder([e]):
-        op, args = node.op, node.args
-        if op in ("const", "param", "t", "q", "qd"):
-            d[node] = one if node == s else zero
-        elif op in UNARY:
-            da = d[args[0]]
-            d[node] = zero if _is_const(da, 0.0) else _mul(_unary_rule(op, args[0], node), da)
-        elif op in BINARY:
-            a, b = args
-            da, db = d[a], d[b]
-            if _is_const(da, 0.0) and _is_const(db, 0.0):
-                d[node] = zero
-            elif op == "add":
-                d[node] = _add(da, db)
-            elif op == "sub":
-                d[node] = _sub(da, db)
-            elif op == "mul":
-                d[node] = _add(_mul(da, b), _mul(a, db))
-            elif op == "div":
-                d[node] = _sub(_mul(da, 1.0 / b), _mul(db, a / b**2))
-            elif op == "pow":
-                if _is_const(db, 0.0):
-                    d[node] = _mul(_mul(b, a ** (b - 1.0)), da)
-                else:
-                    d[node] = _mul(node, _add(_mul(db, log(a)), _mul(b, da / a)))
-            elif op == "atan2":  # atan2(y, x)
-                d[node] = _sub(_mul(da, b), _mul(db, a)) / (a**2 + b**2)
-            else:
-                raise NotImplementedError(
-                    f"no derivative rule for the operation {op!r}: add one to lagrangian._bodies"
-                )
-        else:  # pragma: no cover - Expr refuses unknown operations
-            raise NotImplementedError(op)
-    return d[e]
-
-
-def time_derivative(e: ExprLike, coordinates: Sequence[Coordinate]) -> Expr:
-    """The total time derivative Σ ∂e/∂qᵢ q̇ᵢ + ∂e/∂t of ``e`` (an expression of t and q)."""
-    out = derivative(e, t)
-    for q in coordinates:
-        out = _add(out, _mul(derivative(e, q), q.d))
-    return out
-
-
 # -- numbers of expressions --------------------------------------------------------------------
 def evaluate(e: ExprLike, q: Mapping[str, float], params: Mapping[str, float],
              time: float = 0.0) -> float:
     """``e`` at the coordinates' values ``q`` (by name), the parameters' values and ``time``."""
-    e = Expr.lift(e)
-    v: Dict[Expr, float] = {}
-    with np.errstate(all="ignore"):
-        for node in _postorder([e]):
-            op, args = node.op, node.args
-            if op == "const":
-                v[node] = float(args[0])
-            elif op == "param":
-                if args[0] not in params:
-                    raise ValueError(f"the parameter {args[0]!r} has no value")
-                v[node] = float(params[args[0]])
-            elif op == "t":
-                v[node] = time
-            elif op == "q":
-                if args[0] not in q:
-                    raise ValueError(f"{node!r} is not a coordinate of the model")
-                v[node] = float(q[args[0]])
-            elif op == "qd":
-                raise ValueError(f"the velocity {node!r} in a body's position or orientation")
-            elif op in UNARY:
-                v[node] = float(NUMPY_UNARY[op](v[args[0]]))
-            else:
-                v[node] = float(NUMPY_BINARY[op](v[args[0]], v[args[1]]))
-    return v[e]
+    state = np.array([[float(v) for v in q.values()]]).reshape(1, len(q))
+    values = evaluate_numpy([Expr.lift(e)], list(q), params, np.array([time]), state,
+                            what="a body's position or orientation")
+    return float(values[0, 0])
 
 
 # -- rotations ---------------------------------------------------------------------------------

@@ -10,7 +10,7 @@ from __future__ import annotations
 import builtins
 import math
 import numbers
-from typing import Any, Callable, Dict, Iterable, List, NamedTuple, Optional, Sequence, Tuple, TypeVar, Union
+from typing import Any, Callable, Dict, Iterable, List, Mapping, NamedTuple, Optional, Sequence, Tuple, TypeVar, Union
 
 import numpy as np
 
@@ -31,6 +31,7 @@ __all__ = [
     "cosh",
     "tanh",
     "atan2",
+    "derivative",
 ]
 
 #: Anything that can stand for an expression: an :class:`Expr` or a real number.
@@ -41,38 +42,58 @@ _LEAVES = ("const", "param", "t", "q", "qd")
 
 class Elementary(NamedTuple):
     """What the Python side needs of one operation besides its Rust row: NumPy's function (for
-    drawing and ``np.<ufunc>`` on expressions) and SymPy's function of the same name, if any."""
+    drawing and ``np.<ufunc>`` on expressions), SymPy's function of the same name, if any, and
+    its derivative rule (for :func:`derivative`)."""
 
     numpy: Callable[..., Any]
     #: The name of SymPy's function (``None`` where SymPy writes it otherwise: ``sqrt`` is a
     #: power there, ``neg`` a product by −1).
     sympy: Optional[str]
+    #: Of one argument: ``rule(a, y)`` = dy/da for y = f(a). Of two: ``rule(a, b, y, da, db)``
+    #: = dy for y = f(a, b), given the arguments' differentials.
+    derivative: Callable[..., "Expr"]
 
 
 #: The operations of one argument by their names (the Rust table ``src/expr/functions.rs`` has a
 #: row of each name): unary minus, then every function defined below with :func:`_elementary`.
-UNARY: Dict[str, Elementary] = {"neg": Elementary(np.negative, None)}
+UNARY: Dict[str, Elementary] = {
+    "neg": Elementary(np.negative, None, lambda a, y: Expr.lift(-1.0)),
+}
 #: The operations of two arguments by their names: the arithmetic, then :func:`atan2`.
 BINARY: Dict[str, Elementary] = {
-    "add": Elementary(np.add, None),
-    "sub": Elementary(np.subtract, None),
-    "mul": Elementary(np.multiply, None),
-    "div": Elementary(np.divide, None),
-    "pow": Elementary(np.power, None),
+    "add": Elementary(np.add, None, lambda a, b, y, da, db: _add(da, db)),
+    "sub": Elementary(np.subtract, None, lambda a, b, y, da, db: _sub(da, db)),
+    "mul": Elementary(np.multiply, None, lambda a, b, y, da, db: _add(_mul(da, b), _mul(a, db))),
+    "div": Elementary(
+        np.divide, None, lambda a, b, y, da, db: _sub(_mul(da, 1.0 / b), _mul(db, a / b**2))
+    ),
+    "pow": Elementary(
+        np.power,
+        None,
+        lambda a, b, y, da, db: (
+            _mul(_mul(b, a ** (b - 1.0)), da)
+            if _is_const(db, 0.0)
+            else _mul(y, _add(_mul(db, _unary("log", a)), _mul(b, da / a)))
+        ),
+    ),
 }
 
 _F = TypeVar("_F", bound=Callable[..., Any])
 
 
 def _elementary(
-    numpy: Callable[..., Any], sympy: Optional[str], arguments: int = 1
+    numpy: Callable[..., Any],
+    sympy: Optional[str],
+    derivative: Callable[..., "Expr"],
+    arguments: int = 1,
 ) -> Callable[[_F], _F]:
     """Register the decorated function of expressions under its own name, with NumPy's and
-    SymPy's counterparts: the one place the Python side states an elementary function."""
+    SymPy's counterparts and its derivative rule (see :class:`Elementary`): the one place the
+    Python side states an elementary function."""
 
     def register(f: _F) -> _F:
         name = getattr(f, "__name__")
-        (BINARY if arguments == 2 else UNARY)[name] = Elementary(numpy, sympy)
+        (BINARY if arguments == 2 else UNARY)[name] = Elementary(numpy, sympy, derivative)
         _FUNCTIONS.append(name)
         return f
 
@@ -360,67 +381,72 @@ def _unary(op: str, a: ExprLike) -> Expr:
     return Expr(op, (Expr.lift(a),))
 
 
-@_elementary(np.sin, "sin")
+@_elementary(np.sin, "sin", lambda a, y: _unary("cos", a))
 def sin(x: ExprLike) -> Expr:
     """sin x."""
     return _unary("sin", x)
 
 
-@_elementary(np.cos, "cos")
+@_elementary(np.cos, "cos", lambda a, y: -_unary("sin", a))
 def cos(x: ExprLike) -> Expr:
     """cos x."""
     return _unary("cos", x)
 
 
-@_elementary(np.tan, "tan")
+@_elementary(np.tan, "tan", lambda a, y: 1.0 + y**2)
 def tan(x: ExprLike) -> Expr:
     """tan x."""
     return _unary("tan", x)
 
 
-@_elementary(np.exp, "exp")
+@_elementary(np.exp, "exp", lambda a, y: y)
 def exp(x: ExprLike) -> Expr:
     """eˣ."""
     return _unary("exp", x)
 
 
-@_elementary(np.log, "log")
+@_elementary(np.log, "log", lambda a, y: 1.0 / a)
 def log(x: ExprLike) -> Expr:
     """The natural logarithm ln x."""
     return _unary("log", x)
 
 
-@_elementary(np.sqrt, None)
+@_elementary(np.sqrt, None, lambda a, y: 0.5 / y)
 def sqrt(x: ExprLike) -> Expr:
     """√x."""
     return _unary("sqrt", x)
 
 
-@_elementary(np.sinh, "sinh")
+@_elementary(np.sinh, "sinh", lambda a, y: _unary("cosh", a))
 def sinh(x: ExprLike) -> Expr:
     """sinh x."""
     return _unary("sinh", x)
 
 
-@_elementary(np.cosh, "cosh")
+@_elementary(np.cosh, "cosh", lambda a, y: _unary("sinh", a))
 def cosh(x: ExprLike) -> Expr:
     """cosh x."""
     return _unary("cosh", x)
 
 
-@_elementary(np.tanh, "tanh")
+@_elementary(np.tanh, "tanh", lambda a, y: 1.0 - y**2)
 def tanh(x: ExprLike) -> Expr:
     """tanh x."""
     return _unary("tanh", x)
 
 
-@_elementary(np.arctan2, "atan2", arguments=2)
+@_elementary(
+    np.arctan2,
+    "atan2",
+    lambda a, b, y, da, db: _sub(_mul(da, b), _mul(db, a)) / (a**2 + b**2),
+    arguments=2,
+)
 def atan2(y: ExprLike, x: ExprLike) -> Expr:
     """atan2(y, x): the angle of the point (x, y), in (−π, π]."""
     return _binary("atan2", y, x)
 
 
-@_elementary(np.abs, "Abs")
+@_elementary(np.abs, "Abs", lambda a, y: a / y)
 def abs(x: ExprLike) -> Expr:  # noqa: A001 - mirrors math.fabs / builtins.abs for expressions
     """|x| (``builtins.abs`` works on expressions too)."""
     return _unary("abs", x)
@@ -600,3 +626,118 @@ def _format(root: Expr) -> str:
                 s = f"{left}{sym}{right}"
         text[e] = s
     return text[root]
+
+
+
+def evaluate(
+    exprs: Sequence["Expr"],
+    coordinates: Sequence[str],
+    parameters: Mapping[str, float],
+    t: Any,
+    q: Any,
+    what: str = "an expression",
+) -> Any:
+    """The expressions (of t, the coordinates and parameters) at n states, in NumPy: an array
+    of shape (len(exprs), n) from ``t`` (n,) and ``q`` (n, len(coordinates)). For drawings and
+    checks only; the dynamics never runs here. ``what`` names the expressions in errors."""
+    nodes, roots = serialize(list(exprs))
+    index = {name: i for i, name in enumerate(coordinates)}
+    values: List[Any] = []
+    with np.errstate(all="ignore"):
+        for op, payload, i, j in nodes:
+            if op == "const":
+                values.append(float(payload))
+            elif op == "t":
+                values.append(t)
+            elif op == "q":
+                if payload not in index:
+                    raise ValueError(f"{what} reads {payload}, which is not a coordinate")
+                values.append(q[:, index[payload]])
+            elif op == "param":
+                if payload not in parameters:
+                    raise ValueError(f"{what} reads the parameter {payload!r}, which has no value")
+                values.append(float(parameters[payload]))
+            elif op == "qd":
+                raise ValueError(f"{what} cannot depend on the velocity {payload}.d")
+            elif op in UNARY:
+                values.append(NUMPY_UNARY[op](values[i]))
+            else:
+                values.append(NUMPY_BINARY[op](values[i], values[j]))
+    out = np.empty((len(roots), np.shape(t)[0]))
+    for k, r in enumerate(roots):
+        out[k] = values[r]
+    return out
+
+
+# -- exact differentiation ---------------------------------------------------------------------
+def _is_const(e: ExprLike, value: float) -> bool:
+    if not isinstance(e, Expr):
+        return float(e) == value
+    return e.op == "const" and e.args[0] == value
+
+
+def _add(a: ExprLike, b: ExprLike) -> Expr:
+    """a + b, with a zero folded away (the derivatives' graphs stay small)."""
+    a, b = Expr.lift(a), Expr.lift(b)
+    if _is_const(a, 0.0):
+        return b
+    if _is_const(b, 0.0):
+        return a
+    return a + b
+
+
+def _sub(a: ExprLike, b: ExprLike) -> Expr:
+    """a − b, with a zero folded away."""
+    a, b = Expr.lift(a), Expr.lift(b)
+    if _is_const(b, 0.0):
+        return a
+    if _is_const(a, 0.0):
+        return -b
+    return a - b
+
+
+def _mul(a: ExprLike, b: ExprLike) -> Expr:
+    """a b, with zeros and ones folded away."""
+    a, b = Expr.lift(a), Expr.lift(b)
+    if _is_const(a, 0.0) or _is_const(b, 0.0):
+        return Expr.lift(0.0)
+    if _is_const(a, 1.0):
+        return b
+    if _is_const(b, 1.0):
+        return a
+    return a * b
+
+
+def derivative(e: ExprLike, s: Expr) -> Expr:
+    """∂e/∂s, exact, for ``s`` a coordinate, a velocity ``q.d`` or the time ``lg.t`` (every other
+    symbol is held fixed), by each operation's rule in :data:`UNARY` / :data:`BINARY`. Each node
+    is differentiated once (the graph's shared subtrees stay shared); zeros and ones are
+    folded."""
+    e = Expr.lift(e)
+    if s.op not in _LEAVES[2:]:
+        raise ValueError(f"derivative with respect to {s!r}: give a coordinate, a velocity or t")
+    zero, one = Expr.lift(0.0), Expr.lift(1.0)
+    d: Dict[Expr, Expr] = {}
+    for node in _postorder([e]):
+        args = node.args
+        if node.op in _LEAVES:
+            d[node] = one if node == s else zero
+        elif node.op in UNARY:
+            da = d[args[0]]
+            d[node] = zero if _is_const(da, 0.0) else _mul(
+                UNARY[node.op].derivative(args[0], node), da
+            )
+        else:  # BINARY: Expr accepts no other operation
+            a, b = args
+            da, db = d[a], d[b]
+            both_zero = _is_const(da, 0.0) and _is_const(db, 0.0)
+            d[node] = zero if both_zero else BINARY[node.op].derivative(a, b, node, da, db)
+    return d[e]
+
+
+def time_derivative(e: ExprLike, coordinates: Sequence[Coordinate]) -> Expr:
+    """The total time derivative Σ ∂e/∂qᵢ q̇ᵢ + ∂e/∂t of ``e`` (an expression of t and q)."""
+    out = derivative(e, t)
+    for q in coordinates:
+        out = _add(out, _mul(derivative(e, q), q.d))
+    return out

@@ -33,8 +33,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ._drawing import Drawing
-from ._expr import NUMPY_BINARY as _NUMPY_BINARY, NUMPY_UNARY as _NUMPY_UNARY
-from ._expr import Expr, serialize
+from ._expr import Expr, evaluate
 from ._protocols import Drawable, FittedModel, PrecisionDiagram, Trajectory
 from ._validate import at_least_one, file_suffix, finite_positive
 
@@ -500,31 +499,8 @@ def evaluate_drawing(
     t: FloatArray,
     q: FloatArray,
 ) -> FloatArray:
-    """The expressions (of t, the coordinates and parameters) at n states, in NumPy: an array
-    of shape (len(exprs), n). For drawing only; the dynamics never runs here."""
-    nodes, roots = serialize(list(exprs))
-    index = {name: i for i, name in enumerate(coordinates)}
-    n = t.shape[0]
-    values: List[Any] = []
-    with np.errstate(all="ignore"):
-        for op, payload, i, j in nodes:
-            if op == "const":
-                values.append(float(payload))
-            elif op == "t":
-                values.append(t)
-            elif op == "q":
-                values.append(q[:, index[payload]])
-            elif op == "param":
-                values.append(float(parameters[payload]))
-            elif op == "qd":
-                raise ValueError(f"a drawing cannot depend on the velocity {payload}.d")
-            elif op in _NUMPY_UNARY:
-                values.append(_NUMPY_UNARY[op](values[i]))
-            else:
-                values.append(_NUMPY_BINARY[op](values[i], values[j]))
-    out = np.empty((len(roots), n))
-    for k, r in enumerate(roots):
-        out[k] = values[r]
+    """The drawing's expressions at n states, in NumPy: shape (len(exprs), n)."""
+    out: FloatArray = evaluate(exprs, coordinates, parameters, t, q, what="a drawing")
     return out
 
 
