@@ -49,8 +49,10 @@ from ._bodies import (
     quaternion_rotation,
     rotation_x,
     rotation_y,
+    rotation_about,
     rotation_z,
 )
+from ._frames import Frame
 from ._model import Model, methods
 from ._solution import Solution
 from ._sympy import from_sympy
@@ -64,6 +66,8 @@ __all__ = [
     "rotation_x",
     "rotation_y",
     "rotation_z",
+    "rotation_about",
+    "Frame",
     "ConvergenceError",
     "BatchIntegrator",
     "Ensemble",

@@ -31,6 +31,7 @@ __all__ = [
     "rotation_x",
     "rotation_y",
     "rotation_z",
+    "rotation_about",
     "euler_rotation",
     "quaternion_rotation",
 ]
@@ -46,6 +47,32 @@ def evaluate(e: ExprLike, q: Mapping[str, float], params: Mapping[str, float],
     values = evaluate_numpy([Expr.lift(e)], list(q), params, np.array([time]), state,
                             what="a body's position or orientation")
     return float(values[0, 0])
+
+
+# -- vectors of expressions ----------------------------------------------------------------------
+Vector = Tuple[Expr, Expr, Expr]
+
+
+def vector3(v: Sequence[ExprLike], what: str) -> Vector:
+    items = list(v) if hasattr(v, "__len__") else None
+    if items is None or len(items) != 3:
+        raise ValueError(f"{what} must be three expressions (x, y, z), got {v!r}")
+    return (Expr.lift(items[0]), Expr.lift(items[1]), Expr.lift(items[2]))
+
+
+def plus(a: Sequence[Expr], b: Sequence[Expr]) -> Vector:
+    return (_add(a[0], b[0]), _add(a[1], b[1]), _add(a[2], b[2]))
+
+
+def rotate(r: Sequence[Sequence[ExprLike]], v: Sequence[ExprLike]) -> Vector:
+    """R v for a 3×3 matrix of expressions ``r`` and a 3-vector ``v``."""
+    out = []
+    for i in range(3):
+        acc = Expr.lift(0.0)
+        for k in range(3):
+            acc = _add(acc, _mul(r[i][k], v[k]))
+        out.append(acc)
+    return (out[0], out[1], out[2])
 
 
 # -- rotations ---------------------------------------------------------------------------------
@@ -78,7 +105,7 @@ def rotation_z(a: ExprLike) -> Rotation:
     return _rows(((c, -s, 0.0), (s, c, 0.0), (0.0, 0.0, 1.0)))
 
 
-def _matmul(a: Sequence[Sequence[Expr]], b: Sequence[Sequence[Expr]]) -> Rotation:
+def matmul(a: Sequence[Sequence[ExprLike]], b: Sequence[Sequence[ExprLike]]) -> Rotation:
     rows = []
     for i in range(3):
         row = []
@@ -89,6 +116,37 @@ def _matmul(a: Sequence[Sequence[Expr]], b: Sequence[Sequence[Expr]]) -> Rotatio
             row.append(acc)
         rows.append(tuple(row))
     return Rotation(tuple(rows))
+
+
+def unit(axis: Sequence[float], what: str) -> Tuple[float, float, float]:
+    """``axis`` (three numbers) normalized, or a ``ValueError`` naming ``what``."""
+    try:
+        k = np.array([float(x) for x in axis])
+    except (TypeError, ValueError):
+        raise ValueError(f"{what}: axis must be three numbers, got {axis!r}") from None
+    norm = float(np.linalg.norm(k)) if k.shape == (3,) else 0.0
+    if not (np.isfinite(norm) and norm > 0.0):
+        raise ValueError(f"{what}: axis {axis!r} is not a non-zero finite 3-vector")
+    return (float(k[0] / norm), float(k[1] / norm), float(k[2] / norm))
+
+
+def rotation_about(axis: Sequence[float], a: ExprLike) -> Rotation:
+    """R of a rotation by the angle ``a`` about the fixed ``axis`` (three numbers, normalized
+    here; right-handed): Rodrigues' formula R = cos a I + sin a [k]× + (1 − cos a) k kᵀ; about
+    ±x, ±y, ±z it is :func:`rotation_x` (…) of ±a."""
+    k = unit(axis, "rotation_about")
+    for i, about in enumerate((rotation_x, rotation_y, rotation_z)):
+        if abs(k[i]) == 1.0:
+            return about(a if k[i] > 0 else -Expr.lift(a))
+    c, s = cos(a), sin(a)
+    c1 = 1.0 - c
+    cross = ((0.0, -k[2], k[1]), (k[2], 0.0, -k[0]), (-k[1], k[0], 0.0))
+    rows = tuple(
+        tuple(_add(_add(c if i == j else 0.0, _mul(s, cross[i][j])), _mul(c1, k[i] * k[j]))
+              for j in range(3))
+        for i in range(3)
+    )
+    return Rotation(rows)
 
 
 _AXES = {"x": rotation_x, "y": rotation_y, "z": rotation_z}
@@ -109,8 +167,8 @@ def euler_rotation(angles: Sequence[ExprLike], sequence: str = "zxz") -> Rotatio
     if len(angles) != 3:
         raise ValueError(f"euler_rotation: {len(angles)} angles; give three")
     r = _AXES[sequence[0]](angles[0])
-    r = _matmul(r, _AXES[sequence[1]](angles[1]))
-    return _matmul(r, _AXES[sequence[2]](angles[2]))
+    r = matmul(r, _AXES[sequence[1]](angles[1]))
+    return matmul(r, _AXES[sequence[2]](angles[2]))
 
 
 def quaternion_rotation(q0: ExprLike, q1: ExprLike, q2: ExprLike, q3: ExprLike) -> Rotation:
@@ -282,9 +340,24 @@ class Body:
                     "e.g. from lg.rotation_z or lg.euler_rotation"
                 )
 
-    def kinetic(self, coordinates: Sequence[Coordinate]) -> Expr:
-        """T = ½ m |ṙ|² + ½ Ωᵀ I Ω of this body, Ω = vee(RᵀṘ)."""
-        rd = [time_derivative(x, coordinates) for x in self.position]
+    # -- kinematics: what loads, constraints and outputs read ---------------------------------
+    def point(self, p: Sequence[ExprLike]) -> Vector:
+        """World coordinates r + R p of the body-fixed point ``p`` (body axes, from the centre of
+        mass)."""
+        return plus(self.position, rotate(self.orientation, vector3(p, "point")))
+
+    def velocity(self, p: Sequence[ExprLike] = (0.0, 0.0, 0.0),
+                 coordinates: Optional[Sequence[Coordinate]] = None) -> Vector:
+        """World velocity of the body-fixed point ``p`` (default the centre of mass): the total
+        time derivative of :meth:`point`, linear in q̇."""
+        return tuple(time_derivative(x, coordinates) for x in self.point(p))  # type: ignore
+
+    def angular_velocity(self, axes: str = "body",
+                         coordinates: Optional[Sequence[Coordinate]] = None) -> Vector:
+        """The angular velocity: Ω = vee(RᵀṘ) in body axes (``axes="body"``), or ω = R Ω in world
+        axes (``axes="world"``)."""
+        if axes not in ("body", "world"):
+            raise ValueError(f"angular_velocity: axes={axes!r}; give 'body' or 'world'")
         r = self.orientation
         rdot = [[time_derivative(e, coordinates) for e in row] for row in r]
 
@@ -294,7 +367,13 @@ class Body:
                 acc = _add(acc, _mul(r[k][i], rdot[k][j]))
             return acc
 
-        omega = [w(2, 1), w(0, 2), w(1, 0)]
+        omega = (w(2, 1), w(0, 2), w(1, 0))
+        return omega if axes == "body" else rotate(r, omega)
+
+    def kinetic(self, coordinates: Sequence[Coordinate]) -> Expr:
+        """T = ½ m |ṙ|² + ½ Ωᵀ I Ω of this body, Ω = vee(RᵀṘ)."""
+        rd = [time_derivative(x, coordinates) for x in self.position]
+        omega = self.angular_velocity("body", coordinates)
         trans = Expr.lift(0.0)
         for v in rd:
             trans = _add(trans, _mul(v, v))

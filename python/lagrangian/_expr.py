@@ -735,8 +735,12 @@ def derivative(e: ExprLike, s: Expr) -> Expr:
     return d[e]
 
 
-def time_derivative(e: ExprLike, coordinates: Sequence[Coordinate]) -> Expr:
-    """The total time derivative Σ ∂e/∂qᵢ q̇ᵢ + ∂e/∂t of ``e`` (an expression of t and q)."""
+def time_derivative(e: ExprLike, coordinates: Optional[Sequence[Coordinate]] = None) -> Expr:
+    """The total time derivative Σ ∂e/∂qᵢ q̇ᵢ + ∂e/∂t of ``e`` (an expression of t and q), over
+    ``coordinates`` (default: those ``e`` reads)."""
+    e = Expr.lift(e)
+    if coordinates is None:
+        coordinates = [Coordinate(s.args[0]) for s in e.free_symbols() if s.op == "q"]
     out = derivative(e, t)
     for q in coordinates:
         out = _add(out, _mul(derivative(e, q), q.d))

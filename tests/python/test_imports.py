@@ -25,6 +25,7 @@ LAYERS: List[Tuple[str, Set[str]]] = [
     ("protocols of what the workers read", {"_protocols"}),
     ("validation", {"_validate"}),
     ("rigid bodies", {"_bodies"}),
+    ("frames and joints", {"_frames"}),
     ("events, drawing, sensitivities", {"_events", "_drawing", "_sensitivity"}),
     ("pictures", {"_plot"}),
     ("solution", {"_solution"}),
