@@ -52,7 +52,7 @@ from ._bodies import (
     rotation_about,
     rotation_z,
 )
-from ._frames import Frame
+from ._frames import Frame, Joint, Loop, Reaction, coincide, joint_reaction, loop_reaction
 from ._model import Model, methods
 from ._solution import Solution
 from ._sympy import from_sympy
@@ -68,6 +68,12 @@ __all__ = [
     "rotation_z",
     "rotation_about",
     "Frame",
+    "Joint",
+    "Loop",
+    "Reaction",
+    "coincide",
+    "joint_reaction",
+    "loop_reaction",
     "ConvergenceError",
     "BatchIntegrator",
     "Ensemble",
