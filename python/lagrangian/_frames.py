@@ -454,7 +454,7 @@ def _cross(a: Any, b: Any) -> Any:
 def _bodies_below(frame: Frame, bodies: Optional[Sequence[Body]]) -> List[Body]:
     if bodies is None:
         return [b for f in frame.subtree() for b in f.bodies]
-    items = [bodies] if isinstance(bodies, Body) else list(bodies)
+    items: List[Any] = [bodies] if isinstance(bodies, Body) else list(bodies)
     for b in items:
         if not isinstance(b, Body):
             raise TypeError(f"bodies: expected lg.Body, got {type(b).__name__}")
