@@ -68,12 +68,21 @@ class Joint:
         return f"Joint({self.kind!r}, name={self.name!r}, coordinates={self.coordinates!r})"
 
 
-def _label(kind: str, name: Optional[str], coords: Sequence[Any]) -> str:
+def _items(values: Any) -> List[Any]:
+    """``values`` as a list: a sequence's items, or one value alone."""
+    if values is None:
+        return []
+    if isinstance(values, (Expr, str, bytes)) or not hasattr(values, "__len__"):
+        return [values]
+    return list(values)
+
+
+def _label(kind: str, name: Optional[str], *coords: Any) -> str:
     if name is not None:
         if not isinstance(name, str) or not name:
             raise TypeError(f"{kind} joint: name must be a non-empty string, got {name!r}")
         return name
-    return f"{kind}({', '.join(str(c) for c in coords)})"
+    return f"{kind}({', '.join(str(c) for group in coords for c in _items(group))})"
 
 
 def _lifted(kind: str, label: str, what: str, values: Any, n: int) -> Tuple[Expr, ...]:
@@ -210,14 +219,14 @@ class Frame:
         """The frame at ``offset`` (in this frame's axes), turned by ``rotation`` relative to this
         frame (default none): a fixed joint, and the placement every other joint starts from."""
         r, o = self._placed(offset, rotation)
-        return self._child(r, o, Joint("fixed", _label("fixed", name, ()), ()))
+        return self._child(r, o, Joint("fixed", _label("fixed", name), ()))
 
     def revolute(self, angle: ExprLike, axis: Sequence[float] = (0.0, 0.0, 1.0),
                  offset: Sequence[ExprLike] = (0.0, 0.0, 0.0),
                  rotation: Optional[Matrix] = None, name: Optional[str] = None) -> "Frame":
         """A revolute (hinge) joint: the child frame turned by ``angle`` about the unit ``axis``
         (three numbers, in the placed frame's axes), its origin on the axis at the placement."""
-        label = _label("revolute", name, (angle,))
+        label = _label("revolute", name, angle)
         a = _scalar("revolute", label, "angle", angle)
         k = _axis("revolute", label, axis)
         r, o = self._placed(offset, rotation)
@@ -229,7 +238,7 @@ class Frame:
                   rotation: Optional[Matrix] = None, name: Optional[str] = None) -> "Frame":
         """A prismatic (slider) joint: the child frame moved by ``distance`` along the unit
         ``axis`` (in the placed frame's axes), not turned."""
-        label = _label("prismatic", name, (distance,))
+        label = _label("prismatic", name, distance)
         d = _scalar("prismatic", label, "distance", distance)
         k = _axis("prismatic", label, axis)
         r, o = self._placed(offset, rotation)
@@ -245,8 +254,7 @@ class Frame:
         default "zyx" — yaw, pitch, roll — is singular at pitch ±90°), or by the
         ``quaternion`` (q0, q1, q2, q3), four coordinates whose unit norm is the row
         ``"<name>.unit"`` of :attr:`constraints`, to pass to the model."""
-        given = quaternion if quaternion is not None else (angles or ())
-        label = _label("spherical", name, given)
+        label = _label("spherical", name, angles, quaternion)
         turn, coords, rows = _orientation("spherical", label, angles, sequence, quaternion)
         r, o = self._placed(offset, rotation)
         return self._child(matmul(r, turn), o,
@@ -259,7 +267,7 @@ class Frame:
         """A universal (Hooke, Cardan) joint: two ``angles`` about two perpendicular ``axes``
         (in the placed frame's axes), the second axis carried by the first turn:
         R = R(k₁, a₁) R(k₂, a₂)."""
-        label = _label("universal", name, angles if hasattr(angles, "__len__") else (angles,))
+        label = _label("universal", name, angles)
         a = _lifted("universal", label, "angles", angles, 2)
         if not hasattr(axes, "__len__") or len(axes) != 2:
             raise ValueError(f"universal joint {label!r}: axes must be two axes, got {axes!r}")
@@ -276,7 +284,7 @@ class Frame:
         """A planar joint: the child frame moved by ``x`` and ``y`` along the two perpendicular
         in-plane ``axes`` u, v (in the placed frame's axes) and turned by ``angle`` about the
         plane's normal n = u × v."""
-        label = _label("planar", name, (x, y, angle))
+        label = _label("planar", name, x, y, angle)
         xs = (_scalar("planar", label, "x", x), _scalar("planar", label, "y", y),
               _scalar("planar", label, "angle", angle))
         if not hasattr(axes, "__len__") or len(axes) != 2:
@@ -297,9 +305,7 @@ class Frame:
         """A free (six-degree-of-freedom) joint: the child frame at ``position`` (three
         expressions, in the placed frame's axes) and turned by ``angles`` or ``quaternion`` as
         :meth:`spherical` (whose unit-norm row it carries likewise)."""
-        more = quaternion if quaternion is not None else (angles or ())
-        pos = list(position) if hasattr(position, "__len__") else [position]
-        label = _label("free", name, [*pos, *more])
+        label = _label("free", name, position, angles, quaternion)
         p = _lifted("free", label, "position", position, 3)
         turn, coords, rows = _orientation("free", label, angles, sequence, quaternion)
         r, o = self._placed(offset, rotation)
