@@ -209,17 +209,22 @@ class Frame:
         self.children.append(child)
         return child
 
-    def _placed(self, offset: Sequence[ExprLike], rotation: Optional[Matrix]
-                ) -> Tuple[Rotation, Vector]:
-        r = self.orientation if rotation is None else matmul(self.orientation, rotation)
-        return r, self.point(offset)
+    def _placed(self, offset: Sequence[ExprLike], rotation: Optional[Matrix], kind: str,
+                label: str) -> Tuple[Rotation, Vector]:
+        try:
+            turn = None if rotation is None else Frame(rotation).orientation
+            r = self.orientation if turn is None else matmul(self.orientation, turn)
+            return r, self.point(offset)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{kind} joint {label!r}: offset or rotation: {exc}") from None
 
     def fixed(self, offset: Sequence[ExprLike] = (0.0, 0.0, 0.0),
               rotation: Optional[Matrix] = None, name: Optional[str] = None) -> "Frame":
         """The frame at ``offset`` (in this frame's axes), turned by ``rotation`` relative to this
         frame (default none): a fixed joint, and the placement every other joint starts from."""
-        r, o = self._placed(offset, rotation)
-        return self._child(r, o, Joint("fixed", _label("fixed", name), ()))
+        label = _label("fixed", name)
+        r, o = self._placed(offset, rotation, "fixed", label)
+        return self._child(r, o, Joint("fixed", label, ()))
 
     def revolute(self, angle: ExprLike, axis: Sequence[float] = (0.0, 0.0, 1.0),
                  offset: Sequence[ExprLike] = (0.0, 0.0, 0.0),
@@ -229,7 +234,7 @@ class Frame:
         label = _label("revolute", name, angle)
         a = _scalar("revolute", label, "angle", angle)
         k = _axis("revolute", label, axis)
-        r, o = self._placed(offset, rotation)
+        r, o = self._placed(offset, rotation, "revolute", label)
         return self._child(matmul(r, rotation_about(k, a)), o,
                            Joint("revolute", label, (a,), (k,)))
 
@@ -241,7 +246,7 @@ class Frame:
         label = _label("prismatic", name, distance)
         d = _scalar("prismatic", label, "distance", distance)
         k = _axis("prismatic", label, axis)
-        r, o = self._placed(offset, rotation)
+        r, o = self._placed(offset, rotation, "prismatic", label)
         return self._child(r, plus(o, rotate(r, tuple(_mul(d, x) for x in k))),
                            Joint("prismatic", label, (d,), (k,)))
 
@@ -256,7 +261,7 @@ class Frame:
         ``"<name>.unit"`` of :attr:`constraints`, to pass to the model."""
         label = _label("spherical", name, angles, quaternion)
         turn, coords, rows = _orientation("spherical", label, angles, sequence, quaternion)
-        r, o = self._placed(offset, rotation)
+        r, o = self._placed(offset, rotation, "spherical", label)
         return self._child(matmul(r, turn), o,
                            Joint("spherical", label, coords, (), rows), turn)
 
@@ -273,7 +278,7 @@ class Frame:
             raise ValueError(f"universal joint {label!r}: axes must be two axes, got {axes!r}")
         k1, k2 = (_axis("universal", label, k) for k in axes)
         _perpendicular("universal", label, k1, k2)
-        r, o = self._placed(offset, rotation)
+        r, o = self._placed(offset, rotation, "universal", label)
         turn = matmul(rotation_about(k1, a[0]), rotation_about(k2, a[1]))
         return self._child(matmul(r, turn), o, Joint("universal", label, a, (k1, k2)))
 
@@ -293,7 +298,7 @@ class Frame:
         u, v = (_axis("planar", label, k) for k in axes)
         _perpendicular("planar", label, u, v)
         n = tuple(float(c) for c in np.cross(u, v))
-        r, o = self._placed(offset, rotation)
+        r, o = self._placed(offset, rotation, "planar", label)
         shift = tuple(_add(_mul(xs[0], u[i]), _mul(xs[1], v[i])) for i in range(3))
         return self._child(matmul(r, rotation_about(n, xs[2])), plus(o, rotate(r, shift)),
                            Joint("planar", label, xs, (u, v, n)))  # type: ignore[arg-type]
@@ -308,7 +313,7 @@ class Frame:
         label = _label("free", name, position, angles, quaternion)
         p = _lifted("free", label, "position", position, 3)
         turn, coords, rows = _orientation("free", label, angles, sequence, quaternion)
-        r, o = self._placed(offset, rotation)
+        r, o = self._placed(offset, rotation, "free", label)
         return self._child(matmul(r, turn), plus(o, rotate(r, p)),
                            Joint("free", label, p + coords, (), rows), turn)
 

@@ -464,6 +464,10 @@ def test_bad_joints_are_refused_naming_the_joint():
         f.spherical(a)
     with pytest.raises(ValueError, match="universal joint.*axes must be two"):
         f.universal([a, b], axes=(1, 0, 0))
+    with pytest.raises(ValueError, match="revolute joint 'hip': offset or rotation"):
+        f.revolute(a, offset=(1, 0), name="hip")
+    with pytest.raises(ValueError, match="fixed joint 'base': offset or rotation"):
+        f.fixed(rotation=[[1, 0], [0, 1]], name="base")
     with pytest.raises(TypeError, match="revolute joint: name"):
         f.revolute(a, name="")
     with pytest.raises(ValueError, match="spherical joint 'ball'.*quaternion must be 4"):
