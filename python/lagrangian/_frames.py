@@ -475,7 +475,9 @@ def _bodies_below(frame: Frame, bodies: Optional[Sequence[Body]]) -> List[Body]:
 def joint_reaction(model: Any, states: Any, frame: Frame,
                    bodies: Optional[Sequence[Body]] = None,
                    gravity: Optional[Sequence[float]] = None,
-                   loops: Sequence[Loop] = (), axes: str = "world") -> Reaction:
+                   loops: Sequence[Loop] = (), axes: str = "world",
+                   applied: Sequence[Tuple[Sequence[ExprLike], Sequence[ExprLike]]] = ()
+                   ) -> Reaction:
     """The force and torque the parent exerts on ``frame``'s side of its joint along a run, by
     Newton–Euler over the bodies beyond it:
 
@@ -486,7 +488,9 @@ def joint_reaction(model: Any, states: Any, frame: Frame,
     (default: those hung by :meth:`Frame.body` on ``frame`` and the frames below it);
     ``gravity``: g (default each body's own ``gravity=``, else none); ``loops``: the loop
     closures (:func:`coincide`) whose force acts on that side, from the run's multipliers.
-    Other applied forces (springs, loads) are not counted. ``states``: a ``Solution`` or a
+    ``applied``: other forces on that side, as pairs (point, force) of world expressions of
+    t, q and q̇ (a spring's pull at its end, a load); forces not listed are not counted.
+    ``states``: a ``Solution`` or a
     tuple (t, q, q̇). ``axes="frame"`` gives the components in ``frame``'s axes.
 
     Along a frictionless joint's free directions the reaction is zero (a revolute joint's
@@ -543,6 +547,16 @@ def joint_reaction(model: Any, states: Any, frame: Frame,
                 p = ev(loop.point_a if sign > 0 else loop.point_b, "a loop's point").T
                 force -= sign * f_a
                 torque -= _cross(p - o, sign * f_a)
+    for k, pair in enumerate(applied):
+        try:
+            point, load = pair
+            p = ev(list(vector3(point, "a point")), f"applied force {k}'s point").T
+            f = ev(list(vector3(load, "a force")), f"applied force {k}").T
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"joint_reaction: applied[{k}]: {exc}; give (point, force), each "
+                             "three expressions in world coordinates") from None
+        force -= f
+        torque -= _cross(p - o, f)
     if axes == "frame":
         rf = ev([x for row in frame.orientation for x in row], "the frame").T.reshape(n, 3, 3)
         force = np.einsum("nji,nj->ni", rf, force)

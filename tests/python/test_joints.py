@@ -80,6 +80,24 @@ def test_pendulum_rod_tension_is_m_g_cos_plus_l_thetadot_squared():
     _close(r.torque, 0.0, 1e-10)
 
 
+def test_applied_forces_enter_the_reaction():
+    # a constant horizontal push F at the bob, stated to the model as Q = F l cos θ: the hinge
+    # carries no torque about its axis once the push is counted, and F l cos θ without it
+    th, = lg.coordinates("th")
+    m, l, F = 0.8, 1.2, 2.5
+    arm = lg.Frame().revolute(th, axis=(0, 0, 1))
+    bob = arm.body(m, [0.01] * 3, center=(0, -l, 0), gravity=(0, -G, 0))
+    model = lg.Model([th], potential=bob.potential, bodies=[bob], forces=[F * l * lg.cos(th)])
+    sol = model.simulate([0.3], [0.0], 3.0, **TIGHT, t_eval=np.linspace(0, 3, 31))
+    push = (arm.point((0, -l, 0)), (F, 0.0, 0.0))
+    r = lg.joint_reaction(model, sol, arm, applied=[push])
+    _close(r.torque[:, 2], 0.0, 1e-11)
+    without = lg.joint_reaction(model, sol, arm)
+    _close(without.torque[:, 2], F * l * np.cos(sol.q[:, 0]), 1e-11)
+    with pytest.raises(ValueError, match=r"applied\[0\]"):
+        lg.joint_reaction(model, sol, arm, applied=[(F, 0.0)])
+
+
 def _double(m1=1.0, m2=0.7, L1=1.1, L2=0.8):
     t1, t2 = lg.coordinates("t1 t2")
     upper = lg.Frame().revolute(t1, axis=(0, 0, 1), name="shoulder")
