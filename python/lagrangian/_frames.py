@@ -37,10 +37,14 @@ class Frame:
 
     def __init__(self, orientation: Optional[Sequence[Sequence[ExprLike]]] = None,
                  origin: Sequence[ExprLike] = (0.0, 0.0, 0.0)) -> None:
-        rows = _IDENTITY if orientation is None else orientation
-        self.orientation = Rotation(tuple(vector3(r, "a frame's orientation row") for r in rows))
-        if len(self.orientation) != 3:
-            raise ValueError(f"a frame's orientation must be 3×3, got {orientation!r}")
+        if isinstance(orientation, Rotation):  # keeps the angular velocity it carries
+            self.orientation = orientation
+        else:
+            rows = _IDENTITY if orientation is None else orientation
+            if len(rows) != 3:
+                raise ValueError(f"a frame's orientation must be 3×3, got {orientation!r}")
+            self.orientation = matmul(_IDENTITY, [vector3(r, "a frame's orientation row")
+                                                  for r in rows])
         self.origin: Vector = vector3(origin, "a frame's origin")
 
     # -- where things are ----------------------------------------------------------------------
