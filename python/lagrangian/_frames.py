@@ -34,9 +34,7 @@ from ._expr import (
     _mul,
     _sub,
     derivative,
-    deserialize,
     evaluate,
-    serialize,
     time_derivative,
 )
 
@@ -165,11 +163,14 @@ class Frame:
 
     def __init__(self, orientation: Optional[Matrix] = None,
                  origin: Sequence[ExprLike] = (0.0, 0.0, 0.0)) -> None:
-        rows = _IDENTITY if orientation is None else orientation
-        self.orientation = Rotation(tuple(vector3(r, "a frame's orientation row") for r in rows))
-        if len(self.orientation) != 3:
-            raise ValueError(f"a frame's orientation must be 3×3, got {orientation!r}")
-        self.orientation.quaternion = getattr(orientation, "quaternion", None)
+        if isinstance(orientation, Rotation):  # keeps the angular velocity it carries
+            self.orientation = orientation
+        else:
+            rows = _IDENTITY if orientation is None else orientation
+            if len(rows) != 3:
+                raise ValueError(f"a frame's orientation must be 3×3, got {orientation!r}")
+            self.orientation = matmul(_IDENTITY, [vector3(r, "a frame's orientation row")
+                                                  for r in rows])
         self.origin: Vector = vector3(origin, "a frame's origin")
         self.parent: Optional[Frame] = None
         self.joint: Optional[Joint] = None
@@ -204,7 +205,8 @@ class Frame:
         child = Frame(orientation, origin)
         # The nearest quaternion above rides along, so that a body hung below keeps M regular.
         q = getattr(turn, "quaternion", None) or self.orientation.quaternion
-        child.orientation.quaternion = q
+        if child.orientation.quaternion is not q:  # a fresh product, not the parent's own R
+            child.orientation.quaternion = q
         child.parent, child.joint = self, joint
         self.children.append(child)
         return child
@@ -419,25 +421,24 @@ def _states(states: Any) -> Tuple[Any, Any, Any]:
 
 
 def _suffix(names: Sequence[str]) -> str:
-    s = "__v"
-    while any(n.endswith(s) or n.endswith(s + "v") for n in names):
+    s = "__dd"
+    while any(n.endswith(s) for n in names):
         s += "_"
     return s
 
 
 class _Evaluator:
-    """Expressions of t, q, q̇ and q̈ at many states, in NumPy: q̇ and q̈ stand in as extra
-    coordinates (``_expr.evaluate`` reads positions only)."""
+    """Expressions of t, q, q̇ and q̈ at many states, in NumPy (``_expr.evaluate``): q̈ stands
+    in as extra coordinates."""
 
     def __init__(self, model: Any, t: Any, q: Any, qd: Any, qdd: Any) -> None:
         self.coords: List[Coordinate] = list(model.coordinates)
         names = [c.name for c in self.coords]
         s = _suffix(names)
-        self.vel = {n: n + s for n in names}
-        self.acc = [Coordinate(n + s + "v") for n in names]
-        self.names = names + list(self.vel.values()) + [c.name for c in self.acc]
+        self.acc = [Coordinate(n + s) for n in names]
+        self.names = names + [c.name for c in self.acc]
         self.params = {k: float(v) for k, v in model.parameters.items()}
-        self.t, self.state = t, np.hstack([q, qd, qdd])
+        self.t, self.q, self.qd = t, np.hstack([q, qdd]), np.hstack([qd, np.zeros_like(qd)])
 
     def second(self, e: ExprLike) -> Expr:
         """d²e/dt² for e(t, q): time_derivative of ė plus Σ ∂ė/∂q̇ᵢ q̈ᵢ."""
@@ -451,11 +452,8 @@ class _Evaluator:
         return out
 
     def __call__(self, exprs: Sequence[ExprLike], what: str) -> Any:
-        nodes, roots = serialize([Expr.lift(e) for e in exprs])
-        nodes = [("q", self.vel[p], i, j) if op == "qd" else (op, p, i, j)
-                 for op, p, i, j in nodes]
-        return evaluate(deserialize(nodes, roots), self.names, self.params, self.t, self.state,
-                        what)
+        return evaluate([Expr.lift(e) for e in exprs], self.names, self.params, self.t, self.q,
+                        what, qd=self.qd)
 
 
 def _cross(a: Any, b: Any) -> Any:
@@ -516,7 +514,7 @@ def joint_reaction(model: Any, states: Any, frame: Frame,
         gv = np.zeros(3) if g is None else ev(list(g), f"body {b.label}'s gravity").T
         r_b = b.position
         acc = [ev.second(x) for x in r_b]
-        omega = b.angular_velocity("body", ev.coords)
+        omega = b.angular_velocity("body")  # the Ω its rotation carries, if any
         omega_dot = [ev.dot(w) for w in omega]
         rot = [x for row in b.orientation for x in row]
         inertia = [x for row in b.inertia for x in row]
