@@ -53,6 +53,7 @@ from ._bodies import (
     rotation_z,
 )
 from ._frames import Frame
+from ._contact import RollingContact, knife_edge, rolling_contact
 from ._model import Model, methods
 from ._solution import Solution
 from ._sympy import from_sympy
@@ -68,6 +69,9 @@ __all__ = [
     "rotation_z",
     "rotation_about",
     "Frame",
+    "RollingContact",
+    "rolling_contact",
+    "knife_edge",
     "ConvergenceError",
     "BatchIntegrator",
     "Ensemble",
