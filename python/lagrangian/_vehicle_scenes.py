@@ -1,6 +1,7 @@
-"""Vehicles on rolling wheels (issue 50): the Whipple bicycle of the benchmark of Meijaard,
-Papadopoulos, Ruina & Schwab (2007), stated by its four rigid bodies, its rolling contacts and
-the front contact's height, as a constrained :class:`~lagrangian.Model`."""
+"""Vehicles on rolling wheels (issue 50), as constrained :class:`~lagrangian.Model`\ s stated by
+their rigid bodies and rolling contacts (:func:`~lagrangian.rolling_contact`): a disc rolling on
+the ground, and the Whipple bicycle of the benchmark of Meijaard, Papadopoulos, Ruina & Schwab
+(2007) — four bodies, two rolling wheels and the front contact's height."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from ._expr import coordinates, parameters
 from ._model import Model
 from ._validate import real
 
-__all__ = ["whipple_bicycle"]
+__all__ = ["rolling_disc", "whipple_bicycle"]
 
 # Meijaard et al. (2007), Table 1, SI units; their axes: x forward, y right, z down.
 BENCHMARK: Dict[str, float] = {
@@ -25,6 +26,34 @@ BENCHMARK: Dict[str, float] = {
     "i_hzz": 0.00708,
     "r_f": 0.35, "m_f": 3.0, "i_fxx": 0.1405, "i_fyy": 0.28,
 }
+
+def rolling_disc(m: float = 1.0, r: float = 0.3, g: float = 9.81) -> Model:
+    """A thin uniform disc (mass ``m``, radius ``r``: moments m r²/2 about its axle, m r²/4
+    about a diameter) rolling without slipping on the ground z = 0 (z up, gravity ``g``).
+
+    Coordinates: the contact point ``x``, ``y``, the heading ``psi``, the lean ``phi`` and the
+    spin ``theta`` (R = R_z(ψ) R_x(φ) R_y(θ); the centre is r above the contact along the
+    lean, so the contact's height needs no row). Velocity rows ``"disc slip 1"``,
+    ``"disc slip 2"``: the contact point's material velocity is zero. Upright rolling along x
+    at speed v is q = 0, ẋ = v, θ̇ = v/r; it is stable for v² > g r/3.
+
+    Raises ``TypeError`` for a parameter that is not a real number, ``ValueError`` for one
+    that is not finite or a mass or radius that is not > 0.
+    """
+    v = {k: real(f"rolling_disc: parameter {k!r}", x) for k, x in dict(m=m, r=r, g=g).items()}
+    for k in ("m", "r"):
+        if not v[k] > 0.0:
+            raise ValueError(f"rolling_disc: parameter {k!r} = {v[k]} must be > 0")
+    x, y, psi, phi, theta = coordinates("x y psi phi theta")
+    m_, r_, g_ = parameters("m r g")
+    lean = matmul(rotation_z(psi), rotation_x(phi))
+    disc = Body(m_, (0.25 * m_ * r_**2, 0.5 * m_ * r_**2, 0.25 * m_ * r_**2),
+                plus((x, y, 0.0), rotate(lean, (0.0, 0.0, r_))),
+                matmul(lean, rotation_y(theta)), name="disc", gravity=(0.0, 0.0, -g_))
+    contact = rolling_contact(disc, r_, name="disc")
+    return Model([x, y, psi, phi, theta], bodies=[disc], potential=disc.potential,
+                 parameters=v, velocity_constraints=contact.velocity_constraints)
+
 
 _POSITIVE = ("w", "r_r", "m_r", "i_rxx", "i_ryy", "m_b", "i_bxx", "i_byy", "i_bzz", "m_h",
              "i_hxx", "i_hyy", "i_hzz", "r_f", "m_f", "i_fxx", "i_fyy")
