@@ -121,8 +121,10 @@ def rolling_contact(
     kinematics (:meth:`Body.velocity`, :meth:`Body.angular_velocity`), so the wheel may sit at
     the end of any chain of frames.
 
-    A coin rolling upright along x: its material contact velocity vanishes when ẋ = −r θ̇ for a
-    spin θ about the world y axis (z up):
+    A coin (mass 1, radius 1, moment 1/2 about its axle) kept upright in the x–z plane (z up),
+    spun by θ about the world y axis and pushed along x by a unit force: its contact slips by
+    ẋ − r θ̇, and rolling gives ẍ = F / (m + I/r²) = 2/3 (the across-row is identically zero
+    here, so only the along-row is stated):
 
     >>> import lagrangian as lg
     >>> x, th = lg.coordinates("x th")
@@ -130,9 +132,10 @@ def rolling_contact(
     >>> wheel = lg.rolling_contact(coin, radius=1.0)
     >>> list(wheel.velocity_constraints)
     ['wheel slip 1', 'wheel slip 2']
-    >>> lg.Model([x, th], bodies=[coin], velocity_constraints=wheel.velocity_constraints,
-    ...          ).accelerations(0.0, [0.0, 0.0], [1.0, -1.0]).tolist()
-    [0.0, 0.0]
+    >>> rolling = lg.Model([x, th], bodies=[coin], potential=-x,
+    ...                    velocity_constraints=[wheel.velocity_constraints["wheel slip 1"]])
+    >>> rolling.accelerations(0.0, [0.0, 0.0], [1.0, 1.0]).round(12).tolist()
+    [0.666666666667, 0.666666666667]
 
     Raises
     ------
@@ -185,20 +188,21 @@ def knife_edge(
     (body axes) within the plane is zero, n·v = 0 with n = u × R b. One named velocity row,
     ``{name or "knife edge": n·v}``, for ``Model(velocity_constraints=…)``.
 
-    The Chaplygin sleigh's blade along its heading θ: −sin θ ẋ + cos θ ẏ = 0.
+    The Chaplygin sleigh (mass 1, moment 0.2 about its centre of mass) with its blade a = 0.5
+    behind the centre of mass: u̇ = a ω², ω̇ = −m a u ω / (I + m a²) for the speed u along the
+    blade and the turning rate ω — here u = 1, ω = 1, heading 0, so the centre of mass
+    accelerates sideways by u ω + a ω̇ = 4/9 and ω̇ = −10/9:
 
     >>> import lagrangian as lg
     >>> x, y, th = lg.coordinates("x y th")
     >>> sled = lg.Body(1.0, (0.1, 0.1, 0.2), (x, y, 0.0), lg.rotation_z(th))
-    >>> row = lg.knife_edge(sled)["knife edge"]
-    >>> lg.Model([x, y, th], bodies=[sled], velocity_constraints=[row]).accelerations(
-    ...     0.0, [0.0, 0.0, 0.3], [2.0, 0.0, 0.0]).round(6).tolist()  # sliding sideways: refused
-    Traceback (most recent call last):
-    ...
-    lagrangian.ConstraintError: ...
+    >>> row = lg.knife_edge(sled, point=(-0.5, 0.0, 0.0))
+    >>> sleigh = lg.Model([x, y, th], bodies=[sled], velocity_constraints=row)
+    >>> sleigh.accelerations(0.0, [0.0, 0.0, 0.0], [1.0, 0.5, 1.0]).round(12).tolist()
+    [0.0, 0.444444444444, -1.111111111111]
 
-    Raises ``TypeError`` for a ``body`` that is not a Body, ``ValueError`` for a blade along
-    ``up``'s direction at the reference, or an ``up`` that is not a non-zero 3-vector.
+    Raises ``TypeError`` for a ``body`` that is not a Body, ``ValueError`` for an ``up`` that
+    is not a non-zero 3-vector or a ``blade``/``point`` that is not three expressions.
     """
     body = _check_body(body, "knife_edge")
     u = unit(up, "knife_edge: up")

@@ -1,7 +1,7 @@
-"""Vehicles on rolling wheels (issue 50), as constrained :class:`~lagrangian.Model`\ s stated by
-their rigid bodies and rolling contacts (:func:`~lagrangian.rolling_contact`): a disc rolling on
-the ground, and the Whipple bicycle of the benchmark of Meijaard, Papadopoulos, Ruina & Schwab
-(2007) — four bodies, two rolling wheels and the front contact's height."""
+"""Vehicles on rolling wheels (issue 50), as constrained models (:class:`~lagrangian.Model`)
+stated by their rigid bodies and rolling contacts (:func:`~lagrangian.rolling_contact`): a disc
+rolling on the ground, and the Whipple bicycle of the benchmark of Meijaard, Papadopoulos, Ruina
+& Schwab (2007) — four bodies, two rolling wheels and the front contact's height."""
 
 from __future__ import annotations
 
