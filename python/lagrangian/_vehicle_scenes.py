@@ -8,7 +8,16 @@ from __future__ import annotations
 import math
 from typing import Dict
 
-from ._bodies import Body, matmul, plus, rotate, rotation_x, rotation_y, rotation_z
+from ._bodies import (
+    Body,
+    matmul,
+    plus,
+    rotate,
+    rotation_x,
+    rotation_y,
+    rotation_z,
+    vector3,
+)
 from ._contact import rolling_contact
 from ._expr import coordinates, parameters
 from ._model import Model
@@ -48,7 +57,7 @@ def rolling_disc(m: float = 1.0, r: float = 0.3, g: float = 9.81) -> Model:
     m_, r_, g_ = parameters("m r g")
     lean = matmul(rotation_z(psi), rotation_x(phi))
     disc = Body(m_, (0.25 * m_ * r_**2, 0.5 * m_ * r_**2, 0.25 * m_ * r_**2),
-                plus((x, y, 0.0), rotate(lean, (0.0, 0.0, r_))),
+                plus(vector3((x, y, 0.0), "the contact"), rotate(lean, (0.0, 0.0, r_))),
                 matmul(lean, rotation_y(theta)), name="disc", gravity=(0.0, 0.0, -g_))
     contact = rolling_contact(disc, r_, name="disc")
     return Model([x, y, psi, phi, theta], bodies=[disc], potential=disc.potential,
@@ -103,7 +112,7 @@ def whipple_bicycle(
         "x y psi phi theta delta theta_r theta_f")
     zero = 0.0
     lean = matmul(rotation_z(psi), rotation_x(phi))
-    centre_r = plus((x, y, zero), rotate(lean, (zero, zero, -p["r_r"])))
+    centre_r = plus(vector3((x, y, zero), "the rear contact"), rotate(lean, (zero, zero, -p["r_r"])))
     rot_b = matmul(lean, rotation_y(theta))
     steer = matmul(matmul(rotation_y(p["lam"]), rotation_z(delta)), rotation_y(-p["lam"]))
     rot_h = matmul(rot_b, steer)
