@@ -42,6 +42,7 @@ from ._lagrangian import (
 from ._ensemble import BatchIntegrator, Ensemble
 from ._fit import Fit
 from ._linear import Equilibrium, Linearization, Modes
+from ._steady import SteadyLinearization
 from ._bodies import (
     Body,
     PlanarBody,
@@ -70,6 +71,7 @@ __all__ = [
     "rotation_about",
     "Frame",
     "RollingContact",
+    "SteadyLinearization",
     "rolling_contact",
     "knife_edge",
     "ConvergenceError",
