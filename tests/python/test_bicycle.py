@@ -135,3 +135,13 @@ def test_bicycle_bad_parameters():
     with pytest.raises(ValueError, match="'r'"):
         lg.scenes.rolling_disc(r=-0.3)
     assert lg.scenes.VEHICLES == ("rolling_disc", "whipple_bicycle")
+
+
+def test_dependent_positions_named_or_refused(bike):
+    q, qd = upright(2.0)
+    named = bike.linearize_steady(q, qd, independent=["phi", "delta"], steady=["theta_r"],
+                                  dependent=["theta"])
+    np.testing.assert_allclose(named.K, reduced(bike, 2.0).K, rtol=0, atol=1e-12)
+    with pytest.raises(ValueError, match="cannot be solved"):  # the front height ignores x
+        bike.linearize_steady(q, qd, independent=["phi", "delta"], steady=["theta_r"],
+                              dependent=["x"])

@@ -184,3 +184,23 @@ def test_linearize_steady_bad_input():
     free = lg.scenes.double_pendulum()
     with pytest.raises(ValueError, match="constrained model"):
         lg.Model.linearize_steady(free, [0, 0], [0, 0], independent=["th1"])
+
+
+def test_linearize_steady_solves_the_holonomic_rows_for_the_dependent_positions():
+    # The Cartesian pendulum at rest at θ₀ from the bottom, reduced to x = l sin θ (y follows
+    # from the rod): T = ½ m ẋ² / cos²θ, ẍ = −g sin θ cos θ at rest, so M = m / cos²θ₀ and
+    # K = −M ∂ẍ/∂x = m g cos 2θ₀ / (l cos³θ₀).
+    m, l, g, th0 = 1.5, 0.8, 9.81, 0.6
+    pendulum = lg.scenes.cartesian_pendulum(m=m, l=l, g=g)
+    q = [l * math.sin(th0), -l * math.cos(th0)]
+    lin = pendulum.linearize_steady(q, [0.0, 0.0], independent=["x"])
+    c = math.cos(th0)
+    assert lin.dependent == ("y",) and lin.cyclic == () and lin.steady == ()
+    assert abs(lin.M[0, 0] / (m / c**2) - 1) < 1e-13
+    assert abs(lin.K[0, 0] / (m * g * math.cos(2 * th0) / (l * c**3)) - 1) < 1e-12
+    assert abs(lin.C[0, 0]) < 1e-13
+    assert abs(lin.accelerations[0] + g * math.sin(th0) * c) < 1e-13
+    np.testing.assert_allclose(lin.P[:, 0], [1.0, math.tan(th0)], rtol=1e-14)
+    # Solving for x instead names it, and refuses a coordinate the rod does not read.
+    with pytest.raises(ValueError, match="independent"):
+        pendulum.linearize_steady(q, [0.0, 0.0], independent=["x"], dependent=["x"])
