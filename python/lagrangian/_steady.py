@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numbers
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -96,11 +97,24 @@ class SteadyLinearization:
     linearization: Any
 
 
-def values(exprs: Sequence[Expr], names: Sequence[str], params: Dict[str, float], t: float,
-           q: Any, qd: Any) -> FloatArray:
-    """Expressions of t, q, q̇ and parameters at one state (NumPy, for the constraint rows'
-    Jacobians)."""
-    nodes, roots = serialize(list(exprs))
+@lru_cache(maxsize=16)
+def row_jacobians(coords: Tuple[Coordinate, ...], holo: Tuple[Expr, ...],
+                  vel: Tuple[Expr, ...]) -> Tuple[List[Any], List[int]]:
+    """The flat program of ∂g/∂q of the holonomic rows g, then ∂r/∂q and ∂r/∂q̇ of every row r
+    (ġ for the holonomic ones, then the velocity rows), row by row; kept per model's rows, so
+    that a sweep over speeds differentiates once."""
+    rows = [time_derivative(g, coords) for g in holo] + list(vel)
+    grads = [derivative(g, c) for g in holo for c in coords]
+    grads += [derivative(r, c) for r in rows for c in coords]
+    grads += [derivative(r, c.d) for r in rows for c in coords]
+    return serialize(grads)
+
+
+def values(program: Tuple[List[Any], List[int]], names: Sequence[str],
+           params: Dict[str, float], t: float, q: Any, qd: Any) -> FloatArray:
+    """A flat program (from ``serialize``) of expressions of t, q, q̇ and parameters at one
+    state, in NumPy (for the constraint rows' Jacobians)."""
+    nodes, roots = program
     index = {name: i for i, name in enumerate(names)}
     vals: List[float] = []
     for op, payload, i, j in nodes:
@@ -226,11 +240,8 @@ def linearize_steady(
                          f"{sorted(set(held) & set(ind))}")
     params = {k: float(v) for k, v in self.parameters.items() if isinstance(v, numbers.Real)}
     kh, k = len(holo), len(holo) + len(vel)
-    rows = [time_derivative(g, coords) for g in holo.values()] + list(vel.values())
-    grads = [derivative(g, c) for g in holo.values() for c in coords]
-    grads += [derivative(r, c) for r in rows for c in coords]
-    grads += [derivative(r, c.d) for r in rows for c in coords]
-    flat = values(grads, names, params, at, qv, qdv)
+    program = row_jacobians(tuple(coords), tuple(holo.values()), tuple(vel.values()))
+    flat = values(program, names, params, at, qv, qdv)
     gh = flat[: kh * n].reshape(kh, n)
     z = flat[kh * n: kh * n + k * n].reshape(k, n)
     w = flat[kh * n + k * n:].reshape(k, n)

@@ -12,6 +12,9 @@ import lagrangian as lg
 from lagrangian._expr import derivative, evaluate
 
 
+DISC = lg.scenes.rolling_disc()
+
+
 def free_disc():
     """A disc free in space (z up): centre (x, y, z), R = R_z(ψ) R_x(φ) R_y(θ), radius 0.4."""
     x, y, z, psi, phi, th = lg.coordinates("x y z psi phi th")
@@ -108,7 +111,7 @@ def test_rolling_disc_lean_oscillation_along_a_run():
 
 
 def disc_lean(v, m=1.0, r=0.3, g=9.81):
-    disc = lg.scenes.rolling_disc(m=m, r=r, g=g)
+    disc = DISC.with_parameters(m=m, r=r, g=g)
     return disc.linearize_steady(np.zeros(5), [v, 0, 0, 0, v / r], independent=["phi", "psi"],
                                  steady=["theta"])
 
@@ -162,6 +165,7 @@ def test_contact_bad_input():
         lg.knife_edge(None)
     with pytest.raises(ValueError, match="blade"):
         lg.knife_edge(body, blade=(1, 0))
+
 
 
 def test_linearize_steady_bad_input():
