@@ -112,7 +112,8 @@ def whipple_bicycle(
         "x y psi phi theta delta theta_r theta_f")
     zero = 0.0
     lean = matmul(rotation_z(psi), rotation_x(phi))
-    centre_r = plus(vector3((x, y, zero), "the rear contact"), rotate(lean, (zero, zero, -p["r_r"])))
+    centre_r = plus(vector3((x, y, zero), "the rear contact"),
+                    rotate(lean, (zero, zero, -p["r_r"])))
     rot_b = matmul(lean, rotation_y(theta))
     steer = matmul(matmul(rotation_y(p["lam"]), rotation_z(delta)), rotation_y(-p["lam"]))
     rot_h = matmul(rot_b, steer)
