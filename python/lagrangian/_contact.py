@@ -119,7 +119,8 @@ def rolling_contact(
     ``body`` is the wheel; ``center`` its centre and ``axle`` its axle direction (need not be
     unit), both in the body's axes from its centre of mass. The rows come from the body's
     kinematics (:meth:`Body.velocity`, :meth:`Body.angular_velocity`), so the wheel may sit at
-    the end of any chain of frames.
+    the end of any chain of frames. A wheel lying flat (its axle along ``up``) has no single
+    contact point: the rows divide by √(1 − (u·a)²) = 0 there.
 
     A coin (mass 1, radius 1, moment 1/2 about its axle) kept upright in the x–z plane (z up),
     spun by θ about the world y axis and pushed along x by a unit force: its contact slips by

@@ -208,3 +208,27 @@ def test_linearize_steady_solves_the_holonomic_rows_for_the_dependent_positions(
     # Solving for x instead names it, and refuses a coordinate the rod does not read.
     with pytest.raises(ValueError, match="independent"):
         pendulum.linearize_steady(q, [0.0, 0.0], independent=["x"], dependent=["x"])
+
+
+def test_disc_rolls_down_an_incline_given_by_its_normal():
+    # A free disc (six coordinates) on the plane of normal u = (sin α, 0, cos α) through the
+    # origin, upright in the fall line s = (cos α, 0, −sin α) and at rest: the height row and
+    # the two slip rows leave the rolling of eq. 48, a = g sin α / (1 + I_a/(m r²)) = ⅔ g sin α
+    # along s, θ̈ = a/r, and no lean.
+    alpha, r, g, m = 0.4, 0.4, 9.81, 2.0
+    coords, body = free_disc()
+    contact = lg.rolling_contact(body, r, up=(math.sin(alpha), 0.0, math.cos(alpha)),
+                                 name="disc")
+    model = lg.Model(coords, bodies=[body], potential=m * g * coords[2],
+                     constraints=contact.constraints,
+                     velocity_constraints=contact.velocity_constraints)
+    u = np.array([math.sin(alpha), 0.0, math.cos(alpha)])
+    q = np.concatenate([r * u, [0.0, 0.0, alpha]])
+    assert abs(at([contact.height], coords, q)[0]) < 1e-15
+    acc = model.accelerations(0.0, q, np.zeros(6))
+    a = 2.0 / 3.0 * g * math.sin(alpha)
+    expect = [a * math.cos(alpha), 0.0, -a * math.sin(alpha), 0.0, 0.0, a / r]
+    np.testing.assert_allclose(acc, expect, rtol=0, atol=1e-12)
+    t1, t2 = contact.tangents
+    np.testing.assert_allclose(t1, [math.cos(alpha), 0.0, -math.sin(alpha)], atol=1e-15)
+    np.testing.assert_allclose(t2, [0.0, 1.0, 0.0], atol=1e-15)
