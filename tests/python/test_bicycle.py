@@ -3,9 +3,10 @@ Papadopoulos, Ruina & Schwab (2007, Proc. R. Soc. A 463, 1955–1982): the linea
 M q̈ + v C₁ q̇ + (g K₀ + v² K₂) q = 0 in (lean φ, steer δ) of eq. 5.4, the eigenvalues of
 Table 2, the weave and capsize speeds, and a nonlinear run's decay at the least-damped rate.
 
-The published values are those of the paper, checked against a second source: the same
+The published values are those of the paper, checked against second sources: the same
 matrices in the NLEVP collection's ``bicycle`` problem (Betcke, Higham, Mehrmann, Schröder &
-Tisseur) and in BicycleParameters' benchmark test."""
+Tisseur), and SymPy's independent Kane's-method derivation of the bicycle, whose state matrix
+the last test compares."""
 
 import math
 
@@ -145,3 +146,18 @@ def test_dependent_positions_named_or_refused(bike):
     with pytest.raises(ValueError, match="cannot be solved"):  # the front height ignores x
         bike.linearize_steady(q, qd, independent=["phi", "delta"], steady=["theta_r"],
                               dependent=["x"])
+
+
+def test_state_matrix_matches_sympys_kane_derivation(bike):
+    # SymPy's own Whipple bicycle (sympy/physics/mechanics/tests/test_kane3.py: Kane's method,
+    # linearized with the speed symbolic) checks its state matrix of (φ, δ, φ̇, δ̇) against
+    # these numbers at v = 0 … 5 m/s to 1e-12: an independent derivation.
+    for v in range(6):
+        want = np.array([
+            [0.0, 0.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+            [9.48977444677355, -0.891197738059089 * v**2 - 0.571523173729245,
+             -0.105522449805691 * v, -0.330515398992311 * v],
+            [11.7194768719633, -1.97171508499972 * v**2 + 30.9087533932407,
+             3.67680523332152 * v, -3.08486552743311 * v]])
+        np.testing.assert_allclose(reduced(bike, float(v)).A, want, rtol=0, atol=1e-12)
