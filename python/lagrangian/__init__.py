@@ -42,6 +42,7 @@ from ._lagrangian import (
 from ._ensemble import BatchIntegrator, Ensemble
 from ._fit import Fit
 from ._linear import Equilibrium, Linearization, Modes
+from ._steady import SteadyLinearization
 from ._bodies import (
     Body,
     PlanarBody,
@@ -53,6 +54,7 @@ from ._bodies import (
     rotation_z,
 )
 from ._frames import Frame, Joint, Loop, Reaction, coincide, joint_reaction, loop_reaction
+from ._contact import RollingContact, knife_edge, rolling_contact
 from ._model import Model, methods
 from ._solution import Solution
 from ._sympy import from_sympy
@@ -74,6 +76,10 @@ __all__ = [
     "coincide",
     "joint_reaction",
     "loop_reaction",
+    "RollingContact",
+    "SteadyLinearization",
+    "rolling_contact",
+    "knife_edge",
     "ConvergenceError",
     "BatchIntegrator",
     "Ensemble",

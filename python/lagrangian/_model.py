@@ -16,7 +16,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from . import _ensemble, _fit, _lagrangian, _linear, _sensitivity
+from . import _ensemble, _fit, _lagrangian, _linear, _sensitivity, _steady
 from ._drawing import Drawing
 from ._events import Event, event_specs
 from ._bodies import Body, with_bodies
@@ -998,6 +998,7 @@ class Model:
     fit = _fit.fit
     equilibrium = _linear.equilibrium
     linearize = _linear.linearize
+    linearize_steady = _steady.linearize_steady
     modes = _linear.modes
 
     # -- Python protocol ---------------------------------------------------------------

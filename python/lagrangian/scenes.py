@@ -17,7 +17,8 @@ Beside them, the seed's systems with their constraints kept as equations (issue 
 Python functions returning a constrained :class:`~lagrangian.Model` (``CONSTRAINED`` lists
 them, outside ``__all__`` and the Rust catalog) — :func:`cartesian_pendulum`,
 :func:`rolling_cylinder_constrained`, :func:`ball_in_sphere_constrained`,
-:func:`rhombus_link_constrained` and :func:`spring_rhombus_constrained`.
+:func:`rhombus_link_constrained` and :func:`spring_rhombus_constrained`; and the vehicles on
+rolling wheels (issue 50, ``VEHICLES``): :func:`whipple_bicycle`, the benchmark bicycle.
 
 >>> import lagrangian as lg
 >>> dp = lg.scenes.double_pendulum(m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81)
@@ -32,7 +33,7 @@ from __future__ import annotations
 import inspect
 from typing import Any, Callable, Dict, List, Tuple
 
-from . import _constrained_scenes, _lagrangian
+from . import _constrained_scenes, _lagrangian, _vehicle_scenes
 from ._constrained_scenes import (
     ball_in_sphere_constrained,
     cartesian_pendulum,
@@ -41,6 +42,7 @@ from ._constrained_scenes import (
     spring_rhombus_constrained,
 )
 from ._scene_model import SceneModel
+from ._vehicle_scenes import rolling_disc, whipple_bicycle
 from ._scene_model import scene_model as _scene_model
 
 # The scene functions only: ``SceneModel`` and ``catalog`` are public but not scenes.
@@ -48,6 +50,9 @@ __all__: List[str] = []
 
 # The constrained scenes (Python functions returning a constrained ``Model``), in catalog order.
 CONSTRAINED: Tuple[str, ...] = tuple(_constrained_scenes.__all__)
+
+# Vehicles on rolling wheels (issue 50): Python functions returning a constrained ``Model``.
+VEHICLES: Tuple[str, ...] = tuple(_vehicle_scenes.__all__)
 
 
 def catalog() -> List[Dict[str, Any]]:
@@ -146,9 +151,13 @@ def _stub() -> str:
         *(f"    {name} as {name}," for name in sorted(CONSTRAINED)),
         ")",
         "from ._scene_model import SceneModel as SceneModel",
+        "from ._vehicle_scenes import (",
+        *(f"    {name} as {name}," for name in sorted(VEHICLES)),
+        ")",
         "",
         "__all__: List[str]",
         "CONSTRAINED: Tuple[str, ...]",
+        "VEHICLES: Tuple[str, ...]",
         "",
         "def catalog() -> List[Dict[str, Any]]: ...",
     ]
@@ -174,7 +183,9 @@ __all__ += _install()
 
 
 def __dir__() -> List[str]:
-    """The public names only (PEP 562): the scenes, the constrained scenes, ``SceneModel``,
-    ``catalog`` and ``CONSTRAINED`` — not the helpers this module imports to make them."""
-    public = {*__all__, *CONSTRAINED, "SceneModel", "catalog", "CONSTRAINED"}
+    """The public names only (PEP 562): the scenes, the constrained scenes, the vehicles,
+    ``SceneModel``, ``catalog``, ``CONSTRAINED`` and ``VEHICLES`` — not the helpers this module
+    imports to make them."""
+    public = {*__all__, *CONSTRAINED, *VEHICLES, "SceneModel", "catalog", "CONSTRAINED",
+              "VEHICLES"}
     return sorted(public | {n for n in globals() if n.startswith("__") and n.endswith("__")})

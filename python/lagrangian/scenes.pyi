@@ -11,9 +11,14 @@ from ._constrained_scenes import (
     spring_rhombus_constrained as spring_rhombus_constrained,
 )
 from ._scene_model import SceneModel as SceneModel
+from ._vehicle_scenes import (
+    rolling_disc as rolling_disc,
+    whipple_bicycle as whipple_bicycle,
+)
 
 __all__: List[str]
 CONSTRAINED: Tuple[str, ...]
+VEHICLES: Tuple[str, ...]
 
 def catalog() -> List[Dict[str, Any]]: ...
 def simple_pendulum(m: float = 1.0, l: float = 1.0, g: float = 9.81) -> SceneModel: ...

@@ -303,59 +303,62 @@ impl Lowering {
     /// coefficients move by an ulp or so, as the same model stated in another order would.
     fn fold_scalings(&mut self, outside: &HashSet<usize>) {
         let state: HashSet<usize> = self.order0.iter().flat_map(SeriesOp::outputs).collect();
-        loop {
-            let mut reads: HashMap<usize, usize> = HashMap::new();
-            for r in self.order0.iter().flat_map(SeriesOp::operands) {
-                *reads.entry(r).or_insert(0) += 1;
-            }
-            let inner: HashMap<usize, (usize, usize)> = (self.order0.iter())
-                .filter_map(|op| match *op {
-                    SeriesOp::Scale { out, a, c }
-                        if reads.get(&out) == Some(&1)
-                            && !outside.contains(&out)
-                            && !state.contains(&c) =>
-                    {
-                        Some((out, (a, c)))
-                    }
-                    _ => None,
-                })
-                .collect();
-            // The first scaling of an inner one, folded.
-            let Some((at, outer)) = self
-                .order0
-                .iter()
-                .enumerate()
-                .find_map(|(i, op)| match *op {
-                    SeriesOp::Scale { out, a, c }
-                        if inner.contains_key(&a) && !state.contains(&c) =>
-                    {
-                        Some((i, (out, a, c)))
-                    }
-                    _ => None,
-                })
-            else {
-                return;
+        let mut reads: HashMap<usize, usize> = HashMap::new();
+        for r in self.order0.iter().flat_map(SeriesOp::operands) {
+            *reads.entry(r).or_insert(0) += 1;
+        }
+        // The scalings read once (and not M or f), by their row: (x, c₁) of x c₁.
+        let mut inner: HashMap<usize, (usize, usize)> = (self.order0.iter())
+            .filter_map(|op| match *op {
+                SeriesOp::Scale { out, a, c }
+                    if reads.get(&out) == Some(&1)
+                        && !outside.contains(&out)
+                        && !state.contains(&c) =>
+                {
+                    Some((out, (a, c)))
+                }
+                _ => None,
+            })
+            .collect();
+        // One pass in order (operands come before their readers): a scaling of an inner one
+        // becomes x (c₁ c₂), and is itself the inner one of the next, if it is one.
+        let mut replaced: HashMap<SeriesOp, SeriesOp> = HashMap::new();
+        let mut gone: HashSet<usize> = HashSet::new();
+        for at in 0..self.order0.len() {
+            let SeriesOp::Scale { out, a: s, c: c2 } = self.order0[at] else {
+                continue;
             };
-            let (out, s, c2) = outer;
-            let (x, c1) = inner[&s];
+            if state.contains(&c2) {
+                continue;
+            }
+            let Some((x, c1)) = inner.remove(&s) else {
+                continue;
+            };
             let c12 = self.row();
             self.fixed.push(SeriesOp::Scale {
                 out: c12,
                 a: c1,
                 c: c2,
             });
-            let old = self.order0[at];
             let new = SeriesOp::Scale { out, a: x, c: c12 };
-            let gone = |op: &SeriesOp| matches!(op, SeriesOp::Scale { out, .. } if *out == s);
-            for list in [&mut self.order0, &mut self.varying] {
-                for op in list.iter_mut().filter(|op| **op == old) {
-                    *op = new;
-                }
-                list.retain(|op| !gone(op));
+            replaced.insert(self.order0[at], new);
+            self.order0[at] = new;
+            gone.insert(s);
+            if let Some(outer) = inner.get_mut(&out) {
+                *outer = (x, c12);
             }
         }
+        let folded = |op: &SeriesOp| matches!(op, SeriesOp::Scale { out, .. } if gone.contains(out));
+        self.order0.retain(|op| !folded(op));
+        for op in &mut self.varying {
+            if let Some(&new) = replaced.get(op) {
+                *op = new;
+            }
+        }
+        self.varying.retain(|op| !folded(op));
     }
 }
+
 
 impl Lowering {
     /// Read the row a copy copies, or a scaling by exactly 1 scales, in place of theirs, and drop
