@@ -53,6 +53,7 @@ from ._bodies import (
     rotation_z,
 )
 from ._frames import Frame
+from ._loads import Damper, Force, Spring, Torque
 from ._model import Model, methods
 from ._solution import Solution
 from ._sympy import from_sympy
@@ -68,6 +69,10 @@ __all__ = [
     "rotation_z",
     "rotation_about",
     "Frame",
+    "Force",
+    "Torque",
+    "Spring",
+    "Damper",
     "ConvergenceError",
     "BatchIntegrator",
     "Ensemble",

@@ -20,6 +20,7 @@ from . import _ensemble, _fit, _lagrangian, _linear, _sensitivity
 from ._drawing import Drawing
 from ._events import Event, event_specs
 from ._bodies import Body, with_bodies
+from ._loads import Load, with_loads
 from ._expr import Coordinate, Expr, ExprLike
 from ._lagrangian import Integrator
 from ._protocols import ArrayLike, FloatArray
@@ -130,6 +131,11 @@ class Model:
         Rigid bodies (:class:`Body`, :class:`PlanarBody`): their kinetic energy is derived and
         added to ``kinetic`` (with particles, the particles' T is derived beside it and their
         positions become ``drawing`` points); see :doc:`bodies`.
+    loads : sequence of Force, Torque, Spring or Damper, optional
+        Loads on bodies (:class:`Force`, :class:`Torque`, :class:`Spring`, :class:`Damper`):
+        their generalized forces (by virtual power), spring potentials and dampers' Rayleigh
+        functions are derived and added to ``forces``, ``potential`` and ``dissipation``; see
+        :doc:`loads`.
 
     Raises
     ------
@@ -191,7 +197,12 @@ class Model:
         constraints: Optional[Union[Sequence[ExprLike], Mapping[str, ExprLike]]] = None,
         velocity_constraints: Optional[Union[Sequence[ExprLike], Mapping[str, ExprLike]]] = None,
         bodies: Optional[Sequence[Body]] = None,
+        loads: Optional[Sequence[Load]] = None,
     ) -> None:
+        if loads is not None:
+            potential, dissipation, forces = with_loads(
+                loads, coordinates, parameters, potential, dissipation, forces
+            )
         if bodies is not None:
             kinetic, positions, masses, drawing = with_bodies(
                 bodies, coordinates, parameters, kinetic, positions, masses, drawing
