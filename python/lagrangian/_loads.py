@@ -55,8 +55,8 @@ def _dot(a: Sequence[ExprLike], b: Sequence[ExprLike]) -> Expr:
     return acc
 
 
-def partial_angular_velocity(body: Body, s: Coordinate, axes: str = "world") -> Vector:
-    """∂ω/∂ṡ of ``body`` for the coordinate ``s``: vee(∂R/∂s Rᵀ) in world axes, vee(Rᵀ ∂R/∂s)
+def partial_angular_velocity(body: Body, s: Expr, axes: str = "world") -> Vector:
+    """∂ω/∂ṡ of ``body`` for the coordinate ``s`` (or the explicit rate for ``s`` = t): vee(∂R/∂s Rᵀ) in world axes, vee(Rᵀ ∂R/∂s)
     in body axes — the exact coefficient of ṡ in the angular velocity."""
     r = body.orientation
     dr = [[derivative(e, s) for e in row] for row in r]
