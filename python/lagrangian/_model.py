@@ -164,6 +164,7 @@ class Model:
         "_drawing_points",
         "_constraints",
         "_velocity_constraints",
+        "_bodies",
     )
 
     _coordinates: Tuple[Coordinate, ...]
@@ -180,6 +181,7 @@ class Model:
     _drawing_points: Optional[Tuple[Tuple[Expr, ...], ...]]
     _constraints: Tuple[Tuple[str, Expr], ...]
     _velocity_constraints: Tuple[Tuple[str, Expr], ...]
+    _bodies: Tuple[Body, ...]
 
     def __init__(
         self,
@@ -222,6 +224,7 @@ class Model:
         self._backend = parts.backend
         self._drawing_points = parts.drawing
         self._native = compile_parts(parts)
+        self._bodies = (bodies,) if isinstance(bodies, Body) else tuple(bodies or ())
 
     # -- description -------------------------------------------------------------------
     @property
@@ -258,6 +261,12 @@ class Model:
     def forces(self) -> Optional[Tuple[Expr, ...]]:
         """The generalized forces Q, or ``None``."""
         return self._forces
+
+    @property
+    def bodies(self) -> Tuple[Body, ...]:
+        """The bodies given as ``bodies=`` (what :meth:`body_motion` follows by default; kept by
+        :meth:`with_parameters`, not by pickling, which keeps the derived T)."""
+        return getattr(self, "_bodies", ())
 
     @property
     def position_expressions(self) -> Optional[Tuple[Tuple[Expr, ...], ...]]:

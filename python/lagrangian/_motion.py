@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import (TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Protocol, Sequence, Tuple,
+                    Union)
 
 import numpy as np
 
@@ -22,6 +23,13 @@ if TYPE_CHECKING:
 __all__ = ["BodyMotion", "Motion", "body_motion"]
 
 PathLike = Union[str, "os.PathLike[str]"]
+
+
+class WithBodies(Drawable, Protocol):
+    """A model as :func:`body_motion` reads it: coordinates, parameters and its bodies."""
+
+    @property
+    def bodies(self) -> Tuple[Body, ...]: ...
 
 
 class _Kinematics:
@@ -179,8 +187,9 @@ class Motion(Sequence[BodyMotion]):
         return f"Motion({', '.join(m.body.label for m in self._items)})"
 
 
-def body_motion(model: Drawable, sol: Trajectory, bodies: Any) -> Motion:
-    """The bodies along the solution ``sol`` of this model: a :class:`Motion`, a sequence of
+def body_motion(model: WithBodies, sol: Trajectory, bodies: Any = None) -> Motion:
+    """The bodies along the solution ``sol`` of this model — ``bodies`` (a body or a sequence),
+    by default the model's own (``bodies=`` of the model): a :class:`Motion`, a sequence of
     one :class:`BodyMotion` per body (``motion[0]`` or ``motion["name"]``) with the arrays
     ``position`` (n, 3), ``orientation`` (n, 3, 3), ``velocity``, ``angular_velocity`` (world
     axes), ``angular_velocity_body``, ``kinetic``, ``potential`` and ``energy`` at the solution's
@@ -191,7 +200,7 @@ def body_motion(model: Drawable, sol: Trajectory, bodies: Any) -> Motion:
     >>> wheel = lg.Body(2.0, [0.3, 0.3, 0.5], [0, 0, 0], lg.rotation_z(a), name="wheel")
     >>> model = lg.Model([a], bodies=[wheel])
     >>> sol = model.simulate([0.0], [4.0], 1.0)
-    >>> motion = model.body_motion(sol, wheel)
+    >>> motion = model.body_motion(sol)
     >>> motion["wheel"].angular_velocity[-1].round(12).tolist()
     [0.0, 0.0, 4.0]
     >>> motion[0].orientation.shape[1:]
@@ -201,6 +210,11 @@ def body_motion(model: Drawable, sol: Trajectory, bodies: Any) -> Motion:
     with a symbol that is not a coordinate of the model or a parameter without a value, or a
     solution of another model.
     """
+    if bodies is None:
+        bodies = model.bodies
+        if not bodies:
+            raise ValueError("this model has no bodies: give the bodies to follow, "
+                             "body_motion(sol, [body, ...])")
     items: List[Any] = [bodies] if isinstance(bodies, Body) else list(bodies)
     names = [c.name for c in model.coordinates]
     params = {k: float(v) for k, v in model.parameters.items()}

@@ -17,7 +17,9 @@ Beside them, the seed's systems with their constraints kept as equations (issue 
 Python functions returning a constrained :class:`~lagrangian.Model` (``CONSTRAINED`` lists
 them, outside ``__all__`` and the Rust catalog) — :func:`cartesian_pendulum`,
 :func:`rolling_cylinder_constrained`, :func:`ball_in_sphere_constrained`,
-:func:`rhombus_link_constrained` and :func:`spring_rhombus_constrained`.
+:func:`rhombus_link_constrained` and :func:`spring_rhombus_constrained`; and the classics stated
+with rigid bodies (issue 50; ``BODIES``): :func:`spinning_top`, :func:`rolling_cylinder_body`
+and :func:`ball_in_sphere_body`.
 
 >>> import lagrangian as lg
 >>> dp = lg.scenes.double_pendulum(m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81)
@@ -32,7 +34,8 @@ from __future__ import annotations
 import inspect
 from typing import Any, Callable, Dict, List, Tuple
 
-from . import _constrained_scenes, _lagrangian
+from . import _body_scenes, _constrained_scenes, _lagrangian
+from ._body_scenes import ball_in_sphere_body, rolling_cylinder_body, spinning_top
 from ._constrained_scenes import (
     ball_in_sphere_constrained,
     cartesian_pendulum,
@@ -48,6 +51,8 @@ __all__: List[str] = []
 
 # The constrained scenes (Python functions returning a constrained ``Model``), in catalog order.
 CONSTRAINED: Tuple[str, ...] = tuple(_constrained_scenes.__all__)
+# The classics stated with rigid bodies (Python functions returning a ``Model`` with bodies).
+BODIES: Tuple[str, ...] = tuple(_body_scenes.__all__)
 
 
 def catalog() -> List[Dict[str, Any]]:
@@ -145,10 +150,14 @@ def _stub() -> str:
         "from ._constrained_scenes import (",
         *(f"    {name} as {name}," for name in sorted(CONSTRAINED)),
         ")",
+        "from ._body_scenes import (",
+        *(f"    {name} as {name}," for name in sorted(BODIES)),
+        ")",
         "from ._scene_model import SceneModel as SceneModel",
         "",
         "__all__: List[str]",
         "CONSTRAINED: Tuple[str, ...]",
+        "BODIES: Tuple[str, ...]",
         "",
         "def catalog() -> List[Dict[str, Any]]: ...",
     ]
@@ -174,7 +183,8 @@ __all__ += _install()
 
 
 def __dir__() -> List[str]:
-    """The public names only (PEP 562): the scenes, the constrained scenes, ``SceneModel``,
-    ``catalog`` and ``CONSTRAINED`` — not the helpers this module imports to make them."""
-    public = {*__all__, *CONSTRAINED, "SceneModel", "catalog", "CONSTRAINED"}
+    """The public names only (PEP 562): the scenes, the constrained scenes, the scenes with
+    bodies, ``SceneModel``, ``catalog``, ``CONSTRAINED`` and ``BODIES`` — not the helpers this
+    module imports to make them."""
+    public = {*__all__, *CONSTRAINED, *BODIES, "SceneModel", "catalog", "CONSTRAINED", "BODIES"}
     return sorted(public | {n for n in globals() if n.startswith("__") and n.endswith("__")})

@@ -33,7 +33,7 @@ LAYERS: List[Tuple[str, Set[str]]] = [
     ("the model's workers: ensembles, fits, statics and modes, its statement",
      {"_ensemble", "_fit", "_linear", "_statement"}),
     ("model", {"_model"}),
-    ("scenes, SymPy bridge", {"_scene_model", "_constrained_scenes", "scenes", "_sympy"}),
+    ("scenes, SymPy bridge", {"_scene_model", "_constrained_scenes", "_body_scenes", "scenes", "_sympy"}),
     ("report tooling",
      {"_measure", "_workprec", "_cases", "_scipy", "_stability", "_report", "__main__"}),
 ]

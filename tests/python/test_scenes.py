@@ -285,7 +285,7 @@ def test_scenes_namespace_shows_only_public_names():
                         "scene_model"}
     public = {n for n in names if not n.startswith("_")}
     assert public == (set(lg.scenes.__all__) | set(lg.scenes.CONSTRAINED)
-                      | {"SceneModel", "catalog", "CONSTRAINED"})
+                      | set(lg.scenes.BODIES) | {"SceneModel", "catalog", "CONSTRAINED", "BODIES"})
     for name in public:
         assert getattr(lg.scenes, name) is not None
 
