@@ -288,6 +288,8 @@ def _check(load: Load, label: str, names: Sequence[str],
            parameters: Mapping[str, Any]) -> None:
     for what, e, velocities in load.expressions():
         for sym in e.free_symbols():
+            if sym.op == "t":
+                continue
             name = sym.args[0]
             if sym.op == "qd" and not velocities:
                 raise ValueError(f"{label}: {what} reads the velocity {name}.d: state it in t, "
