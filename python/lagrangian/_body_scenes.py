@@ -14,7 +14,7 @@ from __future__ import annotations
 from typing import Dict, List
 
 from ._bodies import Body, rotation_z
-from ._expr import coordinates, cos, parameters, sin
+from ._expr import Expr, coordinates, cos, parameters, sin
 from ._frames import Frame
 from ._model import Model
 from ._validate import real
@@ -71,12 +71,9 @@ def rolling_cylinder_body(m: float = 1.0, j: float = 0.005, r: float = 0.1, g: f
     """
     v = _values("rolling_cylinder_body", ["m", "j", "r"], m=m, j=j, r=r, g=g, alpha=alpha)
     m_, j_, r_, g_, a_ = parameters("m j r g alpha")
-    if constrained:
-        x, angle = coordinates("x theta")
-        coords = [x, angle]
-    else:
-        x, = coordinates("x")
-        coords, angle = [x], -x / r_
+    x, theta = coordinates("x theta")
+    coords = [x, theta] if constrained else [x]
+    angle: Expr = theta if constrained else -x / r_
     cylinder = Body(m_, [0.5 * j_, 0.5 * j_, j_], (x * cos(a_), -x * sin(a_), 0.0),
                     rotation_z(angle), name="cylinder", gravity=(0.0, -g_, 0.0))
     return Model(coords, potential=cylinder.potential, parameters=v, bodies=[cylinder],
@@ -99,12 +96,9 @@ def ball_in_sphere_body(m: float = 1.0, j: float = 0.016, r1: float = 1.0, r2: f
         raise ValueError(f"ball_in_sphere_body: the ball's radius r2 = {v['r2']} must be less "
                          f"than the sphere's r1 = {v['r1']}")
     m_, j_, r1_, r2_, g_ = parameters("m j r1 r2 g")
-    if constrained:
-        th, angle = coordinates("theta phi")
-        coords = [th, angle]
-    else:
-        th, = coordinates("theta")
-        coords, angle = [th], -(r1_ - r2_) * th / r2_
+    th, phi = coordinates("theta phi")
+    coords = [th, phi] if constrained else [th]
+    angle: Expr = phi if constrained else -(r1_ - r2_) * th / r2_
     ball = Body(m_, [j_, j_, j_], ((r1_ - r2_) * sin(th), -(r1_ - r2_) * cos(th), 0.0),
                 rotation_z(angle), name="ball", gravity=(0.0, -g_, 0.0))
     return Model(coords, potential=ball.potential, parameters=v, bodies=[ball],

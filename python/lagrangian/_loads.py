@@ -114,7 +114,7 @@ def _body(body: Any, what: str) -> Body:
 def _point(p: Any, what: str) -> Vector:
     """A world point: three expressions, or a body (its centre of mass)."""
     if isinstance(p, Body):
-        return p.position
+        return (p.position[0], p.position[1], p.position[2])
     try:
         return vector3(p, what)
     except TypeError as exc:
