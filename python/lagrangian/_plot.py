@@ -637,7 +637,7 @@ def animate(
         raise ValueError(f"trail {draw.trail} names a particle outside 0…{count - 1}")
     if not trail:
         trailed = []
-    movie = Movie(draw, times, frame_pos, dense_t, dense, trailed)
+    movie = _Movie(draw, times, frame_pos, dense_t, dense, trailed)
     if target.suffix.lower() == ".gif":
         movie.write_gif(target, float(fps))
     else:
@@ -661,7 +661,7 @@ def _colour_table(palette: npt.NDArray[np.int64]) -> npt.NDArray[np.uint8]:
     return best
 
 
-class Movie:
+class _Movie:
     """The frames of a movie: the still parts (axes, grid, fixed lines and circles) are drawn
     once; each frame restores them and draws only the moving artists (blitting) into the Agg
     buffer, which goes to the file as it is."""
@@ -878,3 +878,8 @@ class Movie:
             message = proc.stderr.read().decode(errors="replace")
             if proc.wait() != 0:
                 raise RuntimeError(f"ffmpeg could not write {str(target)!r}: {message.strip()}")
+
+
+# The movie machinery (blitting, GIF and MP4 writers), public for the bodies' movie
+# (``_plot_bodies.BodyMovie``), which draws other artists.
+Movie = _Movie
