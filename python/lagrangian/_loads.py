@@ -304,6 +304,10 @@ def _check(load: Load, label: str, names: Sequence[str],
     if body is not None:
         for e in (*body.position, *(x for r in body.orientation for x in r)):
             for sym in e.free_symbols():
+                if sym.op == "qd":
+                    raise ValueError(f"{label}: its body {body.label} is placed by the velocity "
+                                     f"{sym.args[0]}.d: state it in t, the coordinates and "
+                                     "parameters")
                 if sym.op == "q" and sym.args[0] not in names:
                     raise ValueError(f"{label}: its body {body.label} moves with "
                                      f"{sym.args[0]!r}, which is not a coordinate of the model")

@@ -236,6 +236,9 @@ def test_loads_refuse_bad_input_naming_the_load():
     other = lg.Body(1.0, [0.1, 0.1, 0.1], [y, 0, 0], lg.rotation_z(0.0), name="other")
     with pytest.raises(ValueError, match="its body 'other' moves with 'y'"):
         lg.Model([x], bodies=[block], loads=[lg.Torque([0, 0, 1], other)])
+    fast = lg.Body(1.0, [0.1, 0.1, 0.1], [x.d, 0, 0], lg.rotation_z(0.0), name="fast")
+    with pytest.raises(ValueError, match="its body 'fast' is placed by the velocity x.d"):
+        lg.Model([x], bodies=[block], loads=[lg.Force([1, 0, 0], fast)])
 
 
 def test_loads_add_to_the_given_parts_and_survive_with_parameters():
