@@ -460,3 +460,26 @@ def test_body_scenes_are_listed_and_check_their_parameters():
         lg.scenes.ball_in_sphere_body(r2=2.0)
     with pytest.raises(ValueError, match="triangle inequality"):
         lg.scenes.spinning_top(a=0.01, c=0.05)
+
+
+def test_a_torque_about_the_node_line_replaces_gravity_on_the_top():
+    # Gravity's moment about the tip is m g l sin θ along the node line (cos φ, sin φ, 0): the
+    # top without gravity under that torque (world axes, a function of q) moves as the heavy top;
+    # the same torque stated in body axes, Rᵀ of it, too.
+    heavy = lg.scenes.spinning_top()
+    light = lg.scenes.spinning_top(g=0.0)
+    top, = light.bodies
+    phi, th, psi = light.coordinates
+    size = 1.0 * 9.81 * 0.3 * lg.sin(th)
+    world = [size * lg.cos(phi), size * lg.sin(phi), 0.0]
+    r = top.orientation
+    body = [sum((r[k][i] * world[k] for k in range(3)), lg.Expr.lift(0.0)) for i in range(3)]
+    values = {k: v for k, v in light.parameters.items() if k != "g"}
+    for axes, tau in (("world", world), ("body", body)):
+        driven = lg.Model(list(light.coordinates), kinetic=light.kinetic, parameters=values,
+                          loads=[lg.Torque(tau, top, axes=axes, name="node")])
+        for _ in range(4):
+            q = RNG.uniform(-1.0, 1.0, 3) + np.array([0.0, 1.5, 0.0])
+            qd = RNG.normal(size=3) * 5
+            assert np.allclose(driven.accelerations(0.0, q, qd), heavy.accelerations(0.0, q, qd),
+                               rtol=1e-12, atol=1e-12)
