@@ -52,7 +52,7 @@ from ._bodies import (
     rotation_about,
     rotation_z,
 )
-from ._frames import Frame
+from ._frames import Frame, Joint, Loop, Reaction, coincide, joint_reaction, loop_reaction
 from ._loads import Damper, Force, Spring, Torque
 from ._model import Model, methods
 from ._solution import Solution
@@ -69,6 +69,12 @@ __all__ = [
     "rotation_z",
     "rotation_about",
     "Frame",
+    "Joint",
+    "Loop",
+    "Reaction",
+    "coincide",
+    "joint_reaction",
+    "loop_reaction",
     "Force",
     "Torque",
     "Spring",

@@ -250,10 +250,12 @@ class Expr:
         if not isinstance(other, Expr):
             return NotImplemented
         stack = [(self, other)]
+        compared = set()  # pairs met before: shared subtrees are compared once, not per path
         while stack:
             a, b = stack.pop()
-            if a is b:
+            if a is b or (id(a), id(b)) in compared:
                 continue
+            compared.add((id(a), id(b)))
             if a._hash != b._hash or a._op != b._op or len(a._args) != len(b._args):
                 return False
             for x, y in zip(a._args, b._args):
@@ -636,10 +638,12 @@ def evaluate(
     t: Any,
     q: Any,
     what: str = "an expression",
+    qd: Any = None,
 ) -> Any:
-    """The expressions (of t, the coordinates and parameters) at n states, in NumPy: an array
-    of shape (len(exprs), n) from ``t`` (n,) and ``q`` (n, len(coordinates)). For drawings and
-    checks only; the dynamics never runs here. ``what`` names the expressions in errors."""
+    """The expressions (of t, the coordinates and parameters — and the velocities, given ``qd``)
+    at n states, in NumPy: an array of shape (len(exprs), n) from ``t`` (n,), ``q`` and ``qd``
+    (n, len(coordinates)). For drawings, checks and outputs only; the dynamics never runs here.
+    ``what`` names the expressions in errors."""
     nodes, roots = serialize(list(exprs))
     index = {name: i for i, name in enumerate(coordinates)}
     values: List[Any] = []
@@ -658,7 +662,11 @@ def evaluate(
                     raise ValueError(f"{what} reads the parameter {payload!r}, which has no value")
                 values.append(float(parameters[payload]))
             elif op == "qd":
-                raise ValueError(f"{what} cannot depend on the velocity {payload}.d")
+                if qd is None:
+                    raise ValueError(f"{what} cannot depend on the velocity {payload}.d")
+                if payload not in index:
+                    raise ValueError(f"{what} reads {payload}.d, which is not a velocity")
+                values.append(qd[:, index[payload]])
             elif op in UNARY:
                 values.append(NUMPY_UNARY[op](values[i]))
             else:
@@ -713,15 +721,21 @@ def derivative(e: ExprLike, s: Expr) -> Expr:
     symbol is held fixed), by each operation's rule in :data:`UNARY` / :data:`BINARY`. Each node
     is differentiated once (the graph's shared subtrees stay shared); zeros and ones are
     folded."""
-    e = Expr.lift(e)
     if s.op not in _LEAVES[2:]:
         raise ValueError(f"derivative with respect to {s!r}: give a coordinate, a velocity or t")
-    zero, one = Expr.lift(0.0), Expr.lift(1.0)
+    return tangent(e, {s: Expr.lift(1.0)})
+
+
+def tangent(e: ExprLike, seeds: Mapping[Expr, Expr]) -> Expr:
+    """The forward-mode derivative Σ ∂e/∂s · seeds[s] over the symbols ``s`` of ``seeds`` (every
+    other symbol held fixed), in one sweep over ``e``'s graph."""
+    e = Expr.lift(e)
+    zero = Expr.lift(0.0)
     d: Dict[Expr, Expr] = {}
     for node in _postorder([e]):
         args = node.args
         if node.op in _LEAVES:
-            d[node] = one if node == s else zero
+            d[node] = seeds.get(node, zero)
         elif node.op in UNARY:
             da = d[args[0]]
             d[node] = zero if _is_const(da, 0.0) else _mul(
@@ -737,11 +751,11 @@ def derivative(e: ExprLike, s: Expr) -> Expr:
 
 def time_derivative(e: ExprLike, coordinates: Optional[Sequence[Coordinate]] = None) -> Expr:
     """The total time derivative Σ ∂e/∂qᵢ q̇ᵢ + ∂e/∂t of ``e`` (an expression of t and q), over
-    ``coordinates`` (default: those ``e`` reads)."""
+    ``coordinates`` (default: every coordinate ``e`` reads), in one sweep."""
     e = Expr.lift(e)
     if coordinates is None:
         coordinates = [Coordinate(s.args[0]) for s in e.free_symbols() if s.op == "q"]
-    out = derivative(e, t)
+    seeds: Dict[Expr, Expr] = {t: Expr.lift(1.0)}
     for q in coordinates:
-        out = _add(out, _mul(derivative(e, q), q.d))
-    return out
+        seeds[q] = q.d
+    return tangent(e, seeds)

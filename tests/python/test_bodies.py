@@ -298,3 +298,37 @@ def test_a_model_with_bodies_pickles_and_takes_new_parameters():
     ref = by_hand.with_parameters(L=1.4)
     a, b = longer.accelerations(0.0, [0.4], [1.1])[0], ref.accelerations(0.0, [0.4], [1.1])[0]
     assert abs(a - b) <= 1e-13 * abs(b)
+
+
+def test_angular_velocity_carried_by_rotations_equals_vee_of_rt_rdot():
+    # Ω built with R (about an axis k: k ȧ; of AB: Bᵀ Ω_A + Ω_B; a quaternion: 2 G(q) q̇/‖q‖²)
+    # against Ω = vee(RᵀṘ) by differentiating R itself, at random states, the quaternion off the
+    # unit sphere too.
+    from lagrangian._bodies import Body
+    from lagrangian._expr import evaluate
+
+    a, b, c, d = lg.coordinates("a b c d")
+    names = ["a", "b", "c", "d"]
+    frame = lg.Frame().revolute(a, axis=(0, 1, 0)).revolute(b * c, axis=(1, -2, 0.5),
+                                                           offset=(0.1, 0.2, 0.3))
+    rotations = [
+        lg.euler_rotation((a, b, c), "zxz"),
+        lg.euler_rotation((a, b, c), "zyx"),
+        lg.quaternion_rotation(a, b, c, d),
+        lg.rotation_about((1.0, 2.0, 3.0), a * lg.t + b),
+        frame.orientation,
+    ]
+    rng = np.random.default_rng(7)
+    states = rng.normal(size=(5, 8))
+    times = rng.uniform(0.0, 2.0, size=5)
+    for r in rotations:
+        assert r.omega is not None
+        carried = Body(1.0, [1.0, 2.0, 2.5], (0.0, 0.0, 0.0), r)
+        derived = Body(1.0, [1.0, 2.0, 2.5], (0.0, 0.0, 0.0), [list(row) for row in r])
+        assert derived.omega is None
+        for axes in ("body", "world"):
+            fast = evaluate(list(carried.angular_velocity(axes)), names, {}, times,
+                            states[:, :4], qd=states[:, 4:])
+            slow = evaluate(list(derived.angular_velocity(axes)), names, {}, times,
+                            states[:, :4], qd=states[:, 4:])
+            assert np.max(np.abs(fast - slow)) < 1e-13 * max(1.0, np.max(np.abs(slow)))
