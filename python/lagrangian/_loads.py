@@ -15,6 +15,7 @@ from typing import Any, List, Mapping, Optional, Sequence, Tuple
 
 from ._bodies import Body, Vector, rotate, vector3
 from ._expr import Coordinate, Expr, ExprLike, derivative, sqrt, time_derivative
+from ._frames import Frame
 
 __all__ = ["Force", "Torque", "Spring", "Damper", "Load", "partial_angular_velocity",
            "with_loads"]
@@ -112,9 +113,11 @@ def _body(body: Any, what: str) -> Body:
 
 
 def _point(p: Any, what: str) -> Vector:
-    """A world point: three expressions, or a body (its centre of mass)."""
+    """A world point: three expressions, a body (its centre of mass) or a frame (its origin)."""
     if isinstance(p, Body):
         return (p.position[0], p.position[1], p.position[2])
+    if isinstance(p, Frame):
+        return p.origin
     try:
         return vector3(p, what)
     except TypeError as exc:
@@ -205,7 +208,8 @@ def _length(a: Vector, b: Vector) -> Tuple[Vector, Expr]:
 class Spring(Load):
     """A linear spring of stiffness ``stiffness`` and rest length ``rest_length`` between the
     world points ``a`` and ``b`` (three expressions of t and q each — ``body.point(p)`` for a
-    point of a body, a body for its centre of mass, numbers for a point of the world): the
+    point of a body, a body for its centre of mass, a frame for its origin, numbers for a point
+    of the world): the
     potential ½ k (ℓ − ℓ₀)², ℓ = |a − b|. With ℓ₀ = 0 it is ½ k |a − b|², smooth everywhere;
     otherwise ℓ = √(d·d) is not differentiable where the points meet.
 

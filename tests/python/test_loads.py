@@ -167,6 +167,24 @@ def test_zero_rest_length_spring_in_3d_is_isotropic():
     assert np.allclose(qdd[3:], 0.0, atol=1e-13)
 
 
+def test_spring_between_frames_of_a_pendulum_chain():
+    # A spring from the world point (d, 0, 0) to the origin of a frame at the end of a rod of
+    # length l turned by θ about y: U = ½ k |P − A|², its generalized force −k (P − A)·∂P/∂θ.
+    th, = lg.coordinates("th")
+    tip = lg.Frame().revolute(th, axis=(0, 1, 0)).fixed(offset=(0, 0, -0.7))
+    bob = tip.body(0.4, [0.01, 0.01, 0.01])
+    k, d = 5.0, 0.3
+    model = lg.Model([th], bodies=[bob], loads=[lg.Spring(k, tip, [d, 0.0, 0.0])])
+    for _ in range(4):
+        q, qd = RNG.normal(size=2)
+        p = np.array([-0.7 * math.sin(q), 0.0, -0.7 * math.cos(q)])
+        dp = np.array([-0.7 * math.cos(q), 0.0, 0.7 * math.sin(q)])
+        force = -k * (p - np.array([d, 0.0, 0.0])) @ dp
+        inertia = 0.4 * 0.49 + 0.01
+        assert model.accelerations(0.0, [q], [qd])[0] == pytest.approx(force / inertia,
+                                                                       rel=1e-12, abs=1e-12)
+
+
 def test_damper_decays_at_the_closed_form_rate():
     x, = lg.coordinates("x")
     m, k, c = 2.0, 18.0, 1.2
