@@ -55,6 +55,7 @@ from ._bodies import (
 )
 from ._frames import Frame, Joint, Loop, Reaction, coincide, joint_reaction, loop_reaction
 from ._contact import RollingContact, knife_edge, rolling_contact
+from ._loads import Damper, Force, Spring, Torque
 from ._model import Model, methods
 from ._solution import Solution
 from ._sympy import from_sympy
@@ -80,6 +81,10 @@ __all__ = [
     "SteadyLinearization",
     "rolling_contact",
     "knife_edge",
+    "Force",
+    "Torque",
+    "Spring",
+    "Damper",
     "ConvergenceError",
     "BatchIntegrator",
     "Ensemble",

@@ -16,10 +16,11 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from . import _ensemble, _fit, _lagrangian, _linear, _sensitivity, _steady
+from . import _ensemble, _fit, _lagrangian, _linear, _motion, _sensitivity, _steady
 from ._drawing import Drawing
 from ._events import Event, event_specs
 from ._bodies import Body, with_bodies
+from ._loads import Load, with_loads
 from ._expr import Coordinate, Expr, ExprLike
 from ._lagrangian import Integrator
 from ._protocols import ArrayLike, FloatArray
@@ -130,6 +131,11 @@ class Model:
         Rigid bodies (:class:`Body`, :class:`PlanarBody`): their kinetic energy is derived and
         added to ``kinetic`` (with particles, the particles' T is derived beside it and their
         positions become ``drawing`` points); see :doc:`bodies`.
+    loads : sequence of Force, Torque, Spring or Damper, optional
+        Loads on bodies (:class:`Force`, :class:`Torque`, :class:`Spring`, :class:`Damper`):
+        their generalized forces (by virtual power), spring potentials and dampers' Rayleigh
+        functions are derived and added to ``forces``, ``potential`` and ``dissipation``; see
+        :doc:`loads`.
 
     Raises
     ------
@@ -158,6 +164,7 @@ class Model:
         "_drawing_points",
         "_constraints",
         "_velocity_constraints",
+        "_bodies",
     )
 
     _coordinates: Tuple[Coordinate, ...]
@@ -174,6 +181,7 @@ class Model:
     _drawing_points: Optional[Tuple[Tuple[Expr, ...], ...]]
     _constraints: Tuple[Tuple[str, Expr], ...]
     _velocity_constraints: Tuple[Tuple[str, Expr], ...]
+    _bodies: Tuple[Body, ...]
 
     def __init__(
         self,
@@ -191,7 +199,12 @@ class Model:
         constraints: Optional[Union[Sequence[ExprLike], Mapping[str, ExprLike]]] = None,
         velocity_constraints: Optional[Union[Sequence[ExprLike], Mapping[str, ExprLike]]] = None,
         bodies: Optional[Sequence[Body]] = None,
+        loads: Optional[Sequence[Load]] = None,
     ) -> None:
+        if loads is not None:
+            potential, dissipation, forces = with_loads(
+                loads, coordinates, parameters, potential, dissipation, forces
+            )
         if bodies is not None:
             kinetic, positions, masses, drawing = with_bodies(
                 bodies, coordinates, parameters, kinetic, positions, masses, drawing
@@ -211,6 +224,7 @@ class Model:
         self._backend = parts.backend
         self._drawing_points = parts.drawing
         self._native = compile_parts(parts)
+        self._bodies = (bodies,) if isinstance(bodies, Body) else tuple(bodies or ())
 
     # -- description -------------------------------------------------------------------
     @property
@@ -247,6 +261,12 @@ class Model:
     def forces(self) -> Optional[Tuple[Expr, ...]]:
         """The generalized forces Q, or ``None``."""
         return self._forces
+
+    @property
+    def bodies(self) -> Tuple[Body, ...]:
+        """The bodies given as ``bodies=`` (what :meth:`body_motion` follows by default; kept by
+        :meth:`with_parameters`, not by pickling, which keeps the derived T)."""
+        return getattr(self, "_bodies", ())
 
     @property
     def position_expressions(self) -> Optional[Tuple[Tuple[Expr, ...], ...]]:
@@ -1000,6 +1020,7 @@ class Model:
     linearize = _linear.linearize
     linearize_steady = _steady.linearize_steady
     modes = _linear.modes
+    body_motion = _motion.body_motion
 
     # -- Python protocol ---------------------------------------------------------------
     def _statement(self) -> ModelParts:

@@ -878,3 +878,8 @@ class _Movie:
             message = proc.stderr.read().decode(errors="replace")
             if proc.wait() != 0:
                 raise RuntimeError(f"ffmpeg could not write {str(target)!r}: {message.strip()}")
+
+
+# The movie machinery (blitting, GIF and MP4 writers), public for the bodies' movie
+# (``_plot_bodies.BodyMovie``), which draws other artists.
+Movie = _Movie

@@ -17,8 +17,10 @@ Beside them, the seed's systems with their constraints kept as equations (issue 
 Python functions returning a constrained :class:`~lagrangian.Model` (``CONSTRAINED`` lists
 them, outside ``__all__`` and the Rust catalog) — :func:`cartesian_pendulum`,
 :func:`rolling_cylinder_constrained`, :func:`ball_in_sphere_constrained`,
-:func:`rhombus_link_constrained` and :func:`spring_rhombus_constrained`; and the vehicles on
-rolling wheels (issue 50, ``VEHICLES``): :func:`whipple_bicycle`, the benchmark bicycle.
+:func:`rhombus_link_constrained` and :func:`spring_rhombus_constrained`; the vehicles on
+rolling wheels (issue 50, ``VEHICLES``): :func:`whipple_bicycle`, the benchmark bicycle; and the
+classics stated with rigid bodies (``BODIES``): :func:`spinning_top`, :func:`rolling_cylinder_body`
+and :func:`ball_in_sphere_body`.
 
 >>> import lagrangian as lg
 >>> dp = lg.scenes.double_pendulum(m1=1.0, m2=1.0, l1=1.0, l2=1.0, g=9.81)
@@ -33,7 +35,8 @@ from __future__ import annotations
 import inspect
 from typing import Any, Callable, Dict, List, Tuple
 
-from . import _constrained_scenes, _lagrangian, _vehicle_scenes
+from . import _body_scenes, _constrained_scenes, _lagrangian, _vehicle_scenes
+from ._body_scenes import ball_in_sphere_body, rolling_cylinder_body, spinning_top
 from ._constrained_scenes import (
     ball_in_sphere_constrained,
     cartesian_pendulum,
@@ -50,6 +53,8 @@ __all__: List[str] = []
 
 # The constrained scenes (Python functions returning a constrained ``Model``), in catalog order.
 CONSTRAINED: Tuple[str, ...] = tuple(_constrained_scenes.__all__)
+# The classics stated with rigid bodies (Python functions returning a ``Model`` with bodies).
+BODIES: Tuple[str, ...] = tuple(_body_scenes.__all__)
 
 # Vehicles on rolling wheels (issue 50): Python functions returning a constrained ``Model``.
 VEHICLES: Tuple[str, ...] = tuple(_vehicle_scenes.__all__)
@@ -150,6 +155,9 @@ def _stub() -> str:
         "from ._constrained_scenes import (",
         *(f"    {name} as {name}," for name in sorted(CONSTRAINED)),
         ")",
+        "from ._body_scenes import (",
+        *(f"    {name} as {name}," for name in sorted(BODIES)),
+        ")",
         "from ._scene_model import SceneModel as SceneModel",
         "from ._vehicle_scenes import (",
         *(f"    {name} as {name}," for name in sorted(VEHICLES)),
@@ -158,6 +166,7 @@ def _stub() -> str:
         "__all__: List[str]",
         "CONSTRAINED: Tuple[str, ...]",
         "VEHICLES: Tuple[str, ...]",
+        "BODIES: Tuple[str, ...]",
         "",
         "def catalog() -> List[Dict[str, Any]]: ...",
     ]
@@ -183,9 +192,9 @@ __all__ += _install()
 
 
 def __dir__() -> List[str]:
-    """The public names only (PEP 562): the scenes, the constrained scenes, the vehicles,
-    ``SceneModel``, ``catalog``, ``CONSTRAINED`` and ``VEHICLES`` — not the helpers this module
-    imports to make them."""
-    public = {*__all__, *CONSTRAINED, *VEHICLES, "SceneModel", "catalog", "CONSTRAINED",
-              "VEHICLES"}
+    """The public names only (PEP 562): the scenes, the constrained scenes, the vehicles, the
+    scenes with bodies, ``SceneModel``, ``catalog``, ``CONSTRAINED``, ``VEHICLES`` and ``BODIES``
+    — not the helpers this module imports to make them."""
+    public = {*__all__, *CONSTRAINED, *VEHICLES, *BODIES, "SceneModel", "catalog", "CONSTRAINED",
+              "VEHICLES", "BODIES"}
     return sorted(public | {n for n in globals() if n.startswith("__") and n.endswith("__")})

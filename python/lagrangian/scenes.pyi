@@ -10,6 +10,11 @@ from ._constrained_scenes import (
     rolling_cylinder_constrained as rolling_cylinder_constrained,
     spring_rhombus_constrained as spring_rhombus_constrained,
 )
+from ._body_scenes import (
+    ball_in_sphere_body as ball_in_sphere_body,
+    rolling_cylinder_body as rolling_cylinder_body,
+    spinning_top as spinning_top,
+)
 from ._scene_model import SceneModel as SceneModel
 from ._vehicle_scenes import (
     rolling_disc as rolling_disc,
@@ -19,6 +24,7 @@ from ._vehicle_scenes import (
 __all__: List[str]
 CONSTRAINED: Tuple[str, ...]
 VEHICLES: Tuple[str, ...]
+BODIES: Tuple[str, ...]
 
 def catalog() -> List[Dict[str, Any]]: ...
 def simple_pendulum(m: float = 1.0, l: float = 1.0, g: float = 9.81) -> SceneModel: ...

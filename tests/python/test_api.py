@@ -217,7 +217,8 @@ def test_stubs_match_the_extension_module(tmp_path):
     "module", ["lagrangian", "lagrangian._expr", "lagrangian._events", "lagrangian._model", "lagrangian._sympy",
                "lagrangian.scenes", "lagrangian._workprec", "lagrangian._scipy",
                "lagrangian._ensemble", "lagrangian._fit", "lagrangian._linear",
-               "lagrangian._contact", "lagrangian._steady"]
+               "lagrangian._contact", "lagrangian._steady",
+               "lagrangian._loads", "lagrangian._motion"]
 )
 def test_docstring_examples_run(module):
     import doctest

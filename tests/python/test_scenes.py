@@ -285,8 +285,8 @@ def test_scenes_namespace_shows_only_public_names():
                         "scene_model"}
     public = {n for n in names if not n.startswith("_")}
     assert public == (set(lg.scenes.__all__) | set(lg.scenes.CONSTRAINED)
-                      | set(lg.scenes.VEHICLES)
-                      | {"SceneModel", "catalog", "CONSTRAINED", "VEHICLES"})
+                      | set(lg.scenes.VEHICLES) | set(lg.scenes.BODIES)
+                      | {"SceneModel", "catalog", "CONSTRAINED", "VEHICLES", "BODIES"})
     for name in public:
         assert getattr(lg.scenes, name) is not None
 
