@@ -19,7 +19,7 @@ from ._frames import Frame
 from ._model import Model
 from ._validate import real
 
-__all__ = ["spinning_top", "rolling_cylinder_body", "ball_in_sphere_body"]
+__all__ = ["spinning_top", "gyroscope", "rolling_cylinder_body", "ball_in_sphere_body"]
 
 
 def _values(scene: str, positive: List[str], **given: float) -> Dict[str, float]:
@@ -55,6 +55,50 @@ def spinning_top(m: float = 1.0, a: float = 0.02, c: float = 0.03, l: float = 0.
     top = frame.body(m_, [a_, a_, c_], center=(0.0, 0.0, l_), name="top",
                      gravity=(0.0, 0.0, -g_))
     return Model([phi, th, psi], potential=top.potential, parameters=v, bodies=[top])
+
+
+def gyroscope(a: float = 0.012, c: float = 0.02, inner: float = 0.004, inner_z: float = 0.003,
+              outer: float = 0.006, tau: float = 0.0) -> Model:
+    """A gyroscope in gimbals: the outer gimbal turns by ``psi`` about the vertical z, the inner
+    gimbal by ``theta`` about the outer one's x axis, and the rotor spins by ``phi`` about the
+    inner one's y axis (horizontal at θ = 0); every centre of mass on the pivot, so gravity does
+    nothing. The rotor's moments are ``c`` about its spin axis and ``a`` across it; the inner
+    gimbal's are ``inner`` about its axis x and ``inner_z`` about z, the outer gimbal's
+    ``outer`` about z. A torque ``tau`` acts on the inner gimbal about its axis (a parameter,
+    0 by default).
+
+    Spinning at ω (φ̇ = ω) with θ = 0, the gimbals nutate at
+
+        ω_n = C ω / √(A_in A_out),   A_in = a + inner,   A_out = a + inner_z + outer
+
+    (the linearized A_out ψ̈ = −C ω θ̇, A_in θ̈ = C ω ψ̇), and under the torque τ the
+    gyroscope precesses about z at the mean rate τ / (C ω), the inner gimbal turning by no
+    more than 2 τ A_out / (C ω)² (the gyroscope's stiffness).
+
+    Raises ``TypeError`` for a parameter that is not a real number, ``ValueError`` for one
+    that is not finite or a moment that is not > 0 (``inner_z``, ``outer`` may be 0), or a
+    rotor with c > 2a.
+    """
+    v = _values("gyroscope", ["a", "c", "inner"], a=a, c=c, inner=inner, inner_z=inner_z,
+                outer=outer, tau=tau)
+    for name in ("inner_z", "outer"):
+        if not v[name] >= 0.0:
+            raise ValueError(f"gyroscope: parameter {name!r} = {v[name]} must be ≥ 0")
+    if v["c"] > 2.0 * v["a"]:
+        raise ValueError(f"gyroscope: the rotor's moments c = {v['c']} > 2a = {2 * v['a']}: "
+                         "no body has them (I₁ + I₂ ≥ I₃)")
+    psi, theta, phi = coordinates("psi theta phi")
+    a_, c_, i_, iz_, o_, tau_ = parameters("a c inner inner_z outer tau")
+    outer_frame = Frame().revolute(psi, axis=(0, 0, 1), name="outer")
+    inner_frame = outer_frame.revolute(theta, axis=(1, 0, 0), name="inner")
+    rotor_frame = inner_frame.revolute(phi, axis=(0, 1, 0), name="rotor")
+    # Each gimbal a flat ring in its plane: moments (x, y, z) with I_x + I_y ≥ I_z and so on.
+    bodies = [
+        outer_frame.body(0.0, [o_, o_, o_], name="outer gimbal"),
+        inner_frame.body(0.0, [i_, i_, iz_], name="inner gimbal"),
+        rotor_frame.body(0.0, [a_, c_, a_], name="rotor"),
+    ]
+    return Model([psi, theta, phi], parameters=v, bodies=bodies, forces=[0.0, tau_, 0.0])
 
 
 def rolling_cylinder_body(m: float = 1.0, j: float = 0.005, r: float = 0.1, g: float = 9.81,

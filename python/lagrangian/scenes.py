@@ -19,7 +19,8 @@ them, outside ``__all__`` and the Rust catalog) — :func:`cartesian_pendulum`,
 :func:`rolling_cylinder_constrained`, :func:`ball_in_sphere_constrained`,
 :func:`rhombus_link_constrained` and :func:`spring_rhombus_constrained`; the vehicles on
 rolling wheels (issue 50, ``VEHICLES``): :func:`whipple_bicycle`, the benchmark bicycle; and the
-classics stated with rigid bodies (``BODIES``): :func:`spinning_top`, :func:`rolling_cylinder_body`
+classics stated with rigid bodies (``BODIES``): :func:`spinning_top`, :func:`gyroscope`,
+:func:`rolling_cylinder_body`
 and :func:`ball_in_sphere_body`.
 
 >>> import lagrangian as lg
@@ -36,7 +37,7 @@ import inspect
 from typing import Any, Callable, Dict, List, Tuple
 
 from . import _body_scenes, _constrained_scenes, _lagrangian, _vehicle_scenes
-from ._body_scenes import ball_in_sphere_body, rolling_cylinder_body, spinning_top
+from ._body_scenes import ball_in_sphere_body, gyroscope, rolling_cylinder_body, spinning_top
 from ._constrained_scenes import (
     ball_in_sphere_constrained,
     cartesian_pendulum,

@@ -12,6 +12,7 @@ from ._constrained_scenes import (
 )
 from ._body_scenes import (
     ball_in_sphere_body as ball_in_sphere_body,
+    gyroscope as gyroscope,
     rolling_cylinder_body as rolling_cylinder_body,
     spinning_top as spinning_top,
 )

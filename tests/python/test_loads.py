@@ -501,3 +501,37 @@ def test_a_torque_about_the_node_line_replaces_gravity_on_the_top():
             qd = RNG.normal(size=3) * 5
             assert np.allclose(driven.accelerations(0.0, q, qd), heavy.accelerations(0.0, q, qd),
                                rtol=1e-12, atol=1e-12)
+
+
+def test_gyroscope_nutates_at_c_omega_over_the_gimbals_moments():
+    # Linearized about θ = 0 at spin ω: A_out ψ̈ = −C ω θ̇, A_in θ̈ = C ω ψ̇ — the gimbals nutate
+    # at ω_n = C ω / √(A_in A_out), the only non-zero eigenvalues ±i ω_n.
+    a, c, inner, inner_z, outer = 0.012, 0.02, 0.004, 0.003, 0.006
+    gyro = lg.scenes.gyroscope(a=a, c=c, inner=inner, inner_z=inner_z, outer=outer)
+    for omega in (50.0, 300.0):
+        lin = gyro.linearize([0.0, 0.0, 0.0], [0.0, 0.0, omega])
+        expected = c * omega / math.sqrt((a + inner) * (a + inner_z + outer))
+        eig = np.sort_complex(lin.eigenvalues)
+        assert np.max(np.abs(eig.real)) < 1e-12 * expected
+        assert abs(np.max(eig.imag) - expected) < 1e-12 * expected
+        assert np.sum(np.abs(eig) > 1e-9 * expected) == 2
+
+
+def test_gyroscope_under_a_torque_precesses_at_tau_over_c_omega():
+    # From rest in the gimbals, a torque τ about the inner axis on a rotor spinning at ω about y:
+    # H = C ω ŷ turns towards the torque, x̂, so the outer gimbal turns about z backwards,
+    # ψ̇ = −(τ / C ω)(1 − cos ω_n t), θ = (A_out τ / (C ω)²)(1 − cos ω_n t). θ stays below 1e-6:
+    # the nonlinear run follows the linear solution to O(θ²).
+    a, c, inner, inner_z, outer, tau, omega = 0.012, 0.02, 0.004, 0.003, 0.006, 1e-4, 200.0
+    gyro = lg.scenes.gyroscope(a=a, c=c, inner=inner, inner_z=inner_z, outer=outer, tau=tau)
+    a_out = a + inner_z + outer
+    wn = c * omega / math.sqrt((a + inner) * a_out)
+    t = np.linspace(0.0, 2.0, 201)
+    sol = gyro.simulate([0.0, 0.0, 0.0], [0.0, 0.0, omega], t_end=2.0, t_eval=t, rtol=1e-12,
+                        atol=1e-14, method="dop853")
+    rate = tau / (c * omega)
+    psi = -rate * (t - np.sin(wn * t) / wn)
+    theta = a_out * tau / (c * omega) ** 2 * (1.0 - np.cos(wn * t))
+    assert np.max(np.abs(sol.q[:, 0] - psi)) < 1e-6 * np.max(np.abs(psi))
+    assert np.max(np.abs(sol.q[:, 1] - theta)) < 1e-4 * np.max(theta)
+    assert abs(sol.qd[-1, 2] - omega) < 1e-6 * omega      # the spin is kept
