@@ -53,6 +53,7 @@ from ._bodies import (
     rotation_z,
 )
 from ._frames import Frame
+from ._urdf import Robot, URDFError, read_urdf
 from ._model import Model, methods
 from ._solution import Solution
 from ._sympy import from_sympy
@@ -68,6 +69,9 @@ __all__ = [
     "rotation_z",
     "rotation_about",
     "Frame",
+    "Robot",
+    "URDFError",
+    "read_urdf",
     "ConvergenceError",
     "BatchIntegrator",
     "Ensemble",

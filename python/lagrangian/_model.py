@@ -16,7 +16,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from . import _ensemble, _fit, _lagrangian, _linear, _sensitivity
+from . import _ensemble, _fit, _lagrangian, _linear, _sensitivity, _urdf
 from ._drawing import Drawing
 from ._events import Event, event_specs
 from ._bodies import Body, with_bodies
@@ -999,6 +999,7 @@ class Model:
     equilibrium = _linear.equilibrium
     linearize = _linear.linearize
     modes = _linear.modes
+    from_urdf = classmethod(_urdf.from_urdf)
 
     # -- Python protocol ---------------------------------------------------------------
     def _statement(self) -> ModelParts:

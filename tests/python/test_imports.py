@@ -26,6 +26,7 @@ LAYERS: List[Tuple[str, Set[str]]] = [
     ("validation", {"_validate"}),
     ("rigid bodies", {"_bodies"}),
     ("frames and joints", {"_frames"}),
+    ("robots from URDF files", {"_urdf"}),
     ("events, drawing, sensitivities", {"_events", "_drawing", "_sensitivity"}),
     ("pictures", {"_plot"}),
     ("solution", {"_solution"}),
