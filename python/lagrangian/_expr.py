@@ -249,11 +249,18 @@ class Expr:
             return True
         if not isinstance(other, Expr):
             return NotImplemented
+        # Pairs already compared are skipped: distinct copies of a shared subtree (a derivative
+        # taken twice) would otherwise be walked once per path to them, exponential in depth.
         stack = [(self, other)]
+        done: set = set()
         while stack:
             a, b = stack.pop()
             if a is b:
                 continue
+            pair = (id(a), id(b))
+            if pair in done:
+                continue
+            done.add(pair)
             if a._hash != b._hash or a._op != b._op or len(a._args) != len(b._args):
                 return False
             for x, y in zip(a._args, b._args):

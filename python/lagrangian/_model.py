@@ -999,7 +999,7 @@ class Model:
     equilibrium = _linear.equilibrium
     linearize = _linear.linearize
     modes = _linear.modes
-    from_urdf = classmethod(_urdf.from_urdf)
+    from_urdf: "classmethod[Model, ..., Model]" = classmethod(_urdf.from_urdf)
 
     # -- Python protocol ---------------------------------------------------------------
     def _statement(self) -> ModelParts:

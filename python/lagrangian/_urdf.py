@@ -15,7 +15,15 @@ from typing import Any, Callable, Dict, List, NamedTuple, Optional, Sequence, Tu
 import numpy as np
 
 from ._bodies import Body
-from ._expr import Coordinate, Expr, _add, _mul, coordinates as make_coordinates, time_derivative
+from ._expr import (
+    Coordinate,
+    Expr,
+    _add,
+    _mul,
+    _sub,
+    coordinates as make_coordinates,
+    time_derivative,
+)
 from ._frames import Frame
 
 __all__ = ["Robot", "Joint", "Link", "URDFError", "read_urdf", "from_urdf"]
@@ -114,7 +122,8 @@ def rpy_matrix(rpy: Sequence[float]) -> np.ndarray:
     rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
     ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
     rx = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
-    return rz @ ry @ rx
+    out: np.ndarray = rz @ ry @ rx
+    return out
 
 
 def _origin(el: ET.Element, what: str, source: str) -> Tuple[Vec, Vec]:
@@ -131,7 +140,7 @@ def _link(el: ET.Element, source: str) -> Link:
     what = f"link {name!r}"
     inertial = el.find("inertial")
     if inertial is None:
-        return Link(name, 0.0, (0.0, 0.0, 0.0), ((0.0,) * 3,) * 3)  # type: ignore[arg-type]
+        return Link(name, 0.0, (0.0, 0.0, 0.0), ((0.0,) * 3,) * 3)
     xyz, rpy = _origin(inertial, f"{what}'s inertial", source)
     mass = _number(inertial.find("mass"), "value", 0.0, f"{what}'s mass", source) or 0.0
     i = inertial.find("inertia")
@@ -302,6 +311,26 @@ class _Anchor(NamedTuple):
     name: str
     offset: np.ndarray
     rotation: np.ndarray
+    #: The moving frame's angular velocity and its origin's velocity, world axes.
+    omega: Tuple[Expr, Expr, Expr]
+    velocity: Tuple[Expr, Expr, Expr]
+
+
+_ZERO = (Expr.lift(0.0),) * 3
+
+
+def _plus(a: Sequence[Expr], b: Sequence[Expr]) -> Tuple[Expr, Expr, Expr]:
+    return (_add(a[0], b[0]), _add(a[1], b[1]), _add(a[2], b[2]))
+
+
+def _cross(a: Sequence[Expr], b: Sequence[Expr]) -> Tuple[Expr, Expr, Expr]:
+    return (_sub(_mul(a[1], b[2]), _mul(a[2], b[1])),
+            _sub(_mul(a[2], b[0]), _mul(a[0], b[2])),
+            _sub(_mul(a[0], b[1]), _mul(a[1], b[0])))
+
+
+def _dot(a: Sequence[Expr], b: Sequence[Expr]) -> Expr:
+    return _add(_add(_mul(a[0], b[0]), _mul(a[1], b[1])), _mul(a[2], b[2]))
 
 
 def from_urdf(
@@ -310,6 +339,7 @@ def from_urdf(
     *,
     mimic: str = "independent",
     gravity: Union[float, Sequence[float]] = 9.81,
+    velocities: str = "recursive",
     backend: str = "native",
 ) -> M:
     """A fixed-base robot from a URDF file (a path), URDF text (a string starting with ``<``) or
@@ -317,12 +347,17 @@ def from_urdf(
 
     One coordinate per revolute, continuous and prismatic joint, named as the joint (characters
     a Python name cannot hold replaced by ``_``), in the tree's order — depth first, siblings by
-    joint name, as Pinocchio orders them. Each link is a :class:`~lagrangian.Body` (its
-    inertial: mass, centre of mass and inertia at the inertial origin's xyz/rpy) on the frames
-    of the joints above it (origin xyz/rpy, then the motion about/along the joint's axis); links
+    joint name, as Pinocchio orders them. Each link is a rigid body (its inertial: mass, centre
+    of mass and inertia at the inertial origin's xyz/rpy) on the :class:`~lagrangian.Frame` of
+    the joint above it (origin xyz/rpy, then the motion about/along the joint's axis); links
     below fixed joints are lumped into the moving link they hang from (masses, centres and
     inertias combined by the parallel-axis theorem). The root link is the world: it does not
-    move. Gravity acts along −z (``gravity`` is g, or the vector g itself); joint damping dᵢ
+    move. T = Σ ½ m |v|² + ½ ΩᵀIΩ with, by default (``velocities="recursive"``), each link's
+    angular velocity and its origin's velocity carried down the tree (ωₖ = ωₚ + aₖ θ̇ₖ,
+    vₖ = vₚ + ωₚ × rₖ, as the Newton–Euler recursion does), so T's graph grows linearly with the
+    links; ``velocities="bodies"`` makes each link a :class:`~lagrangian.Body` instead, whose
+    Ω = vee(RᵀṘ) is differentiated from R — the same T, on a graph that grows with the cube of
+    the chain's depth (slow to build past 8 links). Gravity acts along −z (``gravity`` is g, or the vector g itself); joint damping dᵢ
     gives Rayleigh's Φ = ½ Σ dᵢ θ̇ᵢ². Not modelled: joint friction, limits (kept as
     :attr:`Robot.limits`), effort and velocity limits, visuals and collisions.
 
@@ -348,10 +383,13 @@ def from_urdf(
         joint naming a link that is not declared, a loop, a link with a non-physical inertial
         (naming the link), a mimic of a joint that does not move or a loop of mimics.
     ValueError
-        An unknown ``mimic`` option or a ``gravity`` that is not a number or three.
+        An unknown ``mimic`` or ``velocities`` option, a ``gravity`` that is not a number or
+        three.
     """
     if mimic not in ("independent", "couple"):
         raise ValueError(f"from_urdf: mimic={mimic!r}; give 'independent' or 'couple'")
+    if velocities not in ("recursive", "bodies"):
+        raise ValueError(f"from_urdf: velocities={velocities!r}; give 'recursive' or 'bodies'")
     g = _gravity(gravity)
     robot = read_urdf(source)
     moving = robot.moving
@@ -373,7 +411,9 @@ def from_urdf(
         target, multiplier, offset = coupled[joint]
         return _add(_mul(multiplier, position(target, seen + (joint,))), offset)
 
-    anchors: Dict[str, _Anchor] = {robot.root: _Anchor(None, robot.root, np.zeros(3), np.eye(3))}
+    anchors: Dict[str, _Anchor] = {
+        robot.root: _Anchor(None, robot.root, np.zeros(3), np.eye(3), _ZERO, _ZERO)
+    }
     values: Dict[str, Expr] = {}
     drawing: List[Tuple[Expr, ...]] = [(Expr.lift(0.0),) * 3]
     for j in robot.joints:
@@ -381,26 +421,61 @@ def from_urdf(
         offset = up.offset + up.rotation @ np.array(j.xyz)
         rotation = up.rotation @ rpy_matrix(j.rpy)
         if j.type == "fixed":
-            anchors[j.child] = _Anchor(up.frame, up.name, offset, rotation)
+            anchors[j.child] = up._replace(offset=offset, rotation=rotation)
             continue
         base = up.frame if up.frame is not None else Frame()
         q = values[j.name] = position(j.name)
+        rate = time_derivative(q, list(coords))
+        axis = np.array(j.axis) / np.linalg.norm(j.axis)
+        axis_world = base.vector((rotation @ axis).tolist())
+        arm = base.vector(offset.tolist())  # from the parent frame's origin to this one
         placement = (offset.tolist(), rotation.tolist())
-        frame = (base.prismatic(q, j.axis, *placement) if j.type == "prismatic"
-                 else base.revolute(q, j.axis, *placement))
-        anchors[j.child] = _Anchor(frame, j.child, np.zeros(3), np.eye(3))
+        omega = up.omega
+        velocity = _plus(up.velocity, _cross(up.omega, arm))
+        if j.type == "prismatic":
+            frame = base.prismatic(q, j.axis, *placement)
+            slide = tuple(_mul(x, rate) for x in axis_world)
+            velocity = _plus(_plus(velocity, _cross(up.omega, tuple(_mul(x, q) for x in
+                                                                      axis_world))), slide)
+        else:
+            frame = base.revolute(q, j.axis, *placement)
+            omega = _plus(up.omega, tuple(_mul(x, rate) for x in axis_world))
+        anchors[j.child] = _Anchor(frame, j.child, np.zeros(3), np.eye(3), omega, velocity)
         drawing.append(frame.origin)
-    bodies = _bodies(robot, anchors, g)
+    lumps = _lumped(robot, anchors)
+    kinetic: Optional[Expr] = None
+    bodies: Optional[List[Body]] = None
     potential: Expr = Expr.lift(0.0)
-    for b in bodies:
-        potential = _add(potential, b.potential)
+    if velocities == "bodies":
+        bodies = [a.frame.body(mass, inertia.tolist(), center.tolist(), name=a.name, gravity=g)
+                  for a, mass, center, inertia in lumps if a.frame is not None]
+        for b in bodies:
+            potential = _add(potential, b.potential)
+    else:
+        kinetic = Expr.lift(0.0)
+        for a, mass, center, inertia in lumps:
+            assert a.frame is not None
+            arm = a.frame.vector(center.tolist())
+            v = _plus(a.velocity, _cross(a.omega, arm))
+            r = a.frame.orientation
+            body_omega = [_dot([r[0][i], r[1][i], r[2][i]], a.omega) for i in range(3)]
+            spin = Expr.lift(0.0)
+            for i in range(3):
+                for k in range(3):
+                    if inertia[i][k] != 0.0:
+                        spin = _add(spin, _mul(_mul(float(inertia[i][k]), body_omega[i]),
+                                               body_omega[k]))
+            kinetic = _add(kinetic, _add(_mul(0.5 * mass, _dot(v, v)), _mul(0.5, spin)))
+            height = _dot(tuple(Expr.lift(x) for x in g), _plus(a.frame.origin, arm))
+            potential = _sub(potential, _mul(mass, height))
     dissipation: Expr = Expr.lift(0.0)
     for j in moving:
         if j.damping > 0.0:
-            rate = _velocity(values[j.name], coords)
+            rate = time_derivative(values[j.name], list(coords))
             dissipation = _add(dissipation, _mul(0.5 * j.damping, _mul(rate, rate)))
     return cls(
         coordinates=list(coords),
+        kinetic=kinetic,
         potential=None if potential.op == "const" else potential,
         dissipation=None if dissipation.op == "const" else dissipation,
         bodies=bodies,
@@ -421,25 +496,21 @@ def _gravity(gravity: Union[float, Sequence[float]]) -> Vec:
     return (g[0], g[1], g[2])
 
 
-def _velocity(angle: Expr, coords: Sequence[Coordinate]) -> Expr:
-    """θ̇ of a joint whose θ is linear in the coordinates (its own, or a mimic's)."""
-    return time_derivative(angle, list(coords))
-
-
-def _bodies(robot: Robot, anchors: Dict[str, _Anchor], g: Vec) -> List[Body]:
-    """One body per moving link: its own inertial and those of the links fixed below it, lumped
-    (total mass, centre of mass, inertia by the parallel-axis theorem) in its frame."""
+def _lumped(robot: Robot, anchors: Dict[str, _Anchor]
+            ) -> List[Tuple[_Anchor, float, np.ndarray, np.ndarray]]:
+    """Per moving link: its own inertial and those of the links fixed below it, lumped — total
+    mass, centre of mass, inertia about it by the parallel-axis theorem — in its frame."""
     parts: Dict[str, List[Tuple[float, np.ndarray, np.ndarray]]] = {}
-    frames: Dict[str, Frame] = {}
+    owner: Dict[str, _Anchor] = {}
     for name, link in robot.links.items():
         a = anchors[name]
         if a.frame is None or link.mass == 0.0 and not np.any(np.array(link.inertia)):
             continue  # fixed to the world, or massless
-        frames[a.name] = a.frame
+        owner[a.name] = anchors[a.name]
         center = a.offset + a.rotation @ np.array(link.center)
         inertia = a.rotation @ np.array(link.inertia) @ a.rotation.T
         parts.setdefault(a.name, []).append((link.mass, center, inertia))
-    bodies = []
+    out = []
     for name, items in parts.items():
         mass = sum(m for m, _, _ in items)
         center = sum((m * c for m, c, _ in items), np.zeros(3)) / mass if mass > 0.0 \
@@ -448,6 +519,5 @@ def _bodies(robot: Robot, anchors: Dict[str, _Anchor], g: Vec) -> List[Body]:
         for m, c, i in items:
             d = c - center
             inertia += i + m * (float(d @ d) * np.eye(3) - np.outer(d, d))
-        bodies.append(frames[name].body(mass, inertia.tolist(), center.tolist(), name=name,
-                                        gravity=g))
-    return bodies
+        out.append((owner[name], float(mass), center, inertia))
+    return out

@@ -216,7 +216,8 @@ def test_stubs_match_the_extension_module(tmp_path):
 @pytest.mark.parametrize(
     "module", ["lagrangian", "lagrangian._expr", "lagrangian._events", "lagrangian._model", "lagrangian._sympy",
                "lagrangian.scenes", "lagrangian._workprec", "lagrangian._scipy",
-               "lagrangian._ensemble", "lagrangian._fit", "lagrangian._linear"]
+               "lagrangian._ensemble", "lagrangian._fit", "lagrangian._linear",
+               "lagrangian._urdf"]
 )
 def test_docstring_examples_run(module):
     import doctest
