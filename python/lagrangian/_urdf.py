@@ -43,6 +43,9 @@ class URDFError(ValueError):
     body has. The message names the file and the element."""
 
 
+URDFError.__module__ = "lagrangian"  # as ``lg.URDFError`` in tracebacks
+
+
 class Link(NamedTuple):
     """A link's inertial: ``mass``, the centre of mass ``center`` and the ``inertia`` tensor
     about it, both in the link's frame (the inertial origin's rpy already applied)."""

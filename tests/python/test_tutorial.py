@@ -15,7 +15,7 @@ FLAGS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
 # The reference pages with examples, and how many examples each runs at least.
 PAGES = {"python.rst": 19, "events.rst": 20, "ensembles.rst": 24, "modes.rst": 13,
          "constraints.rst": 40, "sensitivities.rst": 40,
-         "report.rst": 8, "bodies.rst": 19}
+         "report.rst": 8, "bodies.rst": 19, "robots.rst": 14}
 
 
 def test_tutorial_examples_run(tmp_path, monkeypatch):
