@@ -79,6 +79,7 @@ def test_two_link_arm_against_its_hand_written_lagrangian(tmp_path):
     path.write_text(ARM)
     robot = lg.Model.from_urdf(path)
     hand = hand_arm()
+    bodies = lg.Model.from_urdf(path, velocities="bodies")
     assert [c.name for c in robot.coordinates] == ["shoulder", "elbow"]
     q, qd = states(12, 2)
     for qi, qdi in zip(q, qd):
@@ -86,8 +87,9 @@ def test_two_link_arm_against_its_hand_written_lagrangian(tmp_path):
         np.testing.assert_allclose(robot.mass_matrix(0.0, qi, qdi), m_hand, rtol=0,
                                    atol=1e-13 * np.max(np.abs(m_hand)))
         a_hand = hand.accelerations(0.0, qi, qdi)
-        np.testing.assert_allclose(robot.accelerations(0.0, qi, qdi), a_hand, rtol=0,
-                                   atol=1e-12 * max(1.0, np.max(np.abs(a_hand))))
+        for model in (robot, bodies):
+            np.testing.assert_allclose(model.accelerations(0.0, qi, qdi), a_hand, rtol=0,
+                                       atol=1e-12 * max(1.0, np.max(np.abs(a_hand))))
     # the text and the file read alike; the damping is the dissipation, friction left out
     same = lg.Model.from_urdf(ARM)
     np.testing.assert_array_equal(same.accelerations(0.0, q[0], qd[0]),
@@ -121,9 +123,10 @@ SIBLINGS = """<robot name="siblings">
   <link name="base"/>
   <link name="l1">{i}</link><link name="l2">{i}</link><link name="l3">{i}</link>
   <joint name="zz" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>
-  </joint>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
   <joint name="cc" type="prismatic"><parent link="l1"/><child link="l3"/><axis xyz="1 1 0"/>
-    <origin xyz="0.3 0 0" rpy="0.2 0.1 -0.4"/></joint>
+    <origin xyz="0.3 0 0" rpy="0.2 0.1 -0.4"/><dynamics damping="0.2"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
   <joint name="my-joint" type="continuous"><parent link="base"/><child link="l2"/>
     <axis xyz="0 1 0"/></joint>
 </robot>""".format(i=inertial(1.0, xyz="0.1 0.2 0.3", ixx=0.3, iyy=0.2, izz=0.25, ixy=0.01))
@@ -223,6 +226,8 @@ def test_bad_files_are_typed_errors_that_name_the_culprit(text, match):
 def test_bad_options_and_missing_files(tmp_path):
     with pytest.raises(ValueError, match="mimic='both'"):
         lg.Model.from_urdf(ARM, mimic="both")
+    with pytest.raises(ValueError, match="velocities='fast'"):
+        lg.Model.from_urdf(ARM, velocities="fast")
     with pytest.raises(ValueError, match="gravity"):
         lg.Model.from_urdf(ARM, gravity=(0.0, -9.81))
     with pytest.raises(FileNotFoundError):
@@ -263,26 +268,53 @@ ROBOTS = {"ur5": "ur_description/urdf/ur5_robot.urdf",
           "panda": "panda_description/urdf/panda.urdf"}
 
 
-@pytest.mark.parametrize("name", sorted(ROBOTS))
-def test_against_pinocchio(name):
+def pin_configuration(pmodel, q):
+    """Pinocchio's configuration vector of the angles ``q``: a continuous joint is (cos, sin)."""
+    out = []
+    for joint, angle in zip(list(pmodel.joints)[1:], q):
+        out += [np.cos(angle), np.sin(angle)] if joint.nq == 2 else [angle]
+    return np.array(out)
+
+
+def pinocchio_agrees(model, pmodel, pin, seed=7):
     """M = pin.crba (symmetrized) and q̈ = pin.aba with τ = −d q̇ (the joint damping, which
     Pinocchio's model carries and its aba leaves out) at 12 random states, to 1e-9 of the
-    scale; the coordinates are Pinocchio's joints, in order."""
-    pin = pytest.importorskip("pinocchio")
-    path = str(robots_dir() / ROBOTS[name])
-    pmodel = pin.buildModelFromUrdf(path)
+    scale."""
     data = pmodel.createData()
-    model = lg.Model.from_urdf(path)
-    assert [c.name for c in model.coordinates] == list(pmodel.names)[1:]
-    q, qd = states(12, model.dof, seed=7)
+    q, qd = states(12, model.dof, seed=seed)
     for qi, qdi in zip(q, qd):
-        m = pin.crba(pmodel, data, qi)
+        pq = pin_configuration(pmodel, qi)
+        m = pin.crba(pmodel, data, pq)
         m = np.triu(m) + np.triu(m, 1).T
-        a = pin.aba(pmodel, data, qi, qdi, -np.asarray(pmodel.damping) * qdi)
+        a = pin.aba(pmodel, data, pq, qdi, -np.asarray(pmodel.damping) * qdi)
         np.testing.assert_allclose(model.mass_matrix(0.0, qi, qdi), m, rtol=0,
                                    atol=1e-9 * np.max(np.abs(m)))
         np.testing.assert_allclose(model.accelerations(0.0, qi, qdi), a, rtol=0,
                                    atol=1e-9 * max(1.0, np.max(np.abs(a))))
+
+
+@pytest.mark.parametrize("velocities", ["recursive", "bodies"])
+@pytest.mark.parametrize("name", sorted(ROBOTS))
+def test_against_pinocchio(name, velocities):
+    """Both ways of stating T; the coordinates are Pinocchio's joints, in order."""
+    pin = pytest.importorskip("pinocchio")
+    path = str(robots_dir() / ROBOTS[name])
+    pmodel = pin.buildModelFromUrdf(path)
+    model = lg.Model.from_urdf(path, velocities=velocities)
+    assert [c.name for c in model.coordinates] == list(pmodel.names)[1:]
+    pinocchio_agrees(model, pmodel, pin)
+
+
+@pytest.mark.parametrize("velocities", ["recursive", "bodies"])
+def test_a_prismatic_tree_against_pinocchio(velocities):
+    """Siblings, a continuous joint, a prismatic joint along a slanted axis (not unit length in
+    the file) placed with a turn, centres and inertias off the axes."""
+    pin = pytest.importorskip("pinocchio")
+    pmodel = pin.buildModelFromXML(SIBLINGS)
+    model = lg.Model.from_urdf(SIBLINGS, velocities=velocities)
+    assert [c.name for c in model.coordinates] == [n.replace("-", "_")
+                                                   for n in list(pmodel.names)[1:]]
+    pinocchio_agrees(model, pmodel, pin, seed=5)
 
 
 def test_mimic_couple_against_pinocchio():
