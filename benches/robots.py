@@ -108,7 +108,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--figure", default=None)
     parser.add_argument("--markdown", default=None)
+    parser.add_argument("--replot", default=None, metavar="MARKDOWN",
+                        help="redraw --figure from the chain table of an earlier run, no timing")
     args = parser.parse_args()
+    if args.replot:
+        figure(chain_rows(Path(args.replot).read_text()), args.figure or "robots.png")
+        return
     lines = [f"lagrangian {lg.__version__}, Pinocchio {pin.__version__}, Python "
              f"{sys.version.split()[0]}; medians; μs = microseconds.", ""]
 
@@ -162,6 +167,17 @@ def main() -> None:
         figure(rows, args.figure)
 
 
+def chain_rows(markdown: str) -> list:
+    """(N, build, Pinocchio build, call, batch, aba) in seconds from the chain table."""
+    rows = []
+    for line in markdown.splitlines():
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        if len(cells) == 10 and cells[0].isdigit():
+            rows.append((int(cells[0]), float(cells[1]), float(cells[3]) / 1e3,
+                         float(cells[4]) / 1e6, float(cells[5]) / 1e6, float(cells[6]) / 1e6))
+    return rows
+
+
 def figure(rows, path: str) -> None:
     import matplotlib
 
@@ -184,6 +200,7 @@ def figure(rows, path: str) -> None:
     right.set_title("building the model")
     right.legend()
     for ax in (left, right):
+        ax.minorticks_off()
         ax.set_xticks(n)
         ax.set_xticklabels([str(k) for k in n])
         ax.grid(True, which="both", alpha=0.3)

@@ -252,7 +252,7 @@ class Expr:
         # Pairs already compared are skipped: distinct copies of a shared subtree (a derivative
         # taken twice) would otherwise be walked once per path to them, exponential in depth.
         stack = [(self, other)]
-        done: set = set()
+        done: "set[Tuple[int, int]]" = set()
         while stack:
             a, b = stack.pop()
             if a is b:
