@@ -156,7 +156,8 @@ def main() -> None:
         calls = 2000 if n <= 8 else 300
         lag, batch, aba, dev = compare(model, pmodel, calls=calls, rounds=9)
         rows.append((n, build, pbuild, lag, batch, aba))
-        lines.append(f"| {n} | {build:.2f} | {slow} | {pbuild * 1e3:.1f} | {us(lag)} | {us(batch)} | "
+        lines.append(f"| {n} | {build:.2f} | {slow} | {pbuild * 1e3:.1f} | {us(lag)} | "
+                     f"{us(batch)} | "
                      f"{us(aba)} | {lag / aba:.1f} | {batch / aba:.2f} | {dev:.1e} |")
         print(lines[-1], flush=True)
     text = "\n".join(lines) + "\n"

@@ -157,7 +157,8 @@ def _link(el: ET.Element, source: str) -> Link:
         Body(mass, local.tolist(), (0.0, 0.0, 0.0), np.eye(3).tolist(), name=name)
     except ValueError as exc:
         raise URDFError(f"{source}: link {name!r} has a non-physical inertial: {exc}") from None
-    return Link(name, mass, xyz, tuple(tuple(float(x) for x in row) for row in inertia))  # type: ignore[arg-type]
+    rows = tuple(tuple(float(x) for x in row) for row in inertia)
+    return Link(name, mass, xyz, rows)  # type: ignore[arg-type]
 
 
 def _joint(el: ET.Element, source: str) -> Joint:
@@ -355,13 +356,13 @@ def from_urdf(
     the joint above it (origin xyz/rpy, then the motion about/along the joint's axis); links
     below fixed joints are lumped into the moving link they hang from (masses, centres and
     inertias combined by the parallel-axis theorem). The root link is the world: it does not
-    move. T = Σ ½ m |v|² + ½ ΩᵀIΩ with, by default (``velocities="recursive"``), each link's
+    move. T = Σ ½ m ‖v‖² + ½ ΩᵀIΩ with, by default (``velocities="recursive"``), each link's
     angular velocity and its origin's velocity carried down the tree (ωₖ = ωₚ + aₖ θ̇ₖ,
     vₖ = vₚ + ωₚ × rₖ, as the Newton–Euler recursion does), so T's graph grows linearly with the
     links; ``velocities="bodies"`` makes each link a :class:`~lagrangian.Body` instead, whose
     Ω = vee(RᵀṘ) is differentiated from R — the same T, on a graph that grows with the cube of
-    the chain's depth (slow to build past 8 links). Gravity acts along −z (``gravity`` is g, or the vector g itself); joint damping dᵢ
-    gives Rayleigh's Φ = ½ Σ dᵢ θ̇ᵢ². Not modelled: joint friction, limits (kept as
+    the chain's depth (slow to build past 8 links). Gravity acts along −z (``gravity`` is g, or
+    the vector g itself); joint damping dᵢ gives Rayleigh's Φ = ½ Σ dᵢ θ̇ᵢ². Not modelled: joint friction, limits (kept as
     :attr:`Robot.limits`), effort and velocity limits, visuals and collisions.
 
     ``mimic="independent"`` (the default, as Pinocchio reads a URDF): a mimic joint is a
@@ -424,7 +425,7 @@ def from_urdf(
         offset = up.offset + up.rotation @ np.array(j.xyz)
         rotation = up.rotation @ rpy_matrix(j.rpy)
         if j.type == "fixed":
-            anchors[j.child] = up._replace(offset=offset, rotation=rotation)
+            anchors[j.child] = _Anchor(up.frame, up.name, offset, rotation, up.omega, up.velocity)
             continue
         base = up.frame if up.frame is not None else Frame()
         q = values[j.name] = position(j.name)

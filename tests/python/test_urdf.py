@@ -35,7 +35,8 @@ ARM = f"""<?xml version="1.0"?>
   <link name="upper">{inertial(M1, xyz=f"0 0 {-C1}", ixx=0.1, iyy=IY1, izz=0.05)}</link>
   <link name="lower">{inertial(M2, xyz=f"0 0 {-C2}", rpy="0 0.4 0", ixx=0.02, iyy=IY2,
                                izz=0.025)}</link>
-  <link name="tip">{inertial(MT)}<visual><geometry><sphere radius="0.05"/></geometry></visual></link>
+  <link name="tip">{inertial(MT)}
+    <visual><geometry><sphere radius="0.05"/></geometry></visual></link>
   <joint name="shoulder" type="continuous">
     <parent link="base"/><child link="upper"/><axis xyz="0 1 0"/>
     <dynamics damping="{D1}" friction="0.3"/>
