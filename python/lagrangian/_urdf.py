@@ -1,8 +1,10 @@
 """Robots from URDF files: :func:`read_urdf` parses the file (``xml.etree``) into a
 :class:`Robot` — links with their inertials, joints with origins, axes, limits, damping and
 mimic tags, in the tree's order — and :func:`from_urdf` (bound as ``Model.from_urdf``) states it
-as a fixed-base model: one coordinate per revolute, continuous or prismatic joint, the links
-as :class:`~lagrangian.Body` on :class:`~lagrangian.Frame` joints, gravity and joint damping."""
+as a fixed-base model: one coordinate per revolute, continuous or prismatic joint, links below
+fixed joints lumped, the joints as :class:`~lagrangian.Frame` joints, T from the links'
+velocities carried down the tree (or each link a :class:`~lagrangian.Body`), gravity and joint
+damping."""
 
 from __future__ import annotations
 
@@ -397,6 +399,9 @@ def from_urdf(
     g = _gravity(gravity)
     robot = read_urdf(source)
     moving = robot.moving
+    if not moving:
+        raise URDFError(f"{robot.source}: the robot has no revolute, continuous or prismatic "
+                        "joint: nothing moves")
     coupled = {j.name: j.mimic for j in moving if mimic == "couple" and j.mimic is not None}
     names: List[str] = []
     for j in moving:
@@ -404,7 +409,6 @@ def from_urdf(
             names.append(coordinate_name(j.name, names))
     coords: Tuple[Coordinate, ...] = make_coordinates(" ".join(names)) if names else ()
     own = dict(zip((j.name for j in moving if j.name not in coupled), coords))
-    by_name = {j.name: j for j in moving}
 
     def position(joint: str, seen: Tuple[str, ...] = ()) -> Expr:
         """The joint's angle or distance as an expression of the coordinates."""
@@ -447,6 +451,9 @@ def from_urdf(
         anchors[j.child] = _Anchor(frame, j.child, np.zeros(3), np.eye(3), omega, velocity)
         drawing.append(frame.origin)
     lumps = _lumped(robot, anchors)
+    if not lumps:
+        raise URDFError(f"{robot.source}: no link below a moving joint has a mass or inertia: "
+                        "give the links inertials")
     kinetic: Optional[Expr] = None
     bodies: Optional[List[Body]] = None
     potential: Expr = Expr.lift(0.0)

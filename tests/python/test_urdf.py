@@ -218,6 +218,10 @@ def test_planar_and_floating_joints_are_refused_by_name(kind):
                '<mimic joint="f"/></joint><joint name="f" type="fixed"><parent link="a"/>'
                '<child link="b"/></joint>', LINK_A + '<link name="b"/>'),
      "joint 'j' mimics 'f', which is not a revolute"),
+    (urdf_with('<joint name="j" type="fixed"><parent link="base"/><child link="a"/></joint>',
+               LINK_A), "no revolute, continuous or prismatic joint"),
+    (urdf_with('<joint name="j" type="revolute"><parent link="base"/><child link="a"/></joint>',
+               '<link name="a"/>'), "no link below a moving joint has a mass"),
 ])
 def test_bad_files_are_typed_errors_that_name_the_culprit(text, match):
     with pytest.raises(lg.URDFError, match=match):
