@@ -16,7 +16,7 @@ from typing import Any, Callable, Dict, List, NamedTuple, Optional, Sequence, Tu
 
 import numpy as np
 
-from ._bodies import Body
+from ._bodies import Body, rotation_about
 from ._expr import (
     Coordinate,
     Expr,
@@ -317,7 +317,7 @@ class _Anchor(NamedTuple):
     name: str
     offset: np.ndarray
     rotation: np.ndarray
-    #: The moving frame's angular velocity and its origin's velocity, world axes.
+    #: The moving frame's angular velocity and its origin's velocity, in its own axes.
     omega: Tuple[Expr, Expr, Expr]
     velocity: Tuple[Expr, Expr, Expr]
 
@@ -333,6 +333,17 @@ def _cross(a: Sequence[Expr], b: Sequence[Expr]) -> Tuple[Expr, Expr, Expr]:
     return (_sub(_mul(a[1], b[2]), _mul(a[2], b[1])),
             _sub(_mul(a[2], b[0]), _mul(a[0], b[2])),
             _sub(_mul(a[0], b[1]), _mul(a[1], b[0])))
+
+
+def _turned_back(m: Sequence[Sequence[Any]], v: Sequence[Any]) -> Tuple[Expr, Expr, Expr]:
+    """mᵀ v: a vector given in a frame's parent axes, in the frame's own axes (m its turn)."""
+    out = []
+    for i in range(3):
+        acc = Expr.lift(0.0)
+        for k in range(3):
+            acc = _add(acc, _mul(m[k][i], v[k]))
+        out.append(acc)
+    return (out[0], out[1], out[2])
 
 
 def _dot(a: Sequence[Expr], b: Sequence[Expr]) -> Expr:
@@ -435,19 +446,23 @@ def from_urdf(
         q = values[j.name] = position(j.name)
         rate = time_derivative(q, list(coords))
         axis = np.array(j.axis) / np.linalg.norm(j.axis)
-        axis_world = base.vector((rotation @ axis).tolist())
-        arm = base.vector(offset.tolist())  # from the parent frame's origin to this one
         placement = (offset.tolist(), rotation.tolist())
-        omega = up.omega
-        velocity = _plus(up.velocity, _cross(up.omega, arm))
+        # Velocities in each frame's own axes (the Newton–Euler recursion's): the child's origin
+        # sits at r in the parent's axes, its axes turned by E = C·Rot(a, θ) (C the placement).
+        r: Sequence[Any] = offset.tolist()
+        if j.type == "prismatic":
+            r = tuple(_add(float(x), _mul(float(y), q)) for x, y in zip(offset, rotation @ axis))
+        velocity = _turned_back(rotation, _plus(up.velocity, _cross(up.omega, r)))
+        omega = _turned_back(rotation, up.omega)
+        step = tuple(_mul(float(x), rate) for x in axis)
         if j.type == "prismatic":
             frame = base.prismatic(q, j.axis, *placement)
-            slide = tuple(_mul(x, rate) for x in axis_world)
-            velocity = _plus(_plus(velocity, _cross(up.omega, tuple(_mul(x, q) for x in
-                                                                      axis_world))), slide)
+            velocity = _plus(velocity, step)
         else:
             frame = base.revolute(q, j.axis, *placement)
-            omega = _plus(up.omega, tuple(_mul(x, rate) for x in axis_world))
+            turn = rotation_about(axis.tolist(), q)
+            velocity, omega = _turned_back(turn, velocity), _turned_back(turn, omega)
+            omega = _plus(omega, step)
         anchors[j.child] = _Anchor(frame, j.child, np.zeros(3), np.eye(3), omega, velocity)
         drawing.append(frame.origin)
     lumps = _lumped(robot, anchors)
@@ -464,20 +479,17 @@ def from_urdf(
             potential = _add(potential, b.potential)
     else:
         kinetic = Expr.lift(0.0)
-        for a, mass, center, inertia in lumps:
+        for a, mass, center, inertia in lumps:  # T in each link's own axes
             assert a.frame is not None
-            arm = a.frame.vector(center.tolist())
-            v = _plus(a.velocity, _cross(a.omega, arm))
-            r = a.frame.orientation
-            body_omega = [_dot([r[0][i], r[1][i], r[2][i]], a.omega) for i in range(3)]
+            v = _plus(a.velocity, _cross(a.omega, [Expr.lift(float(x)) for x in center]))
             spin = Expr.lift(0.0)
             for i in range(3):
                 for k in range(3):
                     if inertia[i][k] != 0.0:
-                        spin = _add(spin, _mul(_mul(float(inertia[i][k]), body_omega[i]),
-                                               body_omega[k]))
+                        spin = _add(spin, _mul(_mul(float(inertia[i][k]), a.omega[i]),
+                                               a.omega[k]))
             kinetic = _add(kinetic, _add(_mul(0.5 * mass, _dot(v, v)), _mul(0.5, spin)))
-            height = _dot(tuple(Expr.lift(x) for x in g), _plus(a.frame.origin, arm))
+            height = _dot(tuple(Expr.lift(x) for x in g), a.frame.point(center.tolist()))
             potential = _sub(potential, _mul(mass, height))
     dissipation: Expr = Expr.lift(0.0)
     for j in moving:
