@@ -370,12 +370,13 @@ def from_urdf(
     below fixed joints are lumped into the moving link they hang from (masses, centres and
     inertias combined by the parallel-axis theorem). The root link is the world: it does not
     move. T = Σ ½ m ‖v‖² + ½ ΩᵀIΩ with, by default (``velocities="recursive"``), each link's
-    angular velocity and its origin's velocity carried down the tree (ωₖ = ωₚ + aₖ θ̇ₖ,
-    vₖ = vₚ + ωₚ × rₖ, as the Newton–Euler recursion does), so T's graph grows linearly with the
-    links; ``velocities="bodies"`` makes each link a :class:`~lagrangian.Body` instead, whose
-    Ω = vee(RᵀṘ) is differentiated from R — the same T, on a graph that grows with the cube of
-    the chain's depth (slow to build past 8 links). Gravity acts along −z (``gravity`` is g, or
-    the vector g itself); joint damping dᵢ gives Rayleigh's Φ = ½ Σ dᵢ θ̇ᵢ². Not modelled: joint friction, limits (kept as
+    angular velocity Ω and its origin's velocity V carried down the tree in the link's own axes
+    (Ωₖ = Eₖᵀ Ωₚ + aₖ θ̇ₖ, Vₖ = Eₖᵀ (Vₚ + Ωₚ × rₖ), Eₖ the joint's turn, as the Newton–Euler
+    recursion does), so T's graph grows linearly with the links; ``velocities="bodies"`` makes
+    each link a :class:`~lagrangian.Body` instead, whose Ω = vee(RᵀṘ) is differentiated from R —
+    the same T, on a graph that grows with the cube of the chain's depth (slow to build past 8
+    links). Gravity acts along −z (``gravity`` is g, or the vector g itself); joint damping dᵢ
+    gives Rayleigh's Φ = ½ Σ dᵢ θ̇ᵢ². Not modelled: joint friction, limits (kept as
     :attr:`Robot.limits`), effort and velocity limits, visuals and collisions.
 
     ``mimic="independent"`` (the default, as Pinocchio reads a URDF): a mimic joint is a
