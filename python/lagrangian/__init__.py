@@ -56,6 +56,7 @@ from ._bodies import (
 from ._frames import Frame, Joint, Loop, Reaction, coincide, joint_reaction, loop_reaction
 from ._contact import RollingContact, knife_edge, rolling_contact
 from ._loads import Damper, Force, Spring, Torque
+from ._urdf import Robot, URDFError, read_urdf
 from ._model import Model, methods
 from ._solution import Solution
 from ._sympy import from_sympy
@@ -85,6 +86,9 @@ __all__ = [
     "Torque",
     "Spring",
     "Damper",
+    "Robot",
+    "URDFError",
+    "read_urdf",
     "ConvergenceError",
     "BatchIntegrator",
     "Ensemble",

@@ -249,8 +249,10 @@ class Expr:
             return True
         if not isinstance(other, Expr):
             return NotImplemented
+        # Pairs already compared are skipped: distinct copies of a shared subtree (a derivative
+        # taken twice) would otherwise be walked once per path to them, exponential in depth.
         stack = [(self, other)]
-        compared = set()  # pairs met before: shared subtrees are compared once, not per path
+        compared: "set[Tuple[int, int]]" = set()
         while stack:
             a, b = stack.pop()
             if a is b or (id(a), id(b)) in compared:

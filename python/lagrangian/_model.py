@@ -16,7 +16,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from . import _ensemble, _fit, _lagrangian, _linear, _motion, _sensitivity, _steady
+from . import _ensemble, _fit, _lagrangian, _linear, _motion, _sensitivity, _steady, _urdf
 from ._drawing import Drawing
 from ._events import Event, event_specs
 from ._bodies import Body, with_bodies
@@ -1021,6 +1021,7 @@ class Model:
     linearize_steady = _steady.linearize_steady
     modes = _linear.modes
     body_motion = _motion.body_motion
+    from_urdf: "classmethod[Model, ..., Model]" = classmethod(_urdf.from_urdf)
 
     # -- Python protocol ---------------------------------------------------------------
     def _statement(self) -> ModelParts:

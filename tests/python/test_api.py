@@ -218,7 +218,7 @@ def test_stubs_match_the_extension_module(tmp_path):
                "lagrangian.scenes", "lagrangian._workprec", "lagrangian._scipy",
                "lagrangian._ensemble", "lagrangian._fit", "lagrangian._linear",
                "lagrangian._contact", "lagrangian._steady",
-               "lagrangian._loads", "lagrangian._motion"]
+               "lagrangian._loads", "lagrangian._motion", "lagrangian._urdf"]
 )
 def test_docstring_examples_run(module):
     import doctest

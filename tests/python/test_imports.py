@@ -28,6 +28,7 @@ LAYERS: List[Tuple[str, Set[str]]] = [
     ("frames and joints", {"_frames"}),
     ("rolling contact", {"_contact"}),
     ("loads on bodies", {"_loads"}),
+    ("robots from URDF files", {"_urdf"}),
     ("events, drawing, sensitivities", {"_events", "_drawing", "_sensitivity"}),
     ("pictures", {"_plot", "_plot_bodies"}),
     ("solution and bodies along it", {"_solution", "_motion"}),

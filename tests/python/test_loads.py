@@ -468,16 +468,22 @@ def test_ball_in_sphere_with_a_body_equals_the_scene():
 
 
 def test_body_scenes_are_listed_and_check_their_parameters():
-    assert lg.scenes.BODIES == ("spinning_top", "rolling_cylinder_body", "ball_in_sphere_body")
+    assert lg.scenes.BODIES == ("spinning_top", "gyroscope", "rolling_cylinder_body",
+                                "ball_in_sphere_body")
     for name in lg.scenes.BODIES:
         model = getattr(lg.scenes, name)()
-        assert isinstance(model, lg.Model) and len(model.bodies) == 1
+        assert isinstance(model, lg.Model) and len(model.bodies) == (3 if name == "gyroscope"
+                                                                      else 1)
     with pytest.raises(ValueError, match="spinning_top: parameter 'l' = 0.0 must be > 0"):
         lg.scenes.spinning_top(l=0.0)
     with pytest.raises(ValueError, match="ball_in_sphere_body: the ball's radius"):
         lg.scenes.ball_in_sphere_body(r2=2.0)
     with pytest.raises(ValueError, match="triangle inequality"):
         lg.scenes.spinning_top(a=0.01, c=0.05)
+    with pytest.raises(ValueError, match="gyroscope: the rotor's moments c = 0.05 > 2a"):
+        lg.scenes.gyroscope(a=0.01, c=0.05)
+    with pytest.raises(ValueError, match="gyroscope: parameter 'outer' = -1.0 must be ≥ 0"):
+        lg.scenes.gyroscope(outer=-1.0)
 
 
 def test_a_torque_about_the_node_line_replaces_gravity_on_the_top():

@@ -16,7 +16,7 @@ FLAGS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
 PAGES = {"python.rst": 19, "events.rst": 20, "ensembles.rst": 24, "modes.rst": 13,
          "constraints.rst": 40, "sensitivities.rst": 40,
          "report.rst": 8, "bodies.rst": 19, "joints.rst": 35,
-         "bicycle.rst": 20, "loads.rst": 30}
+         "bicycle.rst": 20, "loads.rst": 30, "robots.rst": 14}
 
 
 def test_tutorial_examples_run(tmp_path, monkeypatch):
