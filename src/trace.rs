@@ -16,7 +16,9 @@
 //!
 //! [`WithProgram`] pairs a Rust system with its traced eq. 55 program: the system computes as
 //! before, and the Taylor method ([`Dynamics::taylor_program`]) gets the program, traced and
-//! compiled on its first request. The other methods keep the Rust route. Why: measured
+//! compiled on its first request. The other methods start on the Rust route; a run through
+//! [`FastPath`] (every `simulate` of a Python scene) moves to the same program once it has
+//! spent on the Rust route what the trace and compile cost. Why not always: measured
 //! through Python (2026-11-28, `--profile ci`, the 2-core machine under load; best of 5),
 //! tracing and compiling costs 0.6 ms (damped oscillator), 1.3 ms (Kepler), 2.5 ms (double
 //! pendulum) and about 10 ms (a 3-link chain) before a scene's first run — more than a whole
@@ -27,8 +29,8 @@
 //! against 306 ms with Gauss–Legendre 4 at dt = 1e-3, and the program's Jacobians made
 //! Gauss–Legendre 6 1.4–3.3 times faster on the scenes (Radau IIA the same). So a long run would
 //! gain from the program and a short one lose; routing by history (the program once some run
-//! made it) would change results at round-off from one run to the next. Only Taylor, which
-//! cannot run without it, pays for the trace.
+//! made it) would change results at round-off from one run to the next. So the switch
+//! of [`FastPath`] counts the run's own evaluations: a run repeated gives the same numbers.
 //!
 //! ```
 //! use lagrangian::integrators::{Method, Options, solve};
@@ -53,6 +55,7 @@ use crate::error::{Error, Result};
 use crate::expr::functions::unary_functions;
 use crate::expr::graph::{Binary, Graph, Node, Unary};
 use crate::routes::{CartesianForces, ParticleSystem, Particles, System};
+use crate::scalar::Scalar;
 use num_dual::{DualNum, DualStruct, Mappable};
 use num_traits::{FromPrimitive, Inv, Num, One, Signed, Zero};
 use std::cell::RefCell;
@@ -60,10 +63,10 @@ use std::cmp::Ordering;
 use std::fmt;
 use std::iter::{Product, Sum};
 use std::ops::{
-    Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Rem, RemAssign, Sub, SubAssign,
+    Add, AddAssign, Deref, Div, DivAssign, Mul, MulAssign, Neg, Rem, RemAssign, Sub, SubAssign,
 };
 use std::sync::OnceLock;
-use std::sync::atomic::{AtomicU64, Ordering as AtomicOrdering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering as AtomicOrdering};
 
 /// A scalar that records the operations on it as nodes of an expression graph.
 ///
@@ -806,10 +809,133 @@ impl<S: TraceEnergies> Dynamics for WithProgram<S> {
         mass_matrix_into, accelerations_into, lagrangian, energy);
     /// The traced program, traced and compiled on this first request, or why the system
     /// cannot be traced ([`Error::NotTraceable`]'s message). Only the Taylor method asks:
-    /// [`Dynamics::derived_program`] stays `None`, so that every other method runs the Rust
-    /// code as before, with no trace to pay for on a system's first run (see the module
-    /// documentation for the measurements).
+    /// [`Dynamics::derived_program`] stays `None`, so that every other method starts on the
+    /// Rust code, with no trace to pay for on a short run ([`FastPath`] decides when a run
+    /// moves to the program; see the module documentation for the measurements).
     fn taylor_program(&self) -> std::result::Result<&dyn crate::dynamics::DerivedProgram, String> {
         self.program().map(|p| p as _).map_err(|e| e.to_string())
+    }
+}
+
+/// The Rust route's evaluations of a run, times the degrees of freedom, after which
+/// [`FastPath`] compiles. Tracing and compiling a scene costs as much as some hundreds to
+/// thousands of its dual-number evaluations of q̈, fewer the larger it is (measured through
+/// Python, 2026-12-08, `--profile ci`, N-link chains: 2,300 at N = 2, 1,500 at 8, 690 at 16,
+/// 100 at 32, where the solve is no longer unrolled and the compile cheaper); this switches at a
+/// fifth to two thirds of that, so that a run that switches costs little more than the same
+/// system stated by hand (which pays the same compile up front), while a run shorter than the
+/// switch keeps the Rust route's head start.
+pub const SWITCH_WORK: usize = 3_000;
+
+/// One run of a traced system that starts on the Rust route and, once it has spent on it about
+/// what tracing and compiling costs, continues on the compiled eq. 55 program (the one
+/// [`WithProgram`] holds, traced and compiled once for every run and the Taylor method).
+///
+/// Why this rule: a run cannot know beforehand how many evaluations it will take; paying the
+/// compile once the Rust evaluations already spent are a fair part of it (the ski rental's rule)
+/// bounds the loss against either route fixed in advance, for short runs and long. The switch
+/// counts the `f64` accelerations ([`switch_at`](Self::switch_at) of them, [`SWITCH_WORK`] over
+/// n by default), never a clock, so that a run repeated gives the same numbers; a run that switches
+/// differs from the Rust route by round-off from the switch on. Only the `f64` accelerations
+/// switch (the explicit methods' work): dual-number evaluations (implicit methods' Jacobians)
+/// and the other quantities stay on the Rust route. A system that cannot be traced stays on the
+/// Rust route, and [`route`](Self::route) says why.
+#[derive(Debug)]
+pub struct FastPath<P: Deref> {
+    system: P,
+    program: Program<P::Target>,
+    switch_at: usize,
+    calls: AtomicUsize,
+    compiled: OnceLock<std::result::Result<(), String>>,
+}
+
+/// Where [`FastPath`] gets the traced program of its system (traced on the first call, kept).
+pub type Program<S> = for<'s> fn(&'s S) -> Result<&'s EomFunction>;
+
+impl<P: Deref<Target: Dynamics>> FastPath<P> {
+    /// A run of `system` (a reference or an owner), whose traced program `program` gives,
+    /// switching after [`SWITCH_WORK`] / n evaluations.
+    pub fn new(system: P, program: Program<P::Target>) -> Self {
+        let switch_at = SWITCH_WORK / system.dof().max(1);
+        Self::switching_at(system, program, switch_at)
+    }
+
+    /// The same, switching after `switch_at` evaluations of the Rust route (0: compiled from
+    /// the first; `usize::MAX`: never).
+    pub fn switching_at(system: P, program: Program<P::Target>, switch_at: usize) -> Self {
+        Self {
+            system,
+            program,
+            switch_at,
+            calls: AtomicUsize::new(0),
+            compiled: OnceLock::new(),
+        }
+    }
+
+    /// The evaluations of the Rust route after which the run switches.
+    pub fn switch_at(&self) -> usize {
+        self.switch_at
+    }
+
+    /// What computed the run's `f64` accelerations and why, for `Statistics::scene_path`:
+    /// `"rust: …"` or `"compiled: …"`.
+    pub fn route(&self) -> String {
+        match self.compiled.get() {
+            None => format!(
+                "rust: {} evaluations, fewer than the {} that pay for compiling",
+                self.calls.load(AtomicOrdering::Relaxed),
+                self.switch_at
+            ),
+            Some(Ok(())) => format!(
+                "compiled: the traced eq. 55 program after {} evaluations on the Rust route",
+                self.switch_at
+            ),
+            Some(Err(why)) => format!("rust: the system cannot be traced ({why})"),
+        }
+    }
+
+    /// The program, once the run has switched to it.
+    fn compiled(&self) -> Option<&EomFunction> {
+        let program = || (self.program)(&self.system);
+        match self.compiled.get() {
+            Some(Ok(())) => return program().ok(),
+            Some(Err(_)) => return None,
+            None => {}
+        }
+        if self.calls.fetch_add(1, AtomicOrdering::Relaxed) < self.switch_at {
+            return None;
+        }
+        let made = self
+            .compiled
+            .get_or_init(|| program().map(|_| ()).map_err(|e| e.to_string()));
+        made.as_ref().ok().and_then(|()| program().ok())
+    }
+}
+
+impl<P: Deref<Target: Dynamics>> Dynamics for FastPath<P> {
+    crate::dynamics::forward_dynamics!(system: dof, structure, kinetic_energy, potential_energy,
+        potential_gradient_into, generalized_forces_into, dissipative_forces_into, momenta_into,
+        mass_matrix_into, lagrangian, energy, taylor_program);
+    /// The Rust route's, or the program's once the run has switched (`f64` only).
+    #[inline]
+    fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
+        if crate::scalar::is::<D, f64>()
+            && let Some(program) = self.compiled()
+        {
+            // SAFETY: D is f64 (same TypeId), so these are identity casts.
+            let (t, q, qd) = unsafe {
+                (
+                    *crate::scalar::cast::<D, f64>(&t),
+                    crate::scalar::cast_slice::<D, f64>(q),
+                    crate::scalar::cast_slice::<D, f64>(qd),
+                )
+            };
+            let out = unsafe { &mut *(out as *mut [D] as *mut [f64]) };
+            return program.accelerations(t, q, qd, out);
+        }
+        self.system.accelerations_into(t, q, qd, out)
+    }
+    fn scene_path(&self) -> Option<String> {
+        Some(self.route())
     }
 }

@@ -89,6 +89,13 @@ pub trait Dynamics {
         None
     }
 
+    /// How a run of a ready-made scene computed its accelerations and why, which the solver
+    /// puts in the run's statistics (`scene_path`): only a traced scene's run (`FastPath`, in
+    /// `trace`) says; `None` for every other system.
+    fn scene_path(&self) -> Option<String> {
+        None
+    }
+
     /// The eq. 55 program the Taylor method expands, or why there is none:
     /// [`derived_program`](Self::derived_program), unless the system makes one only when asked
     /// (a Rust scene traced into the graph, [`crate::trace::WithProgram`], whose trace and

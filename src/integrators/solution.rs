@@ -36,6 +36,10 @@ pub struct Statistics {
     /// The largest absolute constraint residual (g, ġ and the velocity rows) at the end of an
     /// accepted step, after its projection; 0 for a system without constraints.
     pub constraint_residual: f64,
+    /// How a ready-made scene's accelerations were computed and why, when the run went through
+    /// [`FastPath`](crate::trace::FastPath) (`None` otherwise): its
+    /// [`route`](crate::trace::FastPath::route).
+    pub scene_path: Option<String>,
 }
 
 /// A counter of [`Statistics`]: its name and how to read it.
@@ -66,6 +70,7 @@ impl Statistics {
             newton_failures: 0,
             projections: 0,
             constraint_residual: 0.0,
+            scene_path: None,
         }
     }
 }

@@ -108,13 +108,27 @@ pub(crate) fn solve_resumed<'a, S: Dynamics + ?Sized>(
 ) -> std::result::Result<Solution, Failed> {
     let mut solver = Solver::start(system, q0, qd0, span, method, options, interrupt, settling)?;
     solver.run.batched = true;
+    // A scene's route (the Taylor method's is always its program, in lanes or alone).
+    let path = |stats: &mut Statistics| {
+        if stats.method != Method::Taylor {
+            stats.scene_path = system.scene_path();
+        }
+    };
     loop {
         match solver.step() {
             Ok(StepOutcome::Finished | StepOutcome::Terminated { .. }) => {
-                return Ok(solver.solution());
+                let mut sol = solver.solution();
+                path(&mut sol.stats);
+                return Ok(sol);
             }
             Ok(StepOutcome::Stepped | StepOutcome::Reset { .. }) => {}
-            Err(error) => return Err(solver.fail(error)),
+            Err(error) => {
+                let mut failed = solver.fail(error);
+                if let Some(sol) = &mut failed.partial {
+                    path(&mut sol.stats);
+                }
+                return Err(failed);
+            }
         }
     }
 }

@@ -11,7 +11,7 @@
 use super::args::{StepOptions, check_finite, run_options};
 use super::events::{CompiledEvent, EventSpec};
 use super::model::{AnyModel, Backend};
-use super::py_model::PyModel;
+use super::py_model::{PyModel, scene_run};
 use super::scenes;
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
@@ -20,6 +20,7 @@ use crate::integrators::{
     solve_many,
 };
 use crate::scenes::registry::Arguments;
+use crate::trace::FastPath;
 use numpy::ndarray::{Array1, Array2, Array3, ArrayView2};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
@@ -161,15 +162,29 @@ pub(crate) fn simulate_many<'py>(
             })
             .collect()
     };
-    let with_events = |i: usize| -> Result<(AnyModel, Vec<crate::integrators::Event>)> {
-        Ok((bind(i)?, bind_events(i)?))
+    // Each run as `simulate` runs it: a scene's on its own `FastPath` (the switch counts the
+    // run's evaluations, so a run in an ensemble is the run alone, bit for bit).
+    let run = |m: AnyModel| {
+        if m.is_scene() {
+            Route::Scene(scene_run(Box::new(m)))
+        } else {
+            Route::Owned(m)
+        }
     };
+    let with_events = |i: usize| -> Result<(Route, Vec<crate::integrators::Event>)> {
+        Ok((run(bind(i)?), bind_events(i)?))
+    };
+    let each = |i: usize| bind(i).map(run);
+    let shared = &*model.model;
+    let one = |_: usize| -> Result<Route<'_>> { Ok(Route::Shared(scene_run(shared))) };
     let systems = if per_run {
         Systems::EachWithEvents(&with_events)
     } else if params.is_some() || scenes.is_some() {
-        Systems::Each(&bind)
+        Systems::Each(&each)
+    } else if shared.is_scene() {
+        Systems::Each(&one)
     } else {
-        Systems::One(&*model.model)
+        Systems::One(&Route::Borrowed(shared))
     };
     let initial: Vec<(&[f64], &[f64])> = q0.chunks_exact(n).zip(qd0.chunks_exact(n)).collect();
 
@@ -435,4 +450,39 @@ fn failure<'py>(
     let class = err.get_type(py).name()?.to_string();
     let message = err.value(py).str()?.to_string();
     (run, class, message, t).into_pyobject(py)
+}
+
+/// A run of an ensemble: the model as it is, or a scene on its own [`FastPath`] (as `simulate`
+/// runs it).
+#[derive(Debug)]
+enum Route<'a> {
+    Borrowed(&'a AnyModel),
+    Owned(AnyModel),
+    Shared(FastPath<&'a AnyModel>),
+    Scene(FastPath<Box<AnyModel>>),
+}
+
+/// `$body` with `$s` bound to the system inside whichever variant `$route` is.
+macro_rules! route {
+    ($route:expr, $s:ident => $body:expr) => {
+        match $route {
+            Route::Borrowed(m) => {
+                let $s: &AnyModel = m;
+                $body
+            }
+            Route::Owned($s) => $body,
+            Route::Shared($s) => $body,
+            Route::Scene($s) => $body,
+        }
+    };
+}
+
+impl Dynamics for Route<'_> {
+    crate::dynamics::forward_dynamics!(route!: dof, structure, kinetic_energy, potential_energy,
+        potential_gradient_into, generalized_forces_into, dissipative_forces_into, momenta_into,
+        mass_matrix_into, accelerations_into, lagrangian, derived_program, taylor_program, energy,
+        constraints);
+    fn scene_path(&self) -> Option<String> {
+        route!(self, s => s.scene_path())
+    }
 }

@@ -77,6 +77,14 @@ macro_rules! any_model {
                 }
             }
 
+            /// Whether the model is a ready-made scene (a Rust system with its traced program).
+            pub(crate) fn is_scene(&self) -> bool {
+                !matches!(
+                    self,
+                    AnyModel::Energy(_) | AnyModel::Particles(..) | AnyModel::Constrained(_)
+                )
+            }
+
             /// The eq. 55 program on the model's expression graph (a scene's traced on first
             /// use), or why there is none.
             pub(crate) fn program(&self) -> Result<&EomFunction> {

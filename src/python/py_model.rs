@@ -20,6 +20,7 @@ use crate::error::Error;
 use crate::integrators::{Failed, Method, Options, Solution, Status, solve_partial};
 use crate::sensitivity::{Direction, SensitivityProblem, Variational};
 use crate::statics::{StaticsOptions, constrained_equilibrium, constrained_modes, equilibrium};
+use crate::trace::FastPath;
 use numpy::ndarray::{Array2, Array3};
 use numpy::{
     IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayDyn, PyArrayMethods, PyReadonlyArray1,
@@ -669,16 +670,14 @@ impl PyModel {
         let system = &*self.model;
         #[allow(clippy::result_large_err)]
         let solve = |interrupt: &dyn Fn(f64) -> bool| {
-            solve_partial(
-                system,
-                &q0,
-                &qd0,
-                (t0, t_end),
-                method,
-                &options,
-                Some(interrupt),
-            )
-            .map(|sol| (sol, None))
+            let span = (t0, t_end);
+            if !system.is_scene() {
+                return solve_partial(system, &q0, &qd0, span, method, &options, Some(interrupt))
+                    .map(|sol| (sol, None));
+            }
+            let run = scene_run(system);
+            solve_partial(&run, &q0, &qd0, span, method, &options, Some(interrupt))
+                .map(|sol| (sol, None))
         };
         self.run(py, conserved, solve, &wrap).map(Some)
     }
@@ -1078,4 +1077,15 @@ fn particle_reactions(
         *o = p.masses()[k / dim] * x.eps;
     }
     Ok(())
+}
+
+/// A scene's run on [`FastPath`]: the Rust route, then the traced program once the run has spent
+/// a fair part of what compiling it costs. `LAGRANGIAN_SCENE_PATH=rust` (or `compiled`) holds
+/// every run on one route, for benchmarks against the other.
+pub(super) fn scene_run<P: std::ops::Deref<Target = AnyModel>>(model: P) -> FastPath<P> {
+    match std::env::var("LAGRANGIAN_SCENE_PATH").as_deref() {
+        Ok("rust") => FastPath::switching_at(model, AnyModel::program, usize::MAX),
+        Ok("compiled") => FastPath::switching_at(model, AnyModel::program, 0),
+        _ => FastPath::new(model, AnyModel::program),
+    }
 }

@@ -432,7 +432,7 @@ impl PySolution {
 /// inserted on a call, no growing of the table); the counters' keys are interned once, from
 /// [`Statistics::COUNTERS`].
 /// A constrained model's run adds the worst constraint residual after an accepted step
-/// (`constraint_residual`).
+/// (`constraint_residual`), a scene's run its route (`scene_path`).
 pub(super) fn stats_dict<'py>(
     py: Python<'py>,
     s: &Statistics,
@@ -464,6 +464,9 @@ pub(super) fn stats_dict<'py>(
     stats.set_item(intern!(py, "conserved"), conserved)?;
     if constrained {
         stats.set_item(intern!(py, "constraint_residual"), s.constraint_residual)?;
+    }
+    if let Some(path) = &s.scene_path {
+        stats.set_item(intern!(py, "scene_path"), path)?;
     }
     Ok(stats)
 }

@@ -22,6 +22,7 @@ mod energy_model;
 #[cfg(feature = "parallel")]
 mod ensemble;
 mod events;
+mod fast_path;
 mod graph_derivatives;
 mod implicit;
 mod integrator_refusals;
