@@ -827,9 +827,11 @@ impl<S: TraceEnergies> Dynamics for WithProgram<S> {
 /// switch keeps the Rust route's head start.
 pub const SWITCH_WORK: usize = 3_000;
 
-/// One run of a traced system that starts on the Rust route and, once it has spent on it about
-/// what tracing and compiling costs, continues on the compiled eq. 55 program (the one
-/// [`WithProgram`] holds, traced and compiled once for every run and the Taylor method).
+/// One run of a traced system that starts on the Rust route and, once it has spent on it a fair
+/// part of what tracing and compiling cost, continues on the compiled eq. 55 program (the one
+/// [`WithProgram`] holds, traced and compiled once for every run and the Taylor method; a later
+/// run of the same system switches at the same count, though its compile is already paid, so
+/// that its numbers do not depend on the runs before it).
 ///
 /// Why this rule: a run cannot know beforehand how many evaluations it will take; paying the
 /// compile once the Rust evaluations already spent are a fair part of it (the ski rental's rule)
@@ -882,8 +884,7 @@ impl<P: Deref<Target: Dynamics>> FastPath<P> {
     pub fn route(&self) -> String {
         match self.compiled.get() {
             None => format!(
-                "rust: {} evaluations, fewer than the {} that pay for compiling",
-                self.calls.load(AtomicOrdering::Relaxed),
+                "rust: fewer evaluations than the {} that pay for compiling",
                 self.switch_at
             ),
             Some(Ok(())) => format!(

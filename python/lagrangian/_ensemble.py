@@ -49,10 +49,11 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
 # What the native `simulate_many` returns: (t, q, qd, reached, counters, method, choice,
-# choices, failures, status, events, constraint residuals); see src/python/ensemble.rs.
+# choices, failures, status, events, constraint residuals, scene path, scene paths); see
+# src/python/ensemble.rs.
 Raw = Tuple[
     Any, Any, Any, IntArray, IntArray, IntArray, IntArray, List[str], List[Any], Any, List[Any],
-    FloatArray,
+    FloatArray, IntArray, List[str],
 ]
 
 # The statistics' counters, as the columns of the native `simulate_many` (the one list is
@@ -97,7 +98,8 @@ class Ensemble:
         ``"auto"`` chose it, else ``None``), ``accepted_steps``, ``rejected_steps``,
         ``rhs_evaluations``, ``jacobian_evaluations``, ``factorizations``,
         ``newton_failures``, ``projections`` (steps a constrained model projected back onto its
-        constraints) and, for a constrained model, ``constraint_residual`` (floats). :meth:`run_stats` gives one run's as ``Solution.stats`` does.
+        constraints) and, for a constrained model, ``constraint_residual`` (floats); for a
+        scene, ``scene_path`` (its route, as ``Solution.stats``; ``None`` for a Taylor run). :meth:`run_stats` gives one run's as ``Solution.stats`` does.
     t_events : list of list of numpy.ndarray
         With ``events``: ``t_events[j][i]`` the times of event j's occurrences in run i
         (:attr:`Solution.t_events` of run i is ``[t_events[j][i] for j ...]``).
@@ -203,6 +205,9 @@ class Ensemble:
             self.stats[key] = counters[:, j].copy()
         if model is not None and model.constraint_names:
             self.stats["constraint_residual"] = np.asarray(raw[11], dtype=np.float64)
+        path = np.asarray(raw[12], dtype=np.int64)
+        if (path >= 0).any():  # a scene's runs: their routes
+            self.stats["scene_path"] = np.array(list(raw[13]) + [None], dtype=object)[path]
         if mode == "t_eval" and (self.reached < len(t)).any():  # failed or stopped early
             rows = np.arange(len(t))[None, :] >= self.reached[:, None]
             mask = np.broadcast_to(rows[:, :, None], q.shape).copy()
@@ -244,6 +249,8 @@ class Ensemble:
             out["conserved"] = self._conserved
         if "constraint_residual" in self.stats:
             out["constraint_residual"] = float(self.stats["constraint_residual"][i])
+        if "scene_path" in self.stats and self.stats["scene_path"][i] is not None:
+            out["scene_path"] = self.stats["scene_path"][i]
         return out
 
     def error(self, i: int) -> Optional[Exception]:
@@ -750,12 +757,18 @@ def _concat(parts: List[Raw], shared_t: bool) -> Raw:
     status: List[Any] = []
     found: List[Any] = []
     residuals: List[FloatArray] = []
+    path: List[IntArray] = []
+    paths: List[str] = []
     offset = 0
     for part in parts:
         pt, pq, pqd, preached, pcounters, pmethod, pchoice, pchoices, pfailures = part[:9]
         status.append(part[9])
         found.extend(part[10])
         residuals.append(part[11])
+        known = {c: j for j, c in enumerate(paths)}
+        moved = np.array([known.setdefault(c, len(known)) for c in part[13]] + [-1])
+        paths = list(known)
+        path.append(moved[np.asarray(part[12], dtype=np.int64)])
         index = {c: j for j, c in enumerate(choices)}
         remap = np.array([index.setdefault(c, len(index)) for c in pchoices] + [-1])
         choices = list(index)
@@ -776,7 +789,7 @@ def _concat(parts: List[Raw], shared_t: bool) -> Raw:
     if isinstance(parts[0][0], list):
         return (
             t, q, qd, *_stack(reached, counters, method, choice), choices, failures,
-            np.concatenate(status), found, np.concatenate(residuals),
+            np.concatenate(status), found, np.concatenate(residuals), np.concatenate(path), paths,
         )
     return (
         parts[0][0] if shared_t else np.concatenate(t),
@@ -788,6 +801,8 @@ def _concat(parts: List[Raw], shared_t: bool) -> Raw:
         np.concatenate(status),
         found,
         np.concatenate(residuals),
+        np.concatenate(path),
+        paths,
     )
 
 

@@ -193,7 +193,8 @@ def simulate_many(
     error_coordinates: Optional[int] = None,
 ) -> Any:
     """An ensemble of runs in Rust on ``workers`` threads (0: every core): (t, q, qd, reached,
-    counters, method, choice, choices, failures, status, events); see ``_ensemble.py``."""
+    counters, method, choice, choices, failures, status, events, residuals, path, paths); see
+    ``_ensemble.py``."""
 
 def method_info(name: str) -> Tuple[str, Optional[bool], Optional[int]]:
     """(canonical name, adaptive, order) of a method name; raises ValueError if unknown."""

@@ -23,6 +23,7 @@ use crate::scenes::registry::Arguments;
 use crate::trace::FastPath;
 use numpy::ndarray::{Array1, Array2, Array3, ArrayView2};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::IntoPyObjectExt;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
@@ -39,7 +40,7 @@ use std::time::Duration;
 /// compiled once (with `backend`); an event whose `event_params` entry is an array (shape
 /// (k, its parameters)) is bound to row i in run i, the others to their spec's values. Returns
 /// `(t, q, qd, reached, counters, method, choice, choices, failures, status, events,
-/// residuals)`, where
+/// residuals, path, paths)`, where
 /// by output mode:
 ///
 /// - `t_eval`: `t` the times, `q` and `qd` of shape (k, len(t), n);
@@ -55,7 +56,8 @@ use std::time::Duration;
 /// `events` per run a pair: one (t, q, qd) per event, as `simulate`'s, and the message of the
 /// terminal event that stopped it (else `None`) — an empty list when there are no events;
 /// `residuals` (k,) the worst constraint residual after an accepted step of each run (0 without
-/// constraints). `error_coordinates` is [`Options::error_coordinates`](crate::Options) (a
+/// constraints); `path` (k,) the index of a scene's route in `paths` (−1: not a scene, or the
+/// Taylor method). `error_coordinates` is [`Options::error_coordinates`](crate::Options) (a
 /// variational system's runs with the sensitivities left out of error control).
 #[pyfunction]
 #[pyo3(signature = (model, q0, qd0, t_end, t0=0.0, params=None, scenes=None, method="auto",
@@ -312,6 +314,8 @@ fn ensemble_tuple<'py>(
     let mut method = Array1::<i64>::from_elem(k, -1);
     let mut choice = Array1::<i64>::from_elem(k, -1);
     let mut choices: HashMap<String, usize> = HashMap::new();
+    let mut path = Array1::<i64>::from_elem(k, -1);
+    let mut paths: HashMap<String, usize> = HashMap::new();
     let failures = PyList::empty(py);
     let mut solutions: Vec<Option<Solution>> = Vec::with_capacity(k);
     for (i, run) in runs.into_iter().enumerate() {
@@ -356,12 +360,19 @@ fn ensemble_tuple<'py>(
                 let next = choices.len();
                 choice[i] = *choices.entry(why.clone()).or_insert(next) as i64;
             }
+            if let Some(why) = &s.scene_path {
+                let next = paths.len();
+                path[i] = *paths.entry(why.clone()).or_insert(next) as i64;
+            }
         }
         solutions.push(sol);
     }
     let mut choices: Vec<(String, usize)> = choices.into_iter().collect();
     choices.sort_by_key(|(_, j)| *j);
     let choices: Vec<String> = choices.into_iter().map(|(s, _)| s).collect();
+    let mut paths: Vec<(String, usize)> = paths.into_iter().collect();
+    paths.sort_by_key(|(_, j)| *j);
+    let paths: Vec<String> = paths.into_iter().map(|(s, _)| s).collect();
     let (t, q, qd) = match mode {
         OutputLayout::Times(times) => {
             let m = times.len();
@@ -421,21 +432,26 @@ fn ensemble_tuple<'py>(
             (ts.into_any(), qs.into_any(), qds.into_any())
         }
     };
-    (
-        t,
-        q,
-        qd,
-        reached.into_pyarray(py),
-        counters.into_pyarray(py),
-        method.into_pyarray(py),
-        choice.into_pyarray(py),
-        choices,
-        failures,
-        status.into_pyarray(py),
-        found,
-        residuals.into_pyarray(py),
+    // More items than pyo3's tuples convert: each converted alone.
+    PyTuple::new(
+        py,
+        [
+            t,
+            q,
+            qd,
+            reached.into_pyarray(py).into_any(),
+            counters.into_pyarray(py).into_any(),
+            method.into_pyarray(py).into_any(),
+            choice.into_pyarray(py).into_any(),
+            choices.into_bound_py_any(py)?,
+            failures.into_any(),
+            status.into_pyarray(py).into_any(),
+            found.into_any(),
+            residuals.into_pyarray(py).into_any(),
+            path.into_pyarray(py).into_any(),
+            paths.into_bound_py_any(py)?,
+        ],
     )
-        .into_pyobject(py)
 }
 
 /// `(run, error class name, message, t)` of a failed run: the class and message its Python

@@ -516,7 +516,8 @@ def test_counters_come_from_one_list_in_rust():
     assert COUNTERS == tuple(_lagrangian.COUNTERS) and len(set(COUNTERS)) == len(COUNTERS)
     model = lg.scenes.double_pendulum()
     sol = model.simulate([1.0, 0.5], [0.0, 0.0], 0.5, method="radau5")
-    assert list(sol.stats) == ["method", "choice", *COUNTERS, "conserved"]
+    # A scene's run says its route last (`scene_path`).
+    assert list(sol.stats) == ["method", "choice", *COUNTERS, "conserved", "scene_path"]
     ens = model.simulate_many([[1.0, 0.5], [0.5, 0.2]], [0.0, 0.0], 0.5, method="radau5")
     assert [k for k in ens.stats if k in COUNTERS] == list(COUNTERS)
     for i, q0 in enumerate(([1.0, 0.5], [0.5, 0.2])):

@@ -73,3 +73,25 @@ def test_a_stated_model_has_no_scene_path():
                      potential=-1 / lg.sqrt(x**2 + y**2))
     sol = model.simulate(Q0, V0, 1.0, method="dop853")
     assert "scene_path" not in sol.stats
+
+
+def test_an_ensemble_run_is_the_run_alone():
+    # Each run of an ensemble on its own switch: the same numbers and route as `simulate`, for a
+    # sweep over states and for a scene built per run.
+    model = lg.scenes.kepler()
+    q0 = [Q0, [0.6, 0.0]]
+    ens = model.simulate_many(q0, [V0, V0], LONG, method="dop853", rtol=1e-11, atol=1e-11,
+                              final_only=True)
+    for i in range(2):
+        alone = model.simulate(q0[i], V0, LONG, method="dop853", rtol=1e-11, atol=1e-11)
+        assert alone.stats["scene_path"].startswith("compiled")
+        assert_array_equal(ens.q[i], alone.q[-1])
+        assert ens.run_stats(i) == alone.stats
+    swept = model.simulate_many([Q0, Q0], [V0, V0], 3.0, parameters={"mu": [1.0, 1.1]},
+                                method="dop853", rtol=1e-11, atol=1e-11, final_only=True)
+    for i, mu in enumerate((1.0, 1.1)):
+        alone = lg.scenes.kepler(mu=mu).simulate(Q0, V0, 3.0, method="dop853", rtol=1e-11,
+                                                 atol=1e-11)
+        assert alone.stats["scene_path"].startswith("rust")
+        assert_array_equal(swept.q[i], alone.q[-1])
+        assert swept.run_stats(i) == alone.stats
