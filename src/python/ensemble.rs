@@ -170,7 +170,7 @@ pub(crate) fn simulate_many<'py>(
         if m.is_scene() {
             Route::Scene(scene_run(Box::new(m)))
         } else {
-            Route::Owned(m)
+            Route::Owned(Box::new(m))
         }
     };
     let with_events = |i: usize| -> Result<(Route, Vec<crate::integrators::Event>)> {
@@ -473,7 +473,7 @@ fn failure<'py>(
 #[derive(Debug)]
 enum Route<'a> {
     Borrowed(&'a AnyModel),
-    Owned(AnyModel),
+    Owned(Box<AnyModel>),
     Shared(FastPath<&'a AnyModel>),
     Scene(FastPath<Box<AnyModel>>),
 }
@@ -486,7 +486,10 @@ macro_rules! route {
                 let $s: &AnyModel = m;
                 $body
             }
-            Route::Owned($s) => $body,
+            Route::Owned(m) => {
+                let $s: &AnyModel = m;
+                $body
+            }
             Route::Shared($s) => $body,
             Route::Scene($s) => $body,
         }
