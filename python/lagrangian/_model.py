@@ -475,6 +475,8 @@ class Model:
           expression graph and compiled to machine code), ``"interpreter"`` (the same,
           interpreted: ``backend="interpreter"``, or where no native code could be made) or
           ``"rust"`` (a ready-made scene);
+        - ``instructions``: the size of the compiled program of M and f, what one evaluation
+          of the equations of motion costs (``None`` for a ready-made scene);
         - ``constraints``: the number of constraint rows (holonomic and velocity; 0 without
           constraints); :doc:`constraints` says which methods take them.
 

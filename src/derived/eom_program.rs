@@ -642,6 +642,11 @@ impl EomProgram {
         &self.tape
     }
 
+    /// The size of the program of M and f, in instructions: what one evaluation costs.
+    pub fn instructions(&self) -> usize {
+        self.tape.instructions()
+    }
+
     /// Number of coordinates.
     pub fn dof(&self) -> usize {
         self.dof

@@ -181,6 +181,17 @@ impl AnyModel {
         }
     }
 
+    /// The size of the compiled program of M and f, in instructions (`None` for a scene).
+    pub(crate) fn instructions(&self) -> Option<usize> {
+        match self {
+            AnyModel::Energy(m) | AnyModel::Particles(m, _) => {
+                m.program().map(|p| p.program().instructions())
+            }
+            AnyModel::Constrained(c) => c.system().instructions(),
+            _ => None,
+        }
+    }
+
     /// The constrained system, when the model has constraints.
     pub(crate) fn constrained(&self) -> Option<&Constrained<AnyModel, ExprConstraints>> {
         match self {

@@ -349,6 +349,7 @@ impl PyModel {
         d.set_item("forced", s.forced)?;
         d.set_item("conservative", s.conservative())?;
         d.set_item("backend", self.model.backend())?;
+        d.set_item("instructions", self.model.instructions())?;
         d.set_item(
             "constraints",
             self.model.constrained().map_or(0, |c| c.rows()),
