@@ -343,8 +343,8 @@ mod tests {
 
     #[test]
     fn quaternion_product_is_rotation_product() {
-        let a = Quaternion::new(0.3, -0.5, 0.7, 0.2);
-        let b = Quaternion::new(-0.4, 0.1, 0.9, -0.6);
+        let a = Quaternion::<f64>::new(0.3, -0.5, 0.7, 0.2);
+        let b = Quaternion::<f64>::new(-0.4, 0.1, 0.9, -0.6);
         let (ab, rr) = ((a * b).rotation(), a.rotation() * b.rotation());
         for i in 0..3 {
             for j in 0..3 {
@@ -361,10 +361,10 @@ mod tests {
     #[test]
     fn about_axis_matches_coordinate_turns() {
         for (axis, e) in [(Axis::X, [2.0, 0.0, 0.0]), (Axis::Z, [0.0, 0.0, -1.0])] {
-            let a = Rotation::about(axis, 0.7);
+            let a = Rotation::<f64>::about(axis, 0.7);
             let sign = if e[2] < 0.0 { -1.0 } else { 1.0 };
-            let b = Rotation::about_axis(e, 0.7 * sign);
-            let q = Quaternion::about_axis(e, 0.7 * sign).rotation();
+            let b = Rotation::<f64>::about_axis(e, 0.7 * sign);
+            let q = Quaternion::<f64>::about_axis(e, 0.7 * sign).rotation();
             for i in 0..3 {
                 for j in 0..3 {
                     assert!((a.m[i][j] - b.m[i][j]).abs() < 1e-15);
@@ -372,7 +372,7 @@ mod tests {
                 }
             }
         }
-        let r = Rotation::about_y(0.4);
+        let r = Rotation::<f64>::about_y(0.4);
         let v = r.apply([1.0, 2.0, 3.0]);
         let back = r.apply_transpose(v);
         assert!((back[2] - 3.0).abs() < 1e-15);
