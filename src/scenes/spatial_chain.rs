@@ -59,7 +59,11 @@ impl SpatialChain {
 
     /// The axis of joint `k`.
     pub fn axis(k: usize) -> Axis {
-        if k % 2 == 0 { Axis::X } else { Axis::Y }
+        if k.is_multiple_of(2) {
+            Axis::X
+        } else {
+            Axis::Y
+        }
     }
 }
 
