@@ -9,7 +9,7 @@
 //!
 //! ```
 //! use lagrangian::rigid::{Axis, Quaternion, Rotation};
-//! let r = Rotation::from_euler([Axis::Z, Axis::X, Axis::Z], [0.3, 0.4, 0.5]);
+//! let r = Rotation::<f64>::from_euler([Axis::Z, Axis::X, Axis::Z], [0.3, 0.4, 0.5]);
 //! let q = Quaternion::about_axis([0.0, 0.0, 1.0], 0.3)
 //!     * Quaternion::about_axis([1.0, 0.0, 0.0], 0.4)
 //!     * Quaternion::about_axis([0.0, 0.0, 1.0], 0.5);
