@@ -457,3 +457,22 @@ fn errors_are_typed() {
         Err(Error::DimensionMismatch { .. })
     ));
 }
+
+#[test]
+fn two_link_arm_modes_are_two_compound_pendulums() {
+    // Hanging at rest, joint 1 (about x) and joint 2 (about y) decouple to first order: the
+    // whole arm swings about x as one body, and link 2 about y on a fixed hinge.
+    let (m1, m2, l1, l2, a, g) = (1.3, 0.7, 0.9, 0.6, 0.08, 9.81);
+    let arm = SpatialChain::new(vec![m1, m2], vec![l1, l2], a, g);
+    let side = |m: f64, l: f64| m * (3.0 * a * a + l * l) / 12.0;
+    let whole = (g * (m1 * l1 / 2.0 + m2 * (l1 + l2 / 2.0)))
+        / (side(m1, l1) + m1 * l1 * l1 / 4.0 + side(m2, l2) + m2 * (l1 + l2 / 2.0).powi(2));
+    let lower = (m2 * g * l2 / 2.0) / (side(m2, l2) + m2 * l2 * l2 / 4.0);
+    let modes = lagrangian::modes(&arm.system(), 0.0, &[0.0, 0.0]).unwrap();
+    let mut want = [whole, lower];
+    want.sort_by(f64::total_cmp);
+    for (got, want) in modes.omega_squared.iter().zip(want) {
+        assert!((got - want).abs() < 1e-12 * want, "ω² {got} vs {want}");
+    }
+    assert_eq!(modes.stability, lagrangian::Stability::Stable);
+}
