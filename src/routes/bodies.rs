@@ -20,7 +20,7 @@ use crate::eom::{Forces, by_dof};
 use crate::error::{Error, Result};
 use crate::rigid::{ORTHONORMAL_TOLERANCE, Pose, Rotation, Vector3, cross};
 use crate::routes::system::System;
-use crate::scalar::{Grad, Scalar, grad_const, grad_part, grad_seed, with_buf};
+use crate::scalar::{Grad, Scalar, grad_const, grad_part, grad_seed, is, with_buf};
 use num_dual::{Dual, Dual2};
 
 /// Rigid bodies whose poses are functions of the generalized coordinates.
@@ -300,11 +300,25 @@ fn weigh<D: Scalar, B: RigidBodies>(b: &B, j: usize, u: &[D; ROWS]) -> [D; ROWS]
     ]
 }
 
-/// `out_i += Σ_rows J[row, i] f_row` for one body's rows.
+/// The number of leading columns of one body's rows past which every entry is exactly zero (the
+/// coordinates of the links below it in a chain): at `f64` only, where zero is zero; a dual
+/// number's zero real part may carry derivatives, so the other scalars take every column. The
+/// sums skip those columns' exact zeros, a third of M's assembly in a long chain.
 #[inline]
-fn project<D: Scalar>(rows: &[D], n: usize, f: &[D; ROWS], out: &mut [D]) {
+fn columns<D: Scalar>(rows: &[D], n: usize) -> usize {
+    if !is::<D, f64>() {
+        return n;
+    }
+    (0..n)
+        .rposition(|k| rows[k..].iter().step_by(n).any(|x| x.re() != 0.0))
+        .map_or(0, |k| k + 1)
+}
+
+/// `out_i += Σ_rows J[row, i] f_row` for one body's rows, over its first `last` columns.
+#[inline]
+fn project<D: Scalar>(rows: &[D], n: usize, last: usize, f: &[D; ROWS], out: &mut [D]) {
     for (row, &fr) in rows.chunks_exact(n).zip(f) {
-        for (o, &jr) in out.iter_mut().zip(row) {
+        for (o, &jr) in out[..last].iter_mut().zip(row) {
             *o += jr * fr;
         }
     }
@@ -314,14 +328,15 @@ fn project<D: Scalar>(rows: &[D], n: usize, f: &[D; ROWS], out: &mut [D]) {
 fn body_mass_matrix<D: Scalar, B: RigidBodies>(b: &B, jac: &[D], n: usize, m: &mut [D]) {
     m.fill(D::zero());
     for (j, rows) in jac.chunks_exact(ROWS * n).enumerate() {
-        for k in 0..n {
+        let last = columns(rows, n);
+        for k in 0..last {
             let col: [D; ROWS] = std::array::from_fn(|r| rows[r * n + k]);
             let wc = weigh(b, j, &col);
             // Row k of M (upper part): Σ_r (W J)[r, k] J[r, i] for i ≥ k.
             for (r, &w) in wc.iter().enumerate() {
-                let row = &rows[r * n..(r + 1) * n];
-                for i in k..n {
-                    m[k * n + i] += w * row[i];
+                let row = &rows[r * n..r * n + last];
+                for (mi, &ji) in m[k * n + k..k * n + last].iter_mut().zip(&row[k..]) {
+                    *mi += w * ji;
                 }
             }
         }
@@ -497,7 +512,8 @@ where
                                 f[3 + d] = -(f[3 + d] + gyro[d]);
                             }
                             f[6] = -f[6];
-                            project(&jac[j * ROWS * n..(j + 1) * ROWS * n], n, &f, rhs);
+                            let rows = &jac[j * ROWS * n..(j + 1) * ROWS * n];
+                            project(rows, n, columns(rows, n), &f, rhs);
                         }
                         body_mass_matrix(b, jac, n, m);
                     })
@@ -548,7 +564,8 @@ where
                 motion(b, t, q, qd, mo);
                 for (j, mj) in mo.iter().enumerate() {
                     let f = weigh(b, j, &mj.velocity);
-                    project(&jac[j * ROWS * n..(j + 1) * ROWS * n], n, &f, out);
+                    let rows = &jac[j * ROWS * n..(j + 1) * ROWS * n];
+                    project(rows, n, columns(rows, n), &f, out);
                 }
             })
         })
