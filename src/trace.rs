@@ -52,7 +52,7 @@ use crate::energies::{Dissipation, GeneralizedForces, KineticEnergy, Potential};
 use crate::error::{Error, Result};
 use crate::expr::functions::unary_functions;
 use crate::expr::graph::{Binary, Graph, Node, Unary};
-use crate::routes::{CartesianForces, ParticleSystem, Particles, System};
+use crate::routes::{BodySystem, CartesianForces, ParticleSystem, Particles, RigidBodies, System};
 use num_dual::{DualNum, DualStruct, Mappable};
 use num_traits::{FromPrimitive, Inv, Num, One, Signed, Zero};
 use std::cell::RefCell;
@@ -747,6 +747,20 @@ where
             .map_err(|e| e.to_string())?;
         let parts = energies(&g, kinetic, rest);
         Ok((g, parts))
+    }
+}
+
+/// A system of rigid bodies: T (with the quaternions' regularizing terms), U with gravity, Φ
+/// and Q″ traced through its energy route's generic code.
+impl<B, U, R, Q> TraceEnergies for BodySystem<B, U, R, Q>
+where
+    B: RigidBodies,
+    U: Potential,
+    R: Dissipation,
+    Q: GeneralizedForces,
+{
+    fn trace_energies(&self) -> std::result::Result<(Graph, Energies), String> {
+        self.energy_route().trace_energies()
     }
 }
 

@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::expr::derive::{Wrt, gradient, reads};
 use crate::expr::graph::{Binary, Graph, Node, Unary};
 use crate::program::{compile::Tape, eval::Function, inputs::Inputs};
-use crate::routes::{CartesianForces, ParticleSystem, Particles, System};
+use crate::routes::{BodySystem, CartesianForces, ParticleSystem, Particles, RigidBodies, System};
 use crate::routes::{EnergyModel, ExprConstraints, TapeParticles};
 use crate::scalar::Scalar;
 use crate::scenes::registry::{Arguments, Drawn, Positions, Scene, positions_of, scenes};
@@ -152,6 +152,18 @@ where
         self.structure().time_dependent
             || self.forces.depends_on_time()
             || self.cartesian.depends_on_time()
+    }
+}
+
+impl<B, U, R, Q> Driven for BodySystem<B, U, R, Q>
+where
+    B: RigidBodies,
+    U: Potential,
+    R: Dissipation,
+    Q: GeneralizedForces,
+{
+    fn driven(&self) -> bool {
+        self.structure().time_dependent || self.forces.depends_on_time()
     }
 }
 
