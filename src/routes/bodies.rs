@@ -13,10 +13,9 @@
 //! A body posed by a quaternion ([`Pose::from_quaternion`]) adds ½ c ṡ², s = ½‖q‖², c = 4 tr(I)/3
 //! — a point of mass c at s — so that M stays regular along q.
 
-use crate::checks::check_lengths;
 use crate::dynamics::{Dynamics, Structure};
 use crate::energies::{Dissipation, GeneralizedForces, KineticEnergy, Potential};
-use crate::eom::{Forces, by_dof};
+use crate::eom::{Forces, route_passes};
 use crate::error::{Error, Result};
 use crate::rigid::{ORTHONORMAL_TOLERANCE, Pose, Rotation, Vector3, cross};
 use crate::routes::system::System;
@@ -610,6 +609,8 @@ where
     R: Dissipation,
     Q: GeneralizedForces,
 {
+    route_passes!(B::FIXED_DOF);
+
     fn dof(&self) -> usize {
         self.bodies.dof()
     }
@@ -633,14 +634,6 @@ where
         self.gravity_potential().potential(t, q) + self.potential.potential(t, q)
     }
 
-    fn potential_gradient_into<D: Scalar>(&self, t: D, q: &[D], out: &mut [D]) {
-        by_dof!(
-            B::FIXED_DOF,
-            self.dof(),
-            self.potential_gradient_dof(t, q, out)
-        )
-    }
-
     fn generalized_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
         out.fill(D::zero());
         self.forces.forces(t, q, qd, out);
@@ -648,26 +641,5 @@ where
 
     fn dissipative_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
         self.energy_route().dissipative_forces_into(t, q, qd, out)
-    }
-
-    fn momenta_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        by_dof!(B::FIXED_DOF, self.dof(), self.momenta_dof(t, q, qd, out))
-    }
-
-    fn mass_matrix_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        by_dof!(
-            B::FIXED_DOF,
-            self.dof(),
-            self.mass_matrix_dof(t, q, qd, out)
-        )
-    }
-
-    fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
-        check_lengths(self.dof(), q, qd, out)?;
-        by_dof!(
-            B::FIXED_DOF,
-            self.dof(),
-            self.accelerations_dof(t, q, qd, out)
-        )
     }
 }
