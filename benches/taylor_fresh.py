@@ -7,7 +7,7 @@ atol=τ)`` and its ``propagate_until(t_end)`` with ``ig.q``, ``ig.qd`` read, and
 default) — the first of each timed apart (it
 compiles the recurrences) and the best of the next ``--calls`` (the model's first runs, before
 it has expanded to the run's order often enough to compile the unrolled step on its own).
-heyoka.py: ``taylor_adaptive`` (built untimed), ``propagate_until`` after resetting time and
+heyoka.py: ``taylor_adaptive`` (its build, caches of compiled code off, in the last column), ``propagate_until`` after resetting time and
 state, best of 20 (its steady state). Printed: ms, medians over the rounds, steps and order of
 each side, each side's error at t_end against a reference (ours at 1e-15), and heyoka ÷ ours.
 
@@ -125,6 +125,8 @@ def ours(s: tb.Scene, tol: float, calls: int) -> Dict[str, Any]:
 def heyoka(s: tb.Scene, tol: float) -> Dict[str, Any]:
     import heyoka as hy
 
+    hy.llvm_state.set_memcache_limit(0)  # its build as a new process meets it
+    hy.llvm_state.set_diskcache_enabled(False)
     start = time.perf_counter()
     ta = hy.taylor_adaptive(heyoka_system(s), s.x0, tol=tol)
     build = time.perf_counter() - start
