@@ -29,6 +29,9 @@ from types import SimpleNamespace
 from typing import Any, Dict, List, Sequence, Tuple
 
 sys.path.insert(0, os.path.dirname(__file__))
+# NumPy's OpenBLAS threads spin after a call (the models' builds make some) and took a seventh of
+# the 2-core machine from the runs that followed: one thread, for both sides alike.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
