@@ -777,6 +777,17 @@ pub fn eom_program<S: TraceEnergies + ?Sized>(system: &S, what: &str) -> Result<
     EomProgram::new(&mut graph, system.dof(), 0, &parts)?.bind(&[])
 }
 
+/// [`eom_program`] for a system run again and again: its small Taylor expansions compiled
+/// unrolled from their first run ([`EomProgram::unroll_small_early`]).
+fn eom_program_reused<S: TraceEnergies + ?Sized>(system: &S, what: &str) -> Result<EomFunction> {
+    let (mut graph, parts) = system.trace_energies().map_err(|why| Error::NotTraceable {
+        what: what.to_string(),
+        why,
+    })?;
+    let program = EomProgram::new(&mut graph, system.dof(), 0, &parts)?;
+    program.unroll_small_early().bind(&[])
+}
+
 /// A Rust system with its eq. 55 program traced on first request: everything the system
 /// computes it still computes ([`Dynamics`] is passed through), and the Taylor method, which
 /// needs the expression graph, takes the program ([`Dynamics::taylor_program`]).
@@ -808,7 +819,7 @@ impl<S: TraceEnergies> WithProgram<S> {
     /// Those of [`eom_program`]; the same error on every call.
     pub fn program(&self) -> Result<&EomFunction> {
         self.program
-            .get_or_init(|| eom_program(&self.system, &self.name))
+            .get_or_init(|| eom_program_reused(&self.system, &self.name))
             .as_ref()
             .map_err(Clone::clone)
     }

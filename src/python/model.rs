@@ -520,7 +520,9 @@ impl CompiledModel {
                 let program = EomProgram::new(&mut g, dof, params, &parts)?;
                 energies = Some(parts);
                 Some(match spec.backend {
-                    Backend::Native => program,
+                    // A Python model is run again and again: its first runs take the unrolled
+                    // expansion where it is small.
+                    Backend::Native => program.unroll_small_early(),
                     Backend::Interpreter => program.interpreted(),
                 })
             }

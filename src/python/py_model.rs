@@ -807,8 +807,8 @@ impl PyModel {
     #[allow(clippy::too_many_arguments)]
     fn integrator(
         &self,
-        q0: Vec<f64>,
-        qd0: Vec<f64>,
+        q0: &Bound<'_, PyAny>,
+        qd0: &Bound<'_, PyAny>,
         t0: f64,
         method: &str,
         dt: Option<f64>,
@@ -818,8 +818,10 @@ impl PyModel {
         events: Vec<events::EventSpec>,
         backend: &str,
     ) -> PyResult<integrator::PyIntegrator> {
+        let n = self.model.dof();
+        let q0 = integrator::state_vector("q0", q0, n)?;
+        let qd0 = integrator::state_vector("qd0", qd0, n)?;
         guard(|| {
-            let n = self.model.dof();
             let backend = Backend::named(backend)?;
             let events = events
                 .into_iter()
