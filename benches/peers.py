@@ -251,6 +251,58 @@ def _charged_particle(*, m: float, e: float, b: float, ex: float = 0.0, ey: floa
     return f
 
 
+def _spatial_chain(*, masses: Sequence[float], lengths: Sequence[float], radius: float,
+                   g: float) -> Rhs:
+    # Newton–Euler in world axes, by hand (the crate's route works in body axes from dual
+    # numbers): joint k turns about its parent's x (k odd: y) axis a_k, so link k's centre has
+    # J_v[:, i] = a_i × (c_k − p_i) and J_ω[:, i] = a_i for i ≤ k, and at q̈ = 0 its centre
+    # accelerates by Σ (ȧ_i × (c_k − p_i) + a_i × (ċ_k − ṗ_i)) q̇_i with ȧ_i = ω_parent × a_i.
+    ms = np.array([_positive("masses", x) for x in masses], dtype=np.float64)
+    ls = np.array([_positive("lengths", x) for x in lengths], dtype=np.float64)
+    if ms.size == 0 or ms.size != ls.size:
+        raise ValueError(
+            f"spatial_chain needs one length per mass (at least one): got {ms.size} masses and "
+            f"{ls.size} lengths"
+        )
+    a, g = _non_negative("radius", radius), _real("g", g)
+    n = ms.size
+    side = ms * (3 * a * a + ls * ls) / 12.0
+    body = [np.diag([side[k], side[k], 0.5 * ms[k] * a * a]) for k in range(n)]
+    weight = np.array([0.0, 0.0, -g])
+
+    def f(t: float, y: FloatArray) -> FloatArray:
+        q, w = y[:n], y[n:]
+        rot, p, v, om = np.eye(3), np.zeros(3), np.zeros(3), np.zeros(3)
+        axes, adot, joints, jvel = (np.zeros((n, 3)) for _ in range(4))
+        mass, rhs = np.zeros((n, n)), np.zeros(n)
+        for k in range(n):
+            axes[k] = rot[:, 0] if k % 2 == 0 else rot[:, 1]
+            adot[k], joints[k], jvel[k] = np.cross(om, axes[k]), p, v
+            c, s = math.cos(q[k]), math.sin(q[k])
+            turn = ([[1, 0, 0], [0, c, -s], [0, s, c]] if k % 2 == 0
+                    else [[c, 0, s], [0, 1, 0], [-s, 0, c]])
+            rot = rot @ np.array(turn, dtype=np.float64)
+            om = om + axes[k] * w[k]
+            centre = p - 0.5 * ls[k] * rot[:, 2]
+            cvel = v + np.cross(om, centre - p)
+            jv, jw = np.zeros((3, n)), np.zeros((3, n))
+            acc, alpha = np.zeros(3), np.zeros(3)
+            for i in range(k + 1):
+                r, rd = centre - joints[i], cvel - jvel[i]
+                jv[:, i], jw[:, i] = np.cross(axes[i], r), axes[i]
+                acc += (np.cross(adot[i], r) + np.cross(axes[i], rd)) * w[i]
+                alpha += adot[i] * w[i]
+            inertia = rot @ body[k] @ rot.T
+            mass += ms[k] * jv.T @ jv + jw.T @ inertia @ jw
+            rhs += jv.T @ (ms[k] * (weight - acc))
+            rhs -= jw.T @ (inertia @ alpha + np.cross(om, inertia @ om))
+            nxt = p - ls[k] * rot[:, 2]
+            p, v = nxt, v + np.cross(om, nxt - p)
+        return np.concatenate([w, np.linalg.solve(mass, rhs)])
+
+    return f
+
+
 _BUILDERS: Dict[str, Callable[..., Rhs]] = {
     "simple_pendulum": _simple_pendulum,
     "double_pendulum": _double_pendulum,
@@ -264,6 +316,7 @@ _BUILDERS: Dict[str, Callable[..., Rhs]] = {
     "henon_heiles": _henon_heiles,
     "driven_pendulum": _driven_pendulum,
     "charged_particle": _charged_particle,
+    "spatial_chain": _spatial_chain,
 }
 
 NUMPY_SCENES: Tuple[str, ...] = tuple(_BUILDERS)

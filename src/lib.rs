@@ -47,6 +47,7 @@ mod nonlinear;
 mod program;
 #[cfg(feature = "python")]
 mod python;
+pub mod rigid;
 mod routes;
 mod scalar;
 pub mod scenes;
@@ -71,8 +72,8 @@ pub use integrators::{Method, Options, Output, Solution, Statistics, solve};
 #[doc(hidden)]
 pub use python::lagrangian_module as python_module;
 pub use routes::{
-    CartesianForces, EnergyRoute, MappedForces, ParticleGravity, ParticleKinetic, ParticleSystem,
-    Particles, System,
+    BodyEnergyRoute, BodyGravity, BodyKinetic, BodySystem, CartesianForces, EnergyRoute,
+    MappedForces, ParticleGravity, ParticleKinetic, ParticleSystem, Particles, RigidBodies, System,
 };
 pub use scalar::{Scalar, re};
 pub use statics::{

@@ -54,7 +54,7 @@ use crate::energies::{Dissipation, GeneralizedForces, KineticEnergy, Potential};
 use crate::error::{Error, Result};
 use crate::expr::functions::unary_functions;
 use crate::expr::graph::{Binary, Graph, Node, Unary};
-use crate::routes::{CartesianForces, ParticleSystem, Particles, System};
+use crate::routes::{BodySystem, CartesianForces, ParticleSystem, Particles, RigidBodies, System};
 use crate::scalar::Scalar;
 use num_dual::{DualNum, DualStruct, Mappable};
 use num_traits::{FromPrimitive, Inv, Num, One, Signed, Zero};
@@ -753,6 +753,20 @@ where
     }
 }
 
+/// A system of rigid bodies: T (with the quaternions' regularizing terms), U with gravity, Φ
+/// and Q″ traced through its energy route's generic code.
+impl<B, U, R, Q> TraceEnergies for BodySystem<B, U, R, Q>
+where
+    B: RigidBodies,
+    U: Potential,
+    R: Dissipation,
+    Q: GeneralizedForces,
+{
+    fn trace_energies(&self) -> std::result::Result<(Graph, Energies), String> {
+        self.energy_route().trace_energies()
+    }
+}
+
 /// The eq. 55 program of a traced system, compiled and bound as a model stated in Python is
 /// ([`EomProgram::new`], [`EomProgram::bind`]; no parameters, their values are in the graph).
 ///
@@ -764,6 +778,17 @@ pub fn eom_program<S: TraceEnergies + ?Sized>(system: &S, what: &str) -> Result<
         why,
     })?;
     EomProgram::new(&mut graph, system.dof(), 0, &parts)?.bind(&[])
+}
+
+/// [`eom_program`] for a system run again and again: its small Taylor expansions compiled
+/// unrolled from their first run ([`EomProgram::unroll_small_early`]).
+fn eom_program_reused<S: TraceEnergies + ?Sized>(system: &S, what: &str) -> Result<EomFunction> {
+    let (mut graph, parts) = system.trace_energies().map_err(|why| Error::NotTraceable {
+        what: what.to_string(),
+        why,
+    })?;
+    let program = EomProgram::new(&mut graph, system.dof(), 0, &parts)?;
+    program.unroll_small_early().bind(&[])
 }
 
 /// A Rust system with its eq. 55 program traced on first request: everything the system
@@ -797,7 +822,7 @@ impl<S: TraceEnergies> WithProgram<S> {
     /// Those of [`eom_program`]; the same error on every call.
     pub fn program(&self) -> Result<&EomFunction> {
         self.program
-            .get_or_init(|| eom_program(&self.system, &self.name))
+            .get_or_init(|| eom_program_reused(&self.system, &self.name))
             .as_ref()
             .map_err(Clone::clone)
     }

@@ -64,6 +64,31 @@ def plus(a: Sequence[Expr], b: Sequence[Expr]) -> Vector:
     return (_add(a[0], b[0]), _add(a[1], b[1]), _add(a[2], b[2]))
 
 
+def minus(a: Sequence[ExprLike], b: Sequence[ExprLike]) -> Vector:
+    """a − b for 3-vectors of expressions."""
+    return (_sub(a[0], b[0]), _sub(a[1], b[1]), _sub(a[2], b[2]))
+
+
+def dot(a: Sequence[ExprLike], b: Sequence[ExprLike]) -> Expr:
+    """a · b for vectors of expressions (zeros and ones folded away)."""
+    acc = Expr.lift(0.0)
+    for x, y in zip(a, b):
+        acc = _add(acc, _mul(x, y))
+    return acc
+
+
+def cross(a: Sequence[ExprLike], b: Sequence[ExprLike]) -> Vector:
+    """a × b for 3-vectors of expressions."""
+    return (_sub(_mul(a[1], b[2]), _mul(a[2], b[1])),
+            _sub(_mul(a[2], b[0]), _mul(a[0], b[2])),
+            _sub(_mul(a[0], b[1]), _mul(a[1], b[0])))
+
+
+def transpose(m: Sequence[Sequence[ExprLike]]) -> Tuple[Tuple[ExprLike, ...], ...]:
+    """The transpose of a 3×3 matrix (rows of expressions)."""
+    return tuple(tuple(m[j][i] for j in range(3)) for i in range(3))
+
+
 def rotate(r: Sequence[Sequence[ExprLike]], v: Sequence[ExprLike]) -> Vector:
     """R v for a 3×3 matrix of expressions ``r`` and a 3-vector ``v``."""
     out = []
@@ -130,8 +155,7 @@ def matmul(a: Sequence[Sequence[ExprLike]], b: Sequence[Sequence[ExprLike]]) -> 
     omega = None
     wa, wb = omega_of(a), omega_of(b)
     if wa is not None and wb is not None:  # Ω of AB = Bᵀ Ω_A + Ω_B
-        bt = [[b[j][i] for j in range(3)] for i in range(3)]
-        omega = plus(rotate(bt, wa), wb)
+        omega = plus(rotate(transpose(b), wa), wb)
     return _rows(rows, omega)
 
 

@@ -19,23 +19,10 @@ from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ._bodies import Body, Vector, rotate, unit, vector3
+from ._bodies import Body, Vector, cross, dot, rotate, unit, vector3
 from ._expr import Expr, ExprLike, _add, _mul, _sub, sqrt
 
 __all__ = ["RollingContact", "rolling_contact", "knife_edge"]
-
-
-def _dot(a: Sequence[ExprLike], b: Sequence[ExprLike]) -> Expr:
-    acc = Expr.lift(0.0)
-    for x, y in zip(a, b):
-        acc = _add(acc, _mul(x, y))
-    return acc
-
-
-def _cross(a: Sequence[ExprLike], b: Sequence[ExprLike]) -> Vector:
-    return (_sub(_mul(a[1], b[2]), _mul(a[2], b[1])),
-            _sub(_mul(a[2], b[0]), _mul(a[0], b[2])),
-            _sub(_mul(a[0], b[1]), _mul(a[1], b[0])))
 
 
 def tangents(up: Sequence[float]) -> Tuple[Tuple[float, float, float], Tuple[float, float, float]]:
@@ -97,8 +84,8 @@ class RollingContact:
     @property
     def velocity_constraints(self) -> Dict[str, Expr]:
         t1, t2 = self.tangents
-        return {f"{self.name} slip 1": _dot(t1, self.slip),
-                f"{self.name} slip 2": _dot(t2, self.slip)}
+        return {f"{self.name} slip 1": dot(t1, self.slip),
+                f"{self.name} slip 2": dot(t2, self.slip)}
 
     def __repr__(self) -> str:
         return f"RollingContact(name={self.name!r}, body={self.body.label}, up={self.up})"
@@ -159,20 +146,20 @@ def rolling_contact(
             raise ValueError(f"rolling_contact: axle {tuple(axle)!r} is not a non-zero 3-vector")
         a_body = tuple(Expr.lift(float(e.args[0]) / n) for e in a_body)  # type: ignore[assignment]
     else:
-        norm = sqrt(_dot(a_body, a_body))
+        norm = sqrt(dot(a_body, a_body))
         a_body = tuple(e / norm for e in a_body)  # type: ignore[assignment]
     a = rotate(body.orientation, a_body)
     c = body.point(center)
-    ua = _dot(u, a)
+    ua = dot(u, a)
     # e = (u − (u·a) a)/s with s = √(1 − (u·a)²) = ‖u − (u·a) a‖ (a, u unit).
     s = sqrt(1.0 - ua * ua)
     e = tuple(_mul(_sub(u[i], _mul(ua, a[i])), 1.0 / s) for i in range(3))
     arm = tuple(_mul(-1.0, _mul(r, e[i])) for i in range(3))  # P − c
     point = tuple(_add(c[i], arm[i]) for i in range(3))
-    height = _sub(_sub(_dot(u, c), _mul(r, s)), level)
+    height = _sub(_sub(dot(u, c), _mul(r, s)), level)
     vc = body.velocity(center)
     w = body.angular_velocity("world")
-    wxr = _cross(w, arm)
+    wxr = cross(w, arm)
     slip = tuple(_add(vc[i], wxr[i]) for i in range(3))
     return RollingContact(name, body, u, point, height, slip)  # type: ignore[arg-type]
 
@@ -208,6 +195,6 @@ def knife_edge(
     body = _check_body(body, "knife_edge")
     u = unit(up, "knife_edge: up")
     b = rotate(body.orientation, vector3(blade, "knife_edge: blade"))
-    normal = _cross(u, b)
+    normal = cross(u, b)
     v = body.velocity(point)
-    return {name or "knife edge": _dot(normal, v)}
+    return {name or "knife edge": dot(normal, v)}

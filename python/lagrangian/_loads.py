@@ -13,8 +13,18 @@ from __future__ import annotations
 
 from typing import Any, List, Mapping, Optional, Sequence, Tuple
 
-from ._bodies import Body, Vector, rotate, vector3
-from ._expr import Coordinate, Expr, ExprLike, derivative, sqrt, time_derivative
+from ._bodies import Body, Vector, dot, minus, rotate, vector3
+from ._expr import (
+    Coordinate,
+    Expr,
+    ExprLike,
+    _add,
+    _is_const,
+    _mul,
+    derivative,
+    sqrt,
+    time_derivative,
+)
 from ._frames import Frame
 
 __all__ = ["Force", "Torque", "Spring", "Damper", "Load", "partial_angular_velocity",
@@ -22,40 +32,6 @@ __all__ = ["Force", "Torque", "Spring", "Damper", "Load", "partial_angular_veloc
 
 
 # -- sums and products that fold zeros and ones (the derived graphs stay small) ---------------
-def _is(e: Expr, value: float) -> bool:
-    return e.op == "const" and e.args[0] == value
-
-
-def _plus(a: ExprLike, b: ExprLike) -> Expr:
-    a, b = Expr.lift(a), Expr.lift(b)
-    if a.op == "const" and b.op == "const":
-        return Expr.lift(a.args[0] + b.args[0])
-    return b if _is(a, 0.0) else a if _is(b, 0.0) else a + b
-
-
-def _minus(a: ExprLike, b: ExprLike) -> Expr:
-    a, b = Expr.lift(a), Expr.lift(b)
-    if a.op == "const" and b.op == "const":
-        return Expr.lift(a.args[0] - b.args[0])
-    return a if _is(b, 0.0) else -b if _is(a, 0.0) else a - b
-
-
-def _times(a: ExprLike, b: ExprLike) -> Expr:
-    a, b = Expr.lift(a), Expr.lift(b)
-    if _is(a, 0.0) or _is(b, 0.0):
-        return Expr.lift(0.0)
-    if a.op == "const" and b.op == "const":
-        return Expr.lift(a.args[0] * b.args[0])
-    return b if _is(a, 1.0) else a if _is(b, 1.0) else a * b
-
-
-def _dot(a: Sequence[ExprLike], b: Sequence[ExprLike]) -> Expr:
-    acc = Expr.lift(0.0)
-    for x, y in zip(a, b):
-        acc = _plus(acc, _times(x, y))
-    return acc
-
-
 def partial_angular_velocity(body: Body, s: Expr, axes: str = "world") -> Vector:
     """∂ω/∂ṡ of ``body`` for the coordinate ``s`` (or the explicit rate for ``s`` = t): vee(∂R/∂s Rᵀ) in world axes, vee(Rᵀ ∂R/∂s)
     in body axes — the exact coefficient of ṡ in the angular velocity."""
@@ -65,8 +41,8 @@ def partial_angular_velocity(body: Body, s: Expr, axes: str = "world") -> Vector
     def w(i: int, j: int) -> Expr:
         acc = Expr.lift(0.0)
         for k in range(3):
-            acc = _plus(acc, _times(dr[i][k], r[j][k]) if axes == "world"
-                        else _times(r[k][i], dr[k][j]))
+            acc = _add(acc, _mul(dr[i][k], r[j][k]) if axes == "world"
+                        else _mul(r[k][i], dr[k][j]))
         return acc
 
     return (w(2, 1), w(0, 2), w(1, 0))
@@ -164,7 +140,7 @@ class Force(Load):
                                                                 Optional[Expr], Optional[Expr]]:
         f = self.world_force()
         p = self.body.point(self.point)
-        return [_dot(f, [derivative(x, c) for x in p]) for c in coordinates], None, None
+        return [dot(f, [derivative(x, c) for x in p]) for c in coordinates], None, None
 
 
 class Torque(Load):
@@ -196,13 +172,13 @@ class Torque(Load):
 
     def parts(self, coordinates: Sequence[Coordinate]) -> Tuple[Optional[List[Expr]],
                                                                 Optional[Expr], Optional[Expr]]:
-        return [_dot(self.torque, partial_angular_velocity(self.body, c, self.axes))
+        return [dot(self.torque, partial_angular_velocity(self.body, c, self.axes))
                 for c in coordinates], None, None
 
 
 def _length(a: Vector, b: Vector) -> Tuple[Vector, Expr]:
-    d = (_minus(a[0], b[0]), _minus(a[1], b[1]), _minus(a[2], b[2]))
-    return d, _dot(d, d)
+    d = minus(a, b)
+    return d, dot(d, d)
 
 
 class Spring(Load):
@@ -246,7 +222,7 @@ class Spring(Load):
     def parts(self, coordinates: Sequence[Coordinate]) -> Tuple[Optional[List[Expr]],
                                                                 Optional[Expr], Optional[Expr]]:
         _, dd = _length(self.a, self.b)
-        if _is(self.rest_length, 0.0):
+        if _is_const(self.rest_length, 0.0):
             return None, 0.5 * self.stiffness * dd, None
         return None, 0.5 * self.stiffness * (sqrt(dd) - self.rest_length) ** 2, None
 
@@ -283,7 +259,7 @@ class Damper(Load):
     def parts(self, coordinates: Sequence[Coordinate]) -> Tuple[Optional[List[Expr]],
                                                                 Optional[Expr], Optional[Expr]]:
         d, dd = _length(self.a, self.b)
-        rate = _dot(d, [time_derivative(x, coordinates) for x in d]) / sqrt(dd)
+        rate = dot(d, [time_derivative(x, coordinates) for x in d]) / sqrt(dd)
         return None, None, 0.5 * self.damping * rate**2
 
 
@@ -340,7 +316,7 @@ def with_loads(loads: Any, coordinates: Sequence[Coordinate],
         _check(load, label, names, params)
         q_load, u_load, phi_load = load.parts(coords)
         if q_load is not None:
-            q_total = q_load if q_total is None else [_plus(a, b) for a, b in zip(q_total,
+            q_total = q_load if q_total is None else [_add(a, b) for a, b in zip(q_total,
                                                                                   q_load)]
         if u_load is not None:
             potential = u_load if potential is None else Expr.lift(potential) + u_load

@@ -475,6 +475,8 @@ class Model:
           expression graph and compiled to machine code), ``"interpreter"`` (the same,
           interpreted: ``backend="interpreter"``, or where no native code could be made) or
           ``"rust"`` (a ready-made scene);
+        - ``instructions``: the size of the compiled program of M and f, what one evaluation
+          of the equations of motion costs (``None`` for a ready-made scene);
         - ``constraints``: the number of constraint rows (holonomic and velocity; 0 without
           constraints); :doc:`constraints` says which methods take them.
 
@@ -1002,13 +1004,13 @@ class Model:
         t0, _, method, dt, rtol, atol, _, max_steps, _ = run_options(
             t0, None, method, dt, rtol, atol, None, max_steps
         )
-        n = self.dof
-        q0, qd0 = vector("q0", q0, n), vector("qd0", qd0, n)
+        # q0 and qd0 go to Rust as they are: it reads the fast forms (lists of numbers, float64
+        # arrays) and hands anything else to `vector`, as the setters of `ig.q` and `ig.qd` do.
         specs: List[Any] = []
         if events is not None:
             specs = event_specs(events, self._coordinates, self._parameters)[0]
         integrator: Integrator = self._native.integrator(
-            list(q0), list(qd0), t0, method, dt, rtol, atol, max_steps, specs, self._backend
+            q0, qd0, t0, method, dt, rtol, atol, max_steps, specs, self._backend
         )
         return integrator
 

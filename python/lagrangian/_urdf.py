@@ -16,7 +16,7 @@ from typing import Any, Callable, Dict, List, NamedTuple, Optional, Sequence, Tu
 
 import numpy as np
 
-from ._bodies import Body, rotation_about
+from ._bodies import Body, cross, dot, plus, rotate, rotation_about, transpose
 from ._expr import (
     Coordinate,
     Expr,
@@ -325,31 +325,6 @@ class _Anchor(NamedTuple):
 _ZERO = (Expr.lift(0.0),) * 3
 
 
-def _plus(a: Sequence[Expr], b: Sequence[Expr]) -> Tuple[Expr, Expr, Expr]:
-    return (_add(a[0], b[0]), _add(a[1], b[1]), _add(a[2], b[2]))
-
-
-def _cross(a: Sequence[Expr], b: Sequence[Expr]) -> Tuple[Expr, Expr, Expr]:
-    return (_sub(_mul(a[1], b[2]), _mul(a[2], b[1])),
-            _sub(_mul(a[2], b[0]), _mul(a[0], b[2])),
-            _sub(_mul(a[0], b[1]), _mul(a[1], b[0])))
-
-
-def _turned_back(m: Sequence[Sequence[Any]], v: Sequence[Any]) -> Tuple[Expr, Expr, Expr]:
-    """mᵀ v: a vector given in a frame's parent axes, in the frame's own axes (m its turn)."""
-    out = []
-    for i in range(3):
-        acc = Expr.lift(0.0)
-        for k in range(3):
-            acc = _add(acc, _mul(m[k][i], v[k]))
-        out.append(acc)
-    return (out[0], out[1], out[2])
-
-
-def _dot(a: Sequence[Expr], b: Sequence[Expr]) -> Expr:
-    return _add(_add(_mul(a[0], b[0]), _mul(a[1], b[1])), _mul(a[2], b[2]))
-
-
 def from_urdf(
     cls: Callable[..., M],
     source: Union[str, "os.PathLike[str]", Robot],
@@ -453,17 +428,17 @@ def from_urdf(
         r: Sequence[Any] = offset.tolist()
         if j.type == "prismatic":
             r = tuple(_add(float(x), _mul(float(y), q)) for x, y in zip(offset, rotation @ axis))
-        velocity = _turned_back(rotation, _plus(up.velocity, _cross(up.omega, r)))
-        omega = _turned_back(rotation, up.omega)
+        velocity = rotate(transpose(rotation), plus(up.velocity, cross(up.omega, r)))
+        omega = rotate(transpose(rotation), up.omega)
         step = tuple(_mul(float(x), rate) for x in axis)
         if j.type == "prismatic":
             frame = base.prismatic(q, j.axis, *placement)
-            velocity = _plus(velocity, step)
+            velocity = plus(velocity, step)
         else:
             frame = base.revolute(q, j.axis, *placement)
             turn = rotation_about(axis.tolist(), q)
-            velocity, omega = _turned_back(turn, velocity), _turned_back(turn, omega)
-            omega = _plus(omega, step)
+            velocity, omega = rotate(transpose(turn), velocity), rotate(transpose(turn), omega)
+            omega = plus(omega, step)
         anchors[j.child] = _Anchor(frame, j.child, np.zeros(3), np.eye(3), omega, velocity)
         drawing.append(frame.origin)
     lumps = _lumped(robot, anchors)
@@ -482,15 +457,15 @@ def from_urdf(
         kinetic = Expr.lift(0.0)
         for a, mass, center, inertia in lumps:  # T in each link's own axes
             assert a.frame is not None
-            v = _plus(a.velocity, _cross(a.omega, [Expr.lift(float(x)) for x in center]))
+            v = plus(a.velocity, cross(a.omega, [Expr.lift(float(x)) for x in center]))
             spin = Expr.lift(0.0)
             for i in range(3):
                 for k in range(3):
                     if inertia[i][k] != 0.0:
                         spin = _add(spin, _mul(_mul(float(inertia[i][k]), a.omega[i]),
                                                a.omega[k]))
-            kinetic = _add(kinetic, _add(_mul(0.5 * mass, _dot(v, v)), _mul(0.5, spin)))
-            height = _dot(tuple(Expr.lift(x) for x in g), a.frame.point(center.tolist()))
+            kinetic = _add(kinetic, _add(_mul(0.5 * mass, dot(v, v)), _mul(0.5, spin)))
+            height = dot(tuple(Expr.lift(x) for x in g), a.frame.point(center.tolist()))
             potential = _sub(potential, _mul(mass, height))
     dissipation: Expr = Expr.lift(0.0)
     for j in moving:

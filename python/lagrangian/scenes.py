@@ -65,7 +65,7 @@ def catalog() -> List[Dict[str, Any]]:
     """The scene registry: for each scene its ``name``, ``doc``, ``parameters`` (a list of
     ``(name, kind, default, doc)`` with kind ``"number"`` or ``"list"``), ``coordinates`` (a
     list of names, or ``(prefix, list parameter)`` for one numbered coordinate per entry),
-    ``route`` (``"energy"`` or ``"particle"``) and ``exact`` (whether
+    ``route`` (``"energy"``, ``"particle"`` or ``"body"``) and ``exact`` (whether
     :meth:`SceneModel.exact` knows its exact solution)."""
     return [dict(s) for s in _lagrangian.scene_catalog()]
 

@@ -604,6 +604,15 @@ impl EomProgram {
         })
     }
 
+    /// The same program, its Taylor expansions compiled unrolled from their first run where
+    /// they are small ([`TaylorProgram::unroll_small_early`]): for a model run again and again.
+    pub fn unroll_small_early(mut self) -> Self {
+        if let Some(taylor) = Arc::get_mut(&mut self.taylor) {
+            taylor.unroll_small_early();
+        }
+        self
+    }
+
     /// The same program run by the interpreter: the reference the native code is tested
     /// against (without the `jit` feature, the program itself). The Jacobians stay the derived
     /// ones, interpreted: they differ from dual numbers over the program where a function is not
@@ -640,6 +649,11 @@ impl EomProgram {
     /// The compiled tape: outputs M's upper triangle row by row, then f.
     pub fn tape(&self) -> &Arc<Tape> {
         &self.tape
+    }
+
+    /// The size of the program of M and f, in instructions: what one evaluation costs.
+    pub fn instructions(&self) -> usize {
+        self.tape.instructions()
     }
 
     /// Number of coordinates.

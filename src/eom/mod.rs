@@ -56,6 +56,44 @@ macro_rules! by_dof {
 }
 pub(crate) use by_dof;
 
+/// The [`Dynamics`](crate::dynamics::Dynamics) methods a route computes with its own passes of
+/// pass size `C` ([`by_dof!`], `hint` the route's `FIXED_DOF`): ∂U/∂q, p, M and q̈, each
+/// `self.<name>_dof::<C, C2, _>(…)`, q̈ after the lengths are checked. Written once for the
+/// energy, particle and rigid-body routes.
+macro_rules! route_passes {
+    ($hint:expr) => {
+        fn potential_gradient_into<D: $crate::scalar::Scalar>(&self, t: D, q: &[D], out: &mut [D]) {
+            $crate::eom::by_dof!($hint, self.dof(), self.potential_gradient_dof(t, q, out))
+        }
+
+        fn momenta_into<D: $crate::scalar::Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
+            $crate::eom::by_dof!($hint, self.dof(), self.momenta_dof(t, q, qd, out))
+        }
+
+        fn mass_matrix_into<D: $crate::scalar::Scalar>(
+            &self,
+            t: D,
+            q: &[D],
+            qd: &[D],
+            out: &mut [D],
+        ) {
+            $crate::eom::by_dof!($hint, self.dof(), self.mass_matrix_dof(t, q, qd, out))
+        }
+
+        fn accelerations_into<D: $crate::scalar::Scalar>(
+            &self,
+            t: D,
+            q: &[D],
+            qd: &[D],
+            out: &mut [D],
+        ) -> $crate::error::Result<()> {
+            $crate::checks::check_lengths(self.dof(), q, qd, out)?;
+            $crate::eom::by_dof!($hint, self.dof(), self.accelerations_dof(t, q, qd, out))
+        }
+    };
+}
+pub(crate) use route_passes;
+
 /// The pass size `C` that [`by_dof!`] takes for `Some(n)` coordinates, at compile time for a
 /// type's fixed number and at run time for the others, so both pick the same `C` for the same n;
 /// 0 for `None` (no fixed number: choose at run time).

@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::expr::derive::{Wrt, gradient, reads};
 use crate::expr::graph::{Binary, Graph, Node, Unary};
 use crate::program::{compile::Tape, eval::Function, inputs::Inputs};
-use crate::routes::{CartesianForces, ParticleSystem, Particles, System};
+use crate::routes::{BodySystem, CartesianForces, ParticleSystem, Particles, RigidBodies, System};
 use crate::routes::{EnergyModel, ExprConstraints, TapeParticles};
 use crate::scalar::Scalar;
 use crate::scenes::registry::{Arguments, Drawn, Positions, Scene, positions_of, scenes};
@@ -163,6 +163,18 @@ where
     }
 }
 
+impl<B, U, R, Q> Driven for BodySystem<B, U, R, Q>
+where
+    B: RigidBodies,
+    U: Potential,
+    R: Dissipation,
+    Q: GeneralizedForces,
+{
+    fn driven(&self) -> bool {
+        self.structure().time_dependent || self.forces.depends_on_time()
+    }
+}
+
 impl Dynamics for AnyModel {
     crate::dynamics::forward_dynamics!(each!: dof, structure, kinetic_energy, potential_energy,
         potential_gradient_into, generalized_forces_into, dissipative_forces_into, momenta_into,
@@ -186,6 +198,17 @@ impl AnyModel {
             }
             AnyModel::Constrained(c) => c.system().backend(),
             _ => "rust",
+        }
+    }
+
+    /// The size of the compiled program of M and f, in instructions (`None` for a scene).
+    pub(crate) fn instructions(&self) -> Option<usize> {
+        match self {
+            AnyModel::Energy(m) | AnyModel::Particles(m, _) => {
+                m.program().map(|p| p.program().instructions())
+            }
+            AnyModel::Constrained(c) => c.system().instructions(),
+            _ => None,
         }
     }
 
@@ -505,7 +528,9 @@ impl CompiledModel {
                 let program = EomProgram::new(&mut g, dof, params, &parts)?;
                 energies = Some(parts);
                 Some(match spec.backend {
-                    Backend::Native => program,
+                    // A Python model is run again and again: its first runs take the unrolled
+                    // expansion where it is small.
+                    Backend::Native => program.unroll_small_early(),
                     Backend::Interpreter => program.interpreted(),
                 })
             }

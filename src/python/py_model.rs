@@ -350,6 +350,7 @@ impl PyModel {
         d.set_item("forced", s.forced)?;
         d.set_item("conservative", s.conservative())?;
         d.set_item("backend", self.model.backend())?;
+        d.set_item("instructions", self.model.instructions())?;
         d.set_item(
             "constraints",
             self.model.constrained().map_or(0, |c| c.rows()),
@@ -805,8 +806,8 @@ impl PyModel {
     #[allow(clippy::too_many_arguments)]
     fn integrator(
         &self,
-        q0: Vec<f64>,
-        qd0: Vec<f64>,
+        q0: &Bound<'_, PyAny>,
+        qd0: &Bound<'_, PyAny>,
         t0: f64,
         method: &str,
         dt: Option<f64>,
@@ -816,8 +817,10 @@ impl PyModel {
         events: Vec<events::EventSpec>,
         backend: &str,
     ) -> PyResult<integrator::PyIntegrator> {
+        let n = self.model.dof();
+        let q0 = integrator::state_vector("q0", q0, n)?;
+        let qd0 = integrator::state_vector("qd0", qd0, n)?;
         guard(|| {
-            let n = self.model.dof();
             let backend = Backend::named(backend)?;
             let events = events
                 .into_iter()

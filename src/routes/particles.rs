@@ -10,10 +10,9 @@
 //! with Cartesian forces F_j mapped by eq. 21/39. This is cheaper than differentiating T twice
 //! and gives the same accelerations as the energy route (tests prove it).
 
-use crate::checks::check_lengths;
 use crate::dynamics::{Dynamics, Structure};
 use crate::energies::{Dissipation, GeneralizedForces, KineticEnergy, Potential};
-use crate::eom::{Forces, by_dof};
+use crate::eom::{Forces, by_dof, route_passes};
 use crate::error::Result;
 use crate::routes::System;
 use crate::scalar::Scalar;
@@ -637,6 +636,8 @@ where
     Q: GeneralizedForces,
     F: CartesianForces,
 {
+    route_passes!(P::FIXED_DOF);
+
     fn dof(&self) -> usize {
         self.particles.dof()
     }
@@ -665,14 +666,6 @@ where
         gravity.potential(t, q) + self.potential.potential(t, q)
     }
 
-    fn potential_gradient_into<D: Scalar>(&self, t: D, q: &[D], out: &mut [D]) {
-        by_dof!(
-            P::FIXED_DOF,
-            self.dof(),
-            self.potential_gradient_dof(t, q, out)
-        )
-    }
-
     fn generalized_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
         out.fill(D::zero());
         self.forces.forces(t, q, qd, out);
@@ -687,26 +680,5 @@ where
 
     fn dissipative_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
         self.energy_route().dissipative_forces_into(t, q, qd, out)
-    }
-
-    fn momenta_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        by_dof!(P::FIXED_DOF, self.dof(), self.momenta_dof(t, q, qd, out))
-    }
-
-    fn mass_matrix_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        by_dof!(
-            P::FIXED_DOF,
-            self.dof(),
-            self.mass_matrix_dof(t, q, qd, out)
-        )
-    }
-
-    fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
-        check_lengths(self.dof(), q, qd, out)?;
-        by_dof!(
-            P::FIXED_DOF,
-            self.dof(),
-            self.accelerations_dof(t, q, qd, out)
-        )
     }
 }

@@ -1,11 +1,10 @@
 //! The energy route: a system composed of its kinetic energy, potential, dissipation and
 //! generalized forces (seed eq. 55). Absent parts are `()` and cost nothing.
 
-use crate::checks::check_lengths;
 use crate::dynamics::{Dynamics, Structure};
 use crate::energies::{Dissipation, GeneralizedForces, KineticEnergy, Potential};
 use crate::eom::passes::{InertiaOut, Wrt, gradient, inertia};
-use crate::eom::{Forces, by_dof};
+use crate::eom::{Forces, by_dof, route_passes};
 use crate::error::Result;
 use crate::scalar::Scalar;
 use std::sync::OnceLock;
@@ -283,6 +282,8 @@ where
     R: Dissipation,
     Q: GeneralizedForces,
 {
+    route_passes!(T::FIXED_DOF);
+
     fn dof(&self) -> usize {
         self.dof
     }
@@ -308,14 +309,6 @@ where
         self.potential.potential(t, q)
     }
 
-    fn potential_gradient_into<D: Scalar>(&self, t: D, q: &[D], out: &mut [D]) {
-        by_dof!(
-            T::FIXED_DOF,
-            self.dof,
-            self.potential_gradient_dof(t, q, out)
-        )
-    }
-
     fn generalized_forces_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
         out.fill(D::zero());
         self.forces.forces(t, q, qd, out);
@@ -326,23 +319,6 @@ where
             T::FIXED_DOF,
             self.dof,
             self.dissipative_forces_dof(t, q, qd, out)
-        )
-    }
-
-    fn momenta_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        by_dof!(T::FIXED_DOF, self.dof, self.momenta_dof(t, q, qd, out))
-    }
-
-    fn mass_matrix_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) {
-        by_dof!(T::FIXED_DOF, self.dof, self.mass_matrix_dof(t, q, qd, out))
-    }
-
-    fn accelerations_into<D: Scalar>(&self, t: D, q: &[D], qd: &[D], out: &mut [D]) -> Result<()> {
-        check_lengths(self.dof, q, qd, out)?;
-        by_dof!(
-            T::FIXED_DOF,
-            self.dof,
-            self.accelerations_dof(t, q, qd, out)
         )
     }
 }

@@ -24,6 +24,7 @@ mod pendulum;
 pub mod registry;
 mod rigid_disc;
 mod rolling_cylinder;
+mod spatial_chain;
 mod virtual_work;
 
 pub use andrews::{ANDREWS_COORDINATES, Andrews, AndrewsReference};
@@ -38,4 +39,5 @@ pub use kepler::Kepler;
 pub use pendulum::{DoublePendulum, NPendulum, SimplePendulum};
 pub use registry::{Arguments, Drawing, Scene, SceneInfo, catalog};
 pub use rolling_cylinder::RollingCylinder;
+pub use spatial_chain::SpatialChain;
 pub use virtual_work::{DifferentialPulley, Lever, RhombusLink, SpringRhombus, TwoSprings};

@@ -10,7 +10,8 @@
 
 use crate::dynamics::Dynamics;
 use crate::error::{Error, Result};
-use crate::routes::{ParticleSystem, Particles, System};
+use crate::rigid::Pose;
+use crate::routes::{BodySystem, ParticleSystem, Particles, RigidBodies, System};
 use crate::trace::TraceEnergies;
 
 /// The kind and default of one parameter.
@@ -74,14 +75,17 @@ pub enum Route {
     Energy,
     /// From particle positions r_j(t, q) and masses.
     Particle,
+    /// From the poses of rigid bodies, their masses and inertia tensors.
+    Body,
 }
 
 impl Route {
-    /// `"energy"` or `"particle"`.
+    /// `"energy"`, `"particle"` or `"body"`.
     pub fn name(self) -> &'static str {
         match self {
             Route::Energy => "energy",
             Route::Particle => "particle",
+            Route::Body => "body",
         }
     }
 }
@@ -400,6 +404,21 @@ impl<K: Particles, U, R, Q> Drawn for System<K, U, R, Q> {
     }
 }
 
+/// The bodies' centres of mass, drawn as points.
+impl<B: RigidBodies, U, R, Q> Drawn for BodySystem<B, U, R, Q> {
+    fn positions(&self, t: &[f64], q: &[f64]) -> Option<Positions> {
+        let (b, n) = (&self.bodies, self.bodies.dof());
+        let count = b.count();
+        let mut poses = vec![Pose::identity(); count];
+        let mut r = Vec::with_capacity(t.len() * count * 3);
+        for (i, &ti) in t.iter().enumerate() {
+            b.poses(ti, &q[i * n..(i + 1) * n], &mut poses);
+            r.extend(poses.iter().flat_map(|p| p.centre));
+        }
+        Some((count, 3, r))
+    }
+}
+
 /// Positions of `p` at the states (t_i, q_i), `q` row after row.
 pub fn positions_of<P: Particles>(p: &P, t: &[f64], q: &[f64]) -> Positions {
     let (n, width) = (p.dof(), p.coordinates_len());
@@ -433,6 +452,7 @@ macro_rules! scenes {
             RhombusLink,
             SpringRhombus,
             TwoSprings,
+            SpatialChain,
         }
     };
 }

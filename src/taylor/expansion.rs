@@ -38,6 +38,10 @@ pub struct TaylorProgram {
     expansions: Box<[AtomicUsize]>,
     #[cfg(feature = "jit")]
     allow_native: bool,
+    /// The highest order whose unrolled expansion is compiled at the first expansion to it
+    /// rather than after `UNROLL_AFTER` ([`TaylorProgram::unroll_small_early`]; 0: none).
+    #[cfg(feature = "jit")]
+    early_up_to: usize,
     /// Work spaces of dropped expansions, for the next ones ([`Workspace`]).
     pub(crate) spares: Mutex<Vec<Workspace>>,
 }
@@ -68,6 +72,8 @@ impl TaylorProgram {
             expansions: (0..orders).map(|_| AtomicUsize::new(0)).collect(),
             #[cfg(feature = "jit")]
             allow_native,
+            #[cfg(feature = "jit")]
+            early_up_to: 0,
             spares: Mutex::new(Vec::new()),
         }
     }
@@ -80,6 +86,24 @@ impl TaylorProgram {
     /// The same program, never compiled: the interpreter's reference (`backend="interpreter"`).
     pub(crate) fn interpreted(&self) -> Self {
         Self::of(self.recurrences.clone(), false)
+    }
+
+    /// Compile the unrolled expansion to an order at the first expansion to it, rather than
+    /// after `UNROLL_AFTER` expansions, where it is small (at most `kernel::UNROLL_EARLY_UP_TO`
+    /// estimated instructions, a compile of a few milliseconds): then a model's first runs,
+    /// each a few hundred steps, are not left order by order. For a program run again and
+    /// again, as a Python model is (`lg.Model`, its scenes); the default, for a program run
+    /// once, waits for the break-even.
+    pub fn unroll_small_early(&mut self) {
+        #[cfg(feature = "jit")]
+        if self.allow_native {
+            self.early_up_to = (1..=MAX_TAYLOR_ORDER)
+                .take_while(|&p| {
+                    self.recurrences.expansion_instructions(p) <= kernel::UNROLL_EARLY_UP_TO
+                })
+                .last()
+                .unwrap_or(0);
+        }
     }
 
     /// The recurrences as machine code, compiled on the first call (`None` without the `jit`
@@ -105,7 +129,7 @@ impl TaylorProgram {
             return kernel.as_ref();
         }
         let count = self.expansions[order].fetch_add(1, Ordering::Relaxed);
-        if count < kernel::UNROLL_AFTER {
+        if count < kernel::UNROLL_AFTER && order > self.early_up_to {
             return None;
         }
         self.compile_unrolled(order)

@@ -348,7 +348,8 @@ impl Lowering {
                 *outer = (x, c12);
             }
         }
-        let folded = |op: &SeriesOp| matches!(op, SeriesOp::Scale { out, .. } if gone.contains(out));
+        let folded =
+            |op: &SeriesOp| matches!(op, SeriesOp::Scale { out, .. } if gone.contains(out));
         self.order0.retain(|op| !folded(op));
         for op in &mut self.varying {
             if let Some(&new) = replaced.get(op) {
@@ -358,7 +359,6 @@ impl Lowering {
         self.varying.retain(|op| !folded(op));
     }
 }
-
 
 impl Lowering {
     /// Read the row a copy copies, or a scaling by exactly 1 scales, in place of theirs, and drop

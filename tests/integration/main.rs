@@ -11,6 +11,7 @@
 
 mod ad;
 mod andrews;
+mod bodies;
 mod cartesian_chain;
 mod common;
 mod compiled;

@@ -124,6 +124,7 @@ macro_rules! every_scene {
             ("rhombus_link", $check::<RhombusLink>),
             ("spring_rhombus", $check::<SpringRhombus>),
             ("two_springs", $check::<TwoSprings>),
+            ("spatial_chain", $check::<SpatialChain>),
         ]
     };
 }

@@ -181,3 +181,26 @@ def test_nonlinear_run_follows_the_linearization_to_third_order(bike):
         errs.append(np.max(np.abs(sol.q[:, [3, 5]] - linear)))
     assert errs[0] < 1e-6 * 1e-4  # measured 1.0e-11
     assert abs(errs[1] / errs[0] / 1000 - 1) < 0.05, errs
+
+
+def test_bodies_example_prints_the_benchmark_speeds(tmp_path):
+    # examples/bodies.py, as a user runs it: the weave and capsize speeds it finds are the
+    # paper's, the nonlinear lean decays at the linear rate, the top keeps its energy.
+    import re
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[2] / "examples" / "bodies.py"
+    done = subprocess.run([sys.executable, str(script), "--out", str(tmp_path)],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    out = done.stdout
+    weave, capsize = map(float, re.search(r"weave speed ([\d.]+) m/s to the capsize speed "
+                                          r"([\d.]+) m/s", out).groups())
+    assert abs(weave - 4.292383) < 1e-6 and abs(capsize - 6.024262) < 1e-6, out
+    rate, linear = map(float, re.search(r"decays at (-[\d.]+) 1/s from t = 8 to 15 \(linear "
+                                        r"(-[\d.]+)\)", out).groups())
+    assert abs(rate - linear) < 1e-3, out
+    assert float(re.search(r"energy kept to ([\de.+-]+)", out).group(1)) < 1e-9, out
+    assert "elbow at t = 1" in out

@@ -454,6 +454,25 @@ def _two_springs(m1: float, m2: float, k1: float, k2: float, f1: float, f2: floa
                 potential=0.5 * k1 * x1**2 + 0.5 * k2 * (x2 - x1)**2, forces=[f1, f2])
 
 
+def _spatial_chain(masses: List[float], lengths: List[float], radius: float, g: float
+                   ) -> Dict[str, Any]:
+    # lg.Body per link: R_k = R_{k−1} R_x|y(q_k), the centre l/2 down the link's z axis.
+    qs = list(lg.coordinates(" ".join(f"q{k + 1}" for k in range(len(masses)))))
+    rot: Any = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    joint: Any = (0.0, 0.0, 0.0)
+    bodies = []
+    for k, (q, m, l) in enumerate(zip(qs, masses, lengths)):
+        turn = lg.rotation_x(q) if k % 2 == 0 else lg.rotation_y(q)
+        rot = tuple(tuple(sum(rot[i][j] * turn[j][c] for j in range(3)) for c in range(3))
+                    for i in range(3))
+        centre = tuple(joint[i] - 0.5 * l * rot[i][2] for i in range(3))
+        joint = tuple(joint[i] - l * rot[i][2] for i in range(3))
+        side = m * (3 * radius**2 + l**2) / 12.0
+        bodies.append(lg.Body(m, (side, side, 0.5 * m * radius**2), centre, rot,
+                              gravity=(0.0, 0.0, -g)))
+    return dict(coordinates=qs, bodies=bodies, potential=sum(b.potential for b in bodies))
+
+
 SCENES: List[Tuple[str, Dict[str, Any], Callable[..., Dict[str, Any]], float]] = [
     # (scene, arguments, the same energies in Python, scale of q and q̇)
     ("simple_pendulum", dict(m=1.3, l=0.7, g=9.81), _simple_pendulum, 2.0),
@@ -473,6 +492,8 @@ SCENES: List[Tuple[str, Dict[str, Any], Callable[..., Dict[str, Any]], float]] =
     ("charged_particle", dict(m=1.2, e=0.8, b=1.5, ex=0.3, ey=-0.2), _charged_particle, 2.0),
     ("spring_rhombus", dict(a=0.7, k=300.0, l0=0.5, m=3.0, g=9.81), _spring_rhombus, 1.0),
     ("two_springs", dict(m1=1.5, m2=0.5, k1=40.0, k2=25.0, f1=2.0, f2=-3.0), _two_springs, 2.0),
+    ("spatial_chain", dict(masses=[1.0, 0.6, 1.4, 0.8], lengths=[0.9, 1.2, 0.5, 0.7],
+                           radius=0.1, g=9.81), _spatial_chain, 1.5),
 ]
 
 

@@ -45,6 +45,8 @@ CASES = {
     "driven_pendulum": dict(m=1.4, l=0.9, g=9.81, a=0.1, omega=30.0),
     "charged_particle": dict(m=1.3, e=2.0, b=1.5, ex=0.3, ey=-0.2),
     "charged_particle_no_e_field": dict(m=1.3, e=-2.0, b=1.5),
+    "spatial_chain": dict(masses=[1.0, 0.6, 1.4, 0.8], lengths=[0.9, 1.2, 0.5, 0.7],
+                          radius=0.1, g=3.7),
 }
 
 STATICS = {"lever", "differential_pulley", "rhombus_link", "spring_rhombus", "two_springs"}

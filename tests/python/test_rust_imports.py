@@ -21,7 +21,7 @@ Module = Tuple[str, ...]
 
 # Bottom to top: a room may name only rooms at or below its own position.
 LAYERS = [
-    "error", "scalar", "checks", "linalg", "nonlinear", "energies", "eom", "dynamics", "expr",
+    "error", "scalar", "rigid", "checks", "linalg", "nonlinear", "energies", "eom", "dynamics", "expr",
     "program", "native", "taylor", "derived", "routes", "tape", "constrained",
     "integrators", "statics", "sensitivity", "trace",
     "scenes", "python", "tests",

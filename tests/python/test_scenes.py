@@ -181,7 +181,7 @@ def test_catalog_is_the_scenes():
     assert list(CATALOG) == lg.scenes.__all__
     assert set(EXACT) == set(EXACT_STATES)
     for name, entry in CATALOG.items():
-        assert entry["route"] in ("energy", "particle"), name
+        assert entry["route"] in ("energy", "particle", "body"), name
         assert entry["doc"], name
 
 
