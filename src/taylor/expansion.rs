@@ -20,6 +20,12 @@ use std::sync::OnceLock;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
+/// Programs whose unrolled expansion to an order comes to at most this many estimated
+/// instructions compile it at their first expansion to that order when they are run again and
+/// again ([`TaylorProgram::unroll_small_early`]).
+#[cfg(feature = "jit")]
+pub(crate) const UNROLL_EARLY_UP_TO: usize = 16_000;
+
 /// The part of a graph that M and f need, lowered to recurrences, ready to expand.
 #[derive(Debug)]
 pub struct TaylorProgram {
@@ -89,7 +95,7 @@ impl TaylorProgram {
     }
 
     /// Compile the unrolled expansion to an order at the first expansion to it, rather than
-    /// after `UNROLL_AFTER` expansions, where it is small (at most `kernel::UNROLL_EARLY_UP_TO`
+    /// after `UNROLL_AFTER` expansions, where it is small (at most `UNROLL_EARLY_UP_TO`
     /// estimated instructions, a compile of a few milliseconds): then a model's first runs,
     /// each a few hundred steps, are not left order by order. For a program run again and
     /// again, as a Python model is (`lg.Model`, its scenes); the default, for a program run
@@ -98,9 +104,7 @@ impl TaylorProgram {
         #[cfg(feature = "jit")]
         if self.allow_native {
             self.early_up_to = (1..=MAX_TAYLOR_ORDER)
-                .take_while(|&p| {
-                    self.recurrences.expansion_instructions(p) <= kernel::UNROLL_EARLY_UP_TO
-                })
+                .take_while(|&p| self.recurrences.expansion_instructions(p) <= UNROLL_EARLY_UP_TO)
                 .last()
                 .unwrap_or(0);
         }

@@ -398,11 +398,6 @@ const UNROLL_UP_TO: usize = 120_000;
 /// expansions; the forced two-mass's 4.1 ms at order 12, after 10 600.
 pub(crate) const UNROLL_AFTER: usize = 10_000;
 
-/// Programs whose unrolled expansion to an order comes to at most this many estimated
-/// instructions compile it at their first expansion to that order when they are run again and
-/// again ([`TaylorProgram::unroll_small_early`](super::TaylorProgram::unroll_small_early)).
-pub(crate) const UNROLL_EARLY_UP_TO: usize = 16_000;
-
 /// The entry of an [`ExpansionKernel`]: the table, the coefficients of q and of q̇ (order k of
 /// coordinate i at k·n + i), of q̈ (coordinate i's order k at i·w + k), M₀ factored, the work
 /// space of reversed series ([`ExpansionKernel::reversed_len`]); then, for a step (a null
