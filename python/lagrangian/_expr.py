@@ -646,7 +646,21 @@ def evaluate(
     at n states, in NumPy: an array of shape (len(exprs), n) from ``t`` (n,), ``q`` and ``qd``
     (n, len(coordinates)). For drawings, checks and outputs only; the dynamics never runs here.
     ``what`` names the expressions in errors."""
-    nodes, roots = serialize(list(exprs))
+    return evaluate_program(serialize(list(exprs)), coordinates, parameters, t, q, what, qd)
+
+
+def evaluate_program(
+    program: Tuple[List[Node], List[int]],
+    coordinates: Sequence[str],
+    parameters: Mapping[str, float],
+    t: Any,
+    q: Any,
+    what: str = "an expression",
+    qd: Any = None,
+) -> Any:
+    """:func:`evaluate` of expressions already flattened by :func:`serialize` (kept by a caller
+    that evaluates the same expressions again and again)."""
+    nodes, roots = program
     index = {name: i for i, name in enumerate(coordinates)}
     values: List[Any] = []
     with np.errstate(all="ignore"):

@@ -474,8 +474,9 @@ def joint_reaction(model: Any, states: Any, frame: Frame,
                    bodies: Optional[Sequence[Body]] = None,
                    gravity: Optional[Sequence[float]] = None,
                    loops: Sequence[Loop] = (), axes: str = "world",
-                   applied: Sequence[Tuple[Sequence[ExprLike], Sequence[ExprLike]]] = ()
-                   ) -> Reaction:
+                   applied: Sequence[Tuple[Sequence[ExprLike], Sequence[ExprLike]]] = (),
+                   applied_torques: Sequence[Sequence[ExprLike]] = (),
+                   elsewhere: Sequence[str] = ()) -> Reaction:
     """The force and torque the parent exerts on ``frame``'s side of its joint along a run, by
     Newton–Euler over the bodies beyond it:
 
@@ -487,7 +488,13 @@ def joint_reaction(model: Any, states: Any, frame: Frame,
     ``gravity``: g (default each body's own ``gravity=``, else none); ``loops``: the loop
     closures (:func:`coincide`) whose force acts on that side, from the run's multipliers.
     ``applied``: other forces on that side, as pairs (point, force) of world expressions of
-    t, q and q̇ (a spring's pull at its end, a load); forces not listed are not counted.
+    t, q and q̇ (a spring's pull at its end, a load); ``applied_torques``: torques on that side,
+    world expressions (a motor, an ``lg.Torque``); forces and torques not listed are not counted
+    — those the model has as ``forces=`` or ``loads=`` included. Every constraint row of the
+    model must be accounted for: a row of ``loops``, a quaternion's unit norm (``….unit``,
+    which exerts nothing on the bodies), or named in ``elsewhere`` (rows whose forces act only
+    on the parent's side); otherwise a ``ValueError`` names the rows, since their forces (a
+    wheel's contact, a hand-written constraint) would be missing from the reaction.
     ``states``: a ``Solution`` or a
     tuple (t, q, q̇). ``axes="frame"`` gives the components in ``frame``'s axes.
 
@@ -535,6 +542,14 @@ def joint_reaction(model: Any, states: Any, frame: Frame,
         if not isinstance(loop, Loop):
             raise TypeError(f"loops: expected what lg.coincide returns, got {type(loop).__name__}")
         _loop_force(loop, names, np.zeros((0, len(names))))  # its rows are the model's
+    covered = {row for loop in loops for row in loop} | set(elsewhere)
+    missing = [row for row in names if row not in covered and not row.endswith(".unit")]
+    if missing:
+        raise ValueError(
+            f"joint_reaction: the model's constraint rows {missing} are not accounted for: their "
+            "forces would be missing from the reaction. Pass the loop closures as loops=[...], "
+            "or name rows whose forces act only on the parent's side in elsewhere=[...]"
+        )
     if loops:
         lam_all = np.array([model.multipliers(float(t[i]), q[i], qd[i]) for i in range(n)])
         lam_all = lam_all.reshape(n, -1)
@@ -555,6 +570,13 @@ def joint_reaction(model: Any, states: Any, frame: Frame,
                              "three expressions in world coordinates") from None
         force -= f
         torque -= _cross(p - o, f)
+    for k, moment in enumerate(applied_torques):
+        try:
+            tau = ev(list(vector3(moment, "a torque")), f"applied torque {k}").T
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"joint_reaction: applied_torques[{k}]: {exc}; give three "
+                             "expressions in world axes") from None
+        torque -= tau
     if axes == "frame":
         rf = ev([x for row in frame.orientation for x in row], "the frame").T.reshape(n, 3, 3)
         force = np.einsum("nji,nj->ni", rf, force)

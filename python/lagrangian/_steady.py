@@ -21,14 +21,11 @@ import numpy as np
 import numpy.typing as npt
 
 from ._expr import (
-    NUMPY_BINARY,
-    NUMPY_UNARY,
-    UNARY,
     Coordinate,
     Expr,
     derivative,
+    evaluate_program,
     serialize,
-    t as time_symbol,
     time_derivative,
 )
 from ._linear import linearize
@@ -108,31 +105,6 @@ def row_jacobians(coords: Tuple[Coordinate, ...], holo: Tuple[Expr, ...],
     grads += [derivative(r, c) for r in rows for c in coords]
     grads += [derivative(r, c.d) for r in rows for c in coords]
     return serialize(grads)
-
-
-def values(program: Tuple[List[Any], List[int]], names: Sequence[str],
-           params: Dict[str, float], t: float, q: Any, qd: Any) -> FloatArray:
-    """A flat program (from ``serialize``) of expressions of t, q, q̇ and parameters at one
-    state, in NumPy (for the constraint rows' Jacobians)."""
-    nodes, roots = program
-    index = {name: i for i, name in enumerate(names)}
-    vals: List[float] = []
-    for op, payload, i, j in nodes:
-        if op == "const":
-            vals.append(float(payload))
-        elif op == "t":
-            vals.append(t)
-        elif op == "q":
-            vals.append(float(q[index[payload]]))
-        elif op == "qd":
-            vals.append(float(qd[index[payload]]))
-        elif op == "param":
-            vals.append(float(params[payload]))
-        elif op in UNARY:
-            vals.append(float(NUMPY_UNARY[op](vals[i])))
-        else:
-            vals.append(float(NUMPY_BINARY[op](vals[i], vals[j])))
-    return np.array([vals[r] for r in roots])
 
 
 def _names(what: str, given: Optional[Sequence[Any]], known: Sequence[str]) -> List[str]:
@@ -241,7 +213,16 @@ def linearize_steady(
     params = {k: float(v) for k, v in self.parameters.items() if isinstance(v, numbers.Real)}
     kh, k = len(holo), len(holo) + len(vel)
     program = row_jacobians(tuple(coords), tuple(holo.values()), tuple(vel.values()))
-    flat = values(program, names, params, at, qv, qdv)
+    flat = evaluate_program(program, names, params, np.array([at]), np.array([qv]),
+                            "linearize_steady: the constraint rows' Jacobians",
+                            qd=np.array([qdv]))[:, 0]
+    if not np.all(np.isfinite(flat)):
+        raise ValueError(
+            f"linearize_steady: the constraint rows' Jacobians are not finite at t = {at}, "
+            f"q = {[float(x) for x in qv]}, q̇ = {[float(x) for x in qdv]} (a wheel lying flat, "
+            "a singular row): linearize "
+            "about another state"
+        )
     gh = flat[: kh * n].reshape(kh, n)
     z = flat[kh * n: kh * n + k * n].reshape(k, n)
     w = flat[kh * n + k * n:].reshape(k, n)

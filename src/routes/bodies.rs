@@ -482,6 +482,7 @@ where
         out: &mut [D],
     ) -> Result<()> {
         let b = &self.bodies;
+        check_bodies(b)?;
         let (n, count) = (q.len(), b.count());
         let zero = D::zero();
         let idle = Motion {
@@ -580,6 +581,30 @@ where
         out.fill(D::zero());
         Forces::new(&u, &(), &()).add_potential_gradient::<C, D>(t, q, 1.0, out);
     }
+}
+
+/// The masses and inertia tensors a [`RigidBodies`] gives: finite, m ≥ 0, I symmetric with
+/// non-negative diagonal (M is built from I's upper triangle, so an asymmetric I would be read
+/// wrong, not refused).
+fn check_bodies<B: RigidBodies>(b: &B) -> Result<()> {
+    for j in 0..b.count() {
+        let (m, i) = (b.mass(j), b.inertia(j));
+        let scale = i.iter().flatten().fold(0.0f64, |a, x| a.max(x.abs()));
+        let asymmetric = (0..3).any(|r| (0..3).any(|c| (i[r][c] - i[c][r]).abs() > 1e-12 * scale));
+        let finite = m.is_finite() && m >= 0.0 && i.iter().flatten().all(|x| x.is_finite());
+        let bad = !finite || asymmetric || (0..3).any(|d| i[d][d] < 0.0);
+        if bad {
+            return Err(Error::InvalidInput {
+                what: "rigid body",
+                why: format!(
+                    "body {j} has mass {m} and inertia {i:?}: give a finite mass ≥ 0 and a \
+                     finite, symmetric inertia tensor about the centre of mass with \
+                     non-negative diagonal"
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// The error of a body whose R is not a rotation (or not finite).

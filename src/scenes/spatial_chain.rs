@@ -1,5 +1,6 @@
 //! A spatial arm: N rigid links (solid cylinders) in a chain from a fixed pivot, each joint a
-//! hinge about the previous link's x axis (odd joints: y axis), hanging in gravity g along −z.
+//! hinge — q1, q3, … about the x axis of the frame before it, q2, q4, … about its y axis —,
+//! hanging in gravity g along −z.
 //! The rigid-body route's scene (issue 50).
 
 use super::registry::{Arguments, Coordinates, Drawing, Parameter, Route, Scene, SceneInfo};
@@ -108,8 +109,9 @@ impl Scene for SpatialChain {
     const INFO: SceneInfo = SceneInfo {
         name: "spatial_chain",
         doc: "A spatial arm of N rigid links (solid cylinders of ``radius``) hanging from a fixed \
-              pivot in gravity ``g`` along −z; joint k turns link k about its parent's x axis \
-              (k odd: y axis), coordinates ``q1`` … ``qN``; N is the number of ``masses`` (one \
+              pivot in gravity ``g`` along −z; coordinates ``q1`` … ``qN``, the hinges ``q1``, \
+              ``q3``, … about the x axis of the frame before them (the world's for ``q1``), \
+              ``q2``, ``q4``, … about its y axis; N is the number of ``masses`` (one \
               length per mass). The rigid-body route: T = Σ ½ m ‖ṙ‖² + ½ ΩᵀIΩ.",
         parameters: &[
             Parameter::list(

@@ -458,6 +458,49 @@ fn errors_are_typed() {
     ));
 }
 
+/// A hinged body whose inertia tensor (or mass) is not one.
+struct BadInertia([[f64; 3]; 3], f64);
+
+impl RigidBodies for BadInertia {
+    fn dof(&self) -> usize {
+        1
+    }
+    fn count(&self) -> usize {
+        1
+    }
+    fn mass(&self, _j: usize) -> f64 {
+        self.1
+    }
+    fn inertia(&self, _j: usize) -> [[f64; 3]; 3] {
+        self.0
+    }
+    fn poses<D: Scalar>(&self, _t: D, q: &[D], out: &mut [Pose<D>]) {
+        out[0] = Pose::new([D::zero(); 3], Rotation::about_x(q[0]));
+    }
+}
+
+#[test]
+fn bad_masses_and_inertia_are_typed_errors() {
+    let good = [[1.0, 0.1, 0.0], [0.1, 2.0, 0.0], [0.0, 0.0, 2.5]];
+    assert!(
+        BodySystem::new(BadInertia(good, 1.0))
+            .accelerations(0.0, &[0.3], &[0.1])
+            .is_ok()
+    );
+    let asymmetric = [[1.0, 0.1, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.5]];
+    let negative = [[-1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.5]];
+    let nan = [[f64::NAN, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.5]];
+    for (inertia, mass) in [(asymmetric, 1.0), (negative, 1.0), (nan, 1.0), (good, -1.0)] {
+        match BodySystem::new(BadInertia(inertia, mass)).accelerations(0.0, &[0.3], &[0.1]) {
+            Err(Error::InvalidInput { what, why }) => {
+                assert_eq!(what, "rigid body");
+                assert!(why.contains("body 0"), "{why}");
+            }
+            other => panic!("{inertia:?}, {mass}: {other:?}"),
+        }
+    }
+}
+
 #[test]
 fn two_link_arm_modes_are_two_compound_pendulums() {
     // Hanging at rest, joint 1 (about x) and joint 2 (about y) decouple to first order: the

@@ -14,22 +14,31 @@ use std::sync::Arc;
 
 /// The model of `parts` on `g` with its derived (compiled) program bound to `params`.
 fn model(g: Graph, dof: usize, parts: &Energies, params: &[f64]) -> EnergyModel {
-    model_with(g, dof, parts, params, false)
+    model_with(g, dof, parts, params, Build::Native)
 }
 
-/// [`model`], with its program compiled to machine code or `interpreted`.
+/// How a test model's program is made: compiled, interpreted, or compiled with its small
+/// Taylor expansions unrolled from their first run (as the Python models are).
+#[derive(Clone, Copy)]
+enum Build {
+    Native,
+    Interpreted,
+    EarlyUnroll,
+}
+
+/// [`model`], with its program made as `build` says.
 fn model_with(
     mut g: Graph,
     dof: usize,
     parts: &Energies,
     params: &[f64],
-    interpreted: bool,
+    build: Build,
 ) -> EnergyModel {
     let program = EomProgram::new(&mut g, dof, params.len(), parts).unwrap();
-    let program = if interpreted {
-        program.interpreted()
-    } else {
-        program
+    let program = match build {
+        Build::Native => program,
+        Build::Interpreted => program.interpreted(),
+        Build::EarlyUnroll => program.unroll_small_early(),
     };
     let f = |nodes: &[usize], inputs: Inputs| {
         Function::new(
@@ -55,11 +64,11 @@ fn model_with(
 
 /// Kepler's problem in polar coordinates (r, θ), μ = 1: T = ½(ṙ² + r²θ̇²), U = −μ/r.
 fn kepler() -> EnergyModel {
-    kepler_with(false)
+    kepler_with(Build::Native)
 }
 
-/// [`kepler`], its program compiled or `interpreted`.
-fn kepler_with(interpreted: bool) -> EnergyModel {
+/// [`kepler`], its program made as `build` says.
+fn kepler_with(build: Build) -> EnergyModel {
     let mut g = Graph::new();
     let (r, rd, thd, mu) = (g.coord(0), g.velocity(0), g.velocity(1), g.param(0));
     let half = g.constant(0.5);
@@ -77,7 +86,7 @@ fn kepler_with(interpreted: bool) -> EnergyModel {
         dissipation: None,
         forces: None,
     };
-    model_with(g, 2, &parts, &[1.0], interpreted)
+    model_with(g, 2, &parts, &[1.0], build)
 }
 
 /// The orbit of semi-major axis 1 and eccentricity e from the pericentre at t = 0, μ = 1: (r, θ,
@@ -183,7 +192,7 @@ fn long_run_switches_to_the_unrolled_expansion_bit_for_bit() {
     let q0 = [1.0 - e, 0.0];
     let v0 = [0.0, (1.0 - e * e).sqrt() / ((1.0 - e) * (1.0 - e))];
     let t_end = 300.0 * 2.0 * std::f64::consts::PI;
-    let (native, interpreted) = (kepler(), kepler_with(true));
+    let (native, interpreted) = (kepler(), kepler_with(Build::Interpreted));
     let (a, steps) = end_state(&native, &q0, &v0, t_end, 1e-6);
     let (b, _) = end_state(&interpreted, &q0, &v0, t_end, 1e-6);
     assert!(steps > 10_000, "{steps} steps");
@@ -237,6 +246,33 @@ fn long_run_compiles_the_unrolled_expansion_at_its_start() {
         "{stopped:?}"
     );
     assert_eq!(program.is_unrolled(8), cfg!(feature = "jit"));
+}
+
+/// A program run again and again (`EomProgram::unroll_small_early`, as a Python model's) compiles
+/// its small expansion unrolled at the first expansion to an order, not after 10⁴: one Kepler
+/// orbit (about 60 steps) leaves it unrolled, with the end state bit for bit the default
+/// program's, which stays on the series kernel.
+#[test]
+fn early_unroll_compiles_at_the_first_run_with_the_same_bits() {
+    let e: f64 = 0.6;
+    let q0 = [1.0 - e, 0.0];
+    let v0 = [0.0, (1.0 - e * e).sqrt() / ((1.0 - e) * (1.0 - e))];
+    let orbit = 2.0 * std::f64::consts::PI;
+    let (late, early) = (kepler(), kepler_with(Build::EarlyUnroll));
+    let (a, steps) = end_state(&late, &q0, &v0, orbit, 1e-6);
+    let (b, _) = end_state(&early, &q0, &v0, orbit, 1e-6);
+    assert!(steps < 1_000, "{steps} steps");
+    let unrolled = |m: &EnergyModel| {
+        EomFunction::of(m.derived_program().unwrap())
+            .taylor()
+            .0
+            .is_unrolled(8)
+    };
+    assert!(!unrolled(&late));
+    assert_eq!(unrolled(&early), cfg!(feature = "jit"));
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x.to_bits(), y.to_bits(), "{a:?} against {b:?}");
+    }
 }
 
 /// Seed eq. 41–44 as expressions: T = ½ m₁ẋ₁² + ½ m₂ẋ₂², U = ½ k₁x₁² + ½ k₂(x₂ − x₁)², Q″ =

@@ -232,3 +232,13 @@ def test_disc_rolls_down_an_incline_given_by_its_normal():
     t1, t2 = contact.tangents
     np.testing.assert_allclose(t1, [math.cos(alpha), 0.0, -math.sin(alpha)], atol=1e-15)
     np.testing.assert_allclose(t2, [0.0, 1.0, 0.0], atol=1e-15)
+
+
+def test_steady_linearization_of_a_flat_wheel_is_refused():
+    # Lying flat (φ = π/2) the contact point is undefined: the rows' Jacobians divide by
+    # √(1 − (u·a)²) = 0. A ValueError saying where, never NaN matrices.
+    disc = lg.scenes.rolling_disc()
+    q = np.zeros(5)
+    q[3] = np.pi / 2
+    with pytest.raises(ValueError, match=r"not finite at t = 0.0, q = \[0.0, 0.0, 0.0, 1.57"):
+        disc.linearize_steady(q, np.zeros(5), independent=["phi", "psi"], steady=["theta"])

@@ -98,6 +98,24 @@ def test_applied_forces_enter_the_reaction():
         lg.joint_reaction(model, sol, arm, applied=[(F, 0.0)])
 
 
+def test_applied_torques_enter_the_reaction():
+    # a motor torque τ(t) about the hinge, stated to the model as Q = τ: counted, the hinge
+    # carries no torque about its axis; left out, the reaction's axial torque is τ itself
+    th, = lg.coordinates("th")
+    m, l = 0.8, 1.2
+    tau = 0.7 * lg.cos(2.0 * lg.t)
+    arm = lg.Frame().revolute(th, axis=(0, 0, 1))
+    bob = arm.body(m, [0.01] * 3, center=(0, -l, 0), gravity=(0, -G, 0))
+    model = lg.Model([th], potential=bob.potential, bodies=[bob], forces=[tau])
+    sol = model.simulate([0.3], [0.0], 3.0, **TIGHT, t_eval=np.linspace(0, 3, 31))
+    r = lg.joint_reaction(model, sol, arm, applied_torques=[(0.0, 0.0, tau)])
+    _close(r.torque[:, 2], 0.0, 1e-11)
+    without = lg.joint_reaction(model, sol, arm)
+    _close(without.torque[:, 2], 0.7 * np.cos(2.0 * sol.t), 1e-11)
+    with pytest.raises(ValueError, match=r"applied_torques\[0\]"):
+        lg.joint_reaction(model, sol, arm, applied_torques=[(1.0, 2.0)])
+
+
 def _double(m1=1.0, m2=0.7, L1=1.1, L2=0.8):
     t1, t2 = lg.coordinates("t1 t2")
     upper = lg.Frame().revolute(t1, axis=(0, 0, 1), name="shoulder")
@@ -413,7 +431,11 @@ def test_four_bar_follows_its_one_degree_of_freedom_energy_equation():
         r = lg.joint_reaction(model, sol, frame, loops=[loop])
         scale = np.max(np.abs(r.torque)) + 1.0
         assert np.max(np.abs(r.torque[:, 2])) < 1e-8 * scale, frame.joint.name
-        wrong = lg.joint_reaction(model, sol, frame)  # without the loop force it is not zero
+        # the loop's rows are the model's: left out, they must be named as acting elsewhere ...
+        with pytest.raises(ValueError, match="not accounted for"):
+            lg.joint_reaction(model, sol, frame)
+        # ... and then the reaction lacks the loop's force: the hinge torque is not zero
+        wrong = lg.joint_reaction(model, sol, frame, elsewhere=list(loop))
         assert np.max(np.abs(wrong.torque[:, 2])) > 1e-2
     pin = lg.loop_reaction(model, sol, loop)
     _close(pin.force[:, :2], sol.multipliers, 1e-12)
