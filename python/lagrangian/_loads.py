@@ -11,6 +11,7 @@ points adds ½ k (ℓ − ℓ₀)² to the potential, a damper ½ c ℓ̇² to R
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from typing import Any, List, Mapping, Optional, Sequence, Tuple
 
 from ._bodies import Body, Vector, dot, minus, rotate, vector3
@@ -31,10 +32,14 @@ __all__ = ["Force", "Torque", "Spring", "Damper", "Load", "partial_angular_veloc
            "with_loads"]
 
 
-# -- sums and products that fold zeros and ones (the derived graphs stay small) ---------------
+# -- partial velocities --------------------------------------------------------------------------
 def partial_angular_velocity(body: Body, s: Expr, axes: str = "world") -> Vector:
-    """∂ω/∂ṡ of ``body`` for the coordinate ``s`` (or the explicit rate for ``s`` = t): vee(∂R/∂s Rᵀ) in world axes, vee(Rᵀ ∂R/∂s)
-    in body axes — the exact coefficient of ṡ in the angular velocity."""
+    """∂ω/∂ṡ of ``body`` for the coordinate ``s`` (or the explicit rate for ``s`` = t): the exact
+    coefficient of ṡ in the angular velocity, vee(∂R/∂s Rᵀ) in world axes, vee(Rᵀ ∂R/∂s) in body
+    axes — read off the Ω the body's rotation carries when it has one (ω is linear in q̇)."""
+    if body.omega is not None and s.op == "q":
+        rate = Coordinate(s.args[0]).d
+        return tuple(derivative(w, rate) for w in body.angular_velocity(axes))  # type: ignore
     r = body.orientation
     dr = [[derivative(e, s) for e in row] for row in r]
 
@@ -49,9 +54,9 @@ def partial_angular_velocity(body: Body, s: Expr, axes: str = "world") -> Vector
 
 
 # -- the loads ---------------------------------------------------------------------------------
-class Load:
+class Load(ABC):
     """What every load has: an optional ``name`` (errors name the load by it, or by its place in
-    ``loads=``)."""
+    ``loads=``), and what each kind gives (:meth:`expressions`, :meth:`parts`)."""
 
     __slots__ = ("name",)
     kind = "load"
@@ -65,14 +70,14 @@ class Load:
         return f"{self.kind} {self.name!r}" if self.name is not None else \
             f"loads[{index}] ({self.kind})"
 
+    @abstractmethod
     def expressions(self) -> List[Tuple[str, Expr, bool]]:
         """(what, expression, may read velocities) for the checks."""
-        raise NotImplementedError
 
+    @abstractmethod
     def parts(self, coordinates: Sequence[Coordinate]) -> Tuple[Optional[List[Expr]],
                                                                 Optional[Expr], Optional[Expr]]:
         """(Q per coordinate, U, Φ), each ``None`` where the load adds nothing."""
-        raise NotImplementedError
 
 
 def _axes(axes: str, what: str) -> str:

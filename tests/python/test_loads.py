@@ -541,3 +541,17 @@ def test_gyroscope_under_a_torque_precesses_at_tau_over_c_omega():
     assert np.max(np.abs(sol.q[:, 0] - psi)) < 1e-6 * np.max(np.abs(psi))
     assert np.max(np.abs(sol.q[:, 1] - theta)) < 1e-4 * np.max(theta)
     assert abs(sol.qd[-1, 2] - omega) < 1e-6 * omega      # the spin is kept
+
+
+def test_partial_angular_velocity_read_off_the_carried_omega_equals_vee_of_dr():
+    # A rotation that carries Ω gives ∂ω/∂ṡ as the coefficient of ṡ in Ω; a matrix given entry
+    # by entry, vee(∂R/∂s Rᵀ): the same at random states, world and body axes.
+    coords, body = free_body()
+    plain = lg.Body(2.0, [0.3, 0.5, 0.7], body.position, [list(row) for row in body.orientation])
+    assert body.omega is not None and plain.omega is None
+    rng = np.random.default_rng(3)
+    for axes in ("world", "body"):
+        for q in rng.uniform(-1.5, 1.5, size=(3, 6)):
+            a = jacobian_of_omega(body, coords, q, axes)
+            b = jacobian_of_omega(plain, coords, q, axes)
+            assert np.max(np.abs(a - b)) < 1e-13
